@@ -1,0 +1,25 @@
+# All dependencies come from Debian 12 packages (scripts/setup.sh installs them).
+# Order matters: the OpenVDB Find module folder also holds a FindTBB.cmake that would shadow
+# TBBConfig, so the config-mode finds run first and the OpenVDB module path is appended last.
+find_package(Eigen3 3.4 REQUIRED CONFIG)
+find_package(TBB REQUIRED CONFIG)
+find_package(embree 3.13 REQUIRED CONFIG)
+find_package(nlohmann_json 3.11 REQUIRED CONFIG)
+find_package(fmt REQUIRED CONFIG)
+find_package(spdlog REQUIRED CONFIG)
+find_package(CLI11 REQUIRED CONFIG)
+find_package(nanoflann REQUIRED CONFIG HINTS /usr/share/nanoflann/cmake)
+find_package(tinyobjloader REQUIRED CONFIG)
+find_package(OpenImageIO REQUIRED CONFIG)
+find_package(CGAL REQUIRED CONFIG)
+find_package(Threads REQUIRED)
+
+list(APPEND CMAKE_MODULE_PATH /usr/lib/x86_64-linux-gnu/cmake/OpenVDB)
+find_package(OpenVDB REQUIRED)
+
+if(SCANBENCH_BUILD_TESTS)
+  find_package(GTest REQUIRED)
+endif()
+if(SCANBENCH_BUILD_BENCH)
+  find_package(benchmark REQUIRED)
+endif()

@@ -1,0 +1,32 @@
+#include "scanbench/core/run_context.h"
+
+#include <fmt/format.h>
+#include <tbb/global_control.h>
+
+#include "scanbench/core/errors.h"
+
+namespace scanbench {
+
+RunContext::RunContext(std::uint64_t seed, int threads) : seed_(seed), threads_(threads) {
+  if (threads < 0) throw ParamError(fmt::format("threads: expected >= 0, got {}", threads));
+  if (threads > 0) {
+    control_ = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
+                                                     static_cast<std::size_t>(threads));
+  }
+}
+
+RunContext::~RunContext() = default;
+
+RunContext::PhaseTimer::PhaseTimer(RunContext& ctx, std::string name)
+    : ctx_(ctx), name_(std::move(name)), start_(std::chrono::steady_clock::now()) {}
+
+RunContext::PhaseTimer::~PhaseTimer() {
+  const std::chrono::duration<double> d = std::chrono::steady_clock::now() - start_;
+  ctx_.add_phase_time(name_, d.count());
+}
+
+void RunContext::check_cancelled(std::string_view stage) const {
+  if (cancelled()) throw Cancelled(fmt::format("{}: cancelled", stage));
+}
+
+}  // namespace scanbench

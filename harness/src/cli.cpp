@@ -1,0 +1,39 @@
+#include "scanbench/harness/cli.h"
+
+#include <fmt/format.h>
+
+#include <cstdio>
+
+#include "commands.h"
+#include "scanbench/core/errors.h"
+#include "scanbench/core/version.h"
+
+namespace scanbench::harness {
+
+int run_cli(int argc, char** argv) {
+  Cli cli;
+  cli.app.set_version_flag("--version",
+                           fmt::format("scanbench {} (commit {})", version_string(), git_commit()));
+  cli.app.require_subcommand(1);
+
+  // One explicit list of subcommands.
+  add_list_command(cli);
+
+  try {
+    cli.app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int code = cli.app.exit(e);
+    return code == 0 ? 0 : 2;
+  }
+  try {
+    return cli.action ? cli.action() : 0;
+  } catch (const Error& e) {
+    std::fprintf(stderr, "scanbench: %s\n", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "scanbench: internal error: %s\n", e.what());
+    return 3;
+  }
+}
+
+}  // namespace scanbench::harness

@@ -1,0 +1,19 @@
+#pragma once
+// Private to the harness: each subcommand lives in its own cmd_*.cpp and is added to the CLI in
+// cli.cpp by one explicit call.
+#include <CLI/CLI.hpp>
+#include <functional>
+
+namespace scanbench::harness {
+
+/// The parsed command line: the chosen subcommand stores what to run in `action`.
+struct Cli {
+  CLI::App app{
+      "scanbench: evaluation and benchmark harness for point-set filtering and surface "
+      "reconstruction"};
+  std::function<int()> action;
+};
+
+void add_list_command(Cli& cli);
+
+}  // namespace scanbench::harness

@@ -1,0 +1,7 @@
+#!/usr/bin/env bash
+# Configure and build scanbench (Release) into build/. Extra arguments go to cmake's configure.
+set -euo pipefail
+here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+build="${SCANBENCH_BUILD_DIR:-$here/build}"
+cmake -S "$here" -B "$build" -DCMAKE_BUILD_TYPE=Release "$@" >/dev/null
+cmake --build "$build" -j"$(nproc)"

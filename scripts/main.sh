@@ -1,0 +1,9 @@
+#!/usr/bin/env bash
+# The main job on a fresh Debian 12 machine: install what is missing, build, run the main job.
+set -euo pipefail
+here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+bash "$here/scripts/setup.sh"
+bash "$here/scripts/build.sh"
+sb="${SCANBENCH_BUILD_DIR:-$here/build}/harness/scanbench"
+"$sb" --version
+"$sb" list
