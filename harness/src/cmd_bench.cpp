@@ -1,0 +1,16 @@
+// scanbench bench <scanner|distance|resample> [--json FILE]: benchmarks measured in one run,
+// printing ratios (never absolute targets checked by a timed test).
+#include "commands.h"
+
+namespace scanbench::harness {
+
+void add_bench_command(Cli& cli) {
+  CLI::App* bench = cli.app.add_subcommand(
+      "bench", "Benchmarks that print speed ratios measured in one run (--json FILE to save)");
+  bench->require_subcommand(1);
+  // One explicit list of benchmarks (each defined in its own cmd_bench_*.cpp).
+
+  if (bench->get_subcommands({}).empty()) cli.app.remove_subcommand(bench);
+}
+
+}  // namespace scanbench::harness
