@@ -1,0 +1,111 @@
+#pragma once
+// resample.clop: Continuous LOP (Preiner et al. 2014, "Continuous Projection for Fast L1
+// Reconstruction", sections 6-8; REFERENCE.md section 3).
+//
+// The input P is reduced to a weighted Gaussian mixture M by mixture.hem (scanbench/algorithms/
+// hem.h; timed as phase "hem"); the particles Q are then projected onto M:
+//  - Q(0): `particles` points of P (a share in (0, 1] or an integral count > 1, which may exceed
+//    |P|: upsampling, copies jittered by 0.01 h as in resample.lop), a seeded subset (stream
+//    "particles").
+//  - iteration 1: the continuous L2 initial iteration (eq. 23-24): Lambda = Sigma_s + (h^2/32) I,
+//    omega_s = w_s g(mu_s | q, Lambda), q' = sum_s omega_s (q + (h^2/32) Lambda^-1 (mu_s - q)) /
+//    sum_s omega_s.
+//  - iterations 2..`iterations`: fixed-point steps q' = F1(q) + mu F2(q) with the continuous
+//  attraction
+//    (eq. 19-22) F1 = q + sum_sk sigma_k^2 h^2 Lambda_sk^-1 (mu_s - q) omega_sk / sum_sk omega_sk,
+//    Lambda_sk = Sigma_s + sigma_k^2 h^2 I, omega_sk = w_s w_k sigma_k^3 |Lambda_sk|^-1/2
+//    exp(-(mu_s - q)^T Lambda_sk^-1 (mu_s - q) / 2), where alpha(r) = theta(r)/r is replaced by
+//    the three-Gaussian fit (w_k, sigma_k) below (eq. 16, Fig. 5b), and the WLOP repulsion F2
+//    (eq. 5, eta(r) = -r, particle density weights w_i' when `weighted`) cut at
+//    repulsion_cutoff * h (section 8: h/2) and, when `interleave`, recomputed only in every second
+//    iteration (the previous F2 vector is reused; the last iteration always recomputes).
+//  - kernel theta(r) = exp(-16 r^2 / h^2), h a fraction of the input's bbox diagonal.
+//  - Components are gathered per particle through kd-trees over the component means, one per
+//    size class (largest covariance eigenvalue within a factor 4). A component is skipped when
+//    its weight exponent is below -16 for every point of its class's bound, i.e. beyond
+//    sqrt(32 (lambda_class + s^2)) with s^2 = sigma_1^2 h^2 (attraction) or h^2/32 (eq. 24):
+//    the same e^-16 truncation as LOP's support radius h (for a point-like Gaussian the eq. 24
+//    cutoff is exactly h).
+// Phase timers: "init" (particle selection, mixture preparation), "hem", "attraction" (eq. 24
+// and every F1), "repulsion" (density weights and F2). Results depend only on the input, the
+// parameters and ctx.seed(), never on the thread count.
+#include <Eigen/Core>
+#include <array>
+
+#include "scanbench/algorithms/hem.h"
+#include "scanbench/algorithms/registry.h"
+#include "scanbench/core/gaussian_mixture.h"
+#include "scanbench/core/params.h"
+#include "scanbench/core/point_cloud.h"
+#include "scanbench/core/run_context.h"
+
+namespace scanbench::algorithms {
+
+/// Coefficients of alpha(r) = theta(r)/r ~ sum_k w_k exp(-r^2 / (2 sigma_k^2 h^2)) for h = 1
+/// (CLOP paper Fig. 5b, confirmed against the reference code). Fit on r in [0, h]; good to
+/// about 10% on [0.01 h, 0.3 h], poor beyond (ratio 0.56 at 0.3 h, 0.04 at 0.5 h): that is the
+/// method.
+inline constexpr std::array<double, 3> kClopFitWeights = {11.453, 29.886, 97.761};
+inline constexpr std::array<double, 3> kClopFitSigmas = {0.11772, 0.03287, 0.01010};
+
+/// The three-Gaussian approximation of alpha at distance r for kernel width h (both absolute),
+/// in units where alpha(r) = theta(r) / (r / h) (i.e. h = 1 scaling).
+double clop_alpha_hat(double r, double h);
+
+/// Declares the CLOP parameters (shared by ClopParams and CswParams).
+template <class T>
+void declare_clop_params(ParamDeclarer<T>& d) {
+  d.real("h", &T::h, Range::open_min(0.0, 1.0), "diag",
+         "kernel support radius h, theta(r) = exp(-16 r^2/h^2) (LOP/CLOP convention)");
+  d.real("mu", &T::mu, Range::half_open(0.0, 0.5), "", "repulsion weight mu of q = F1 + mu F2");
+  d.integer("iterations", &T::iterations, Range::closed(1, 1000), "",
+            "iterations, the first being the continuous L2 initial iteration (eq. 24), as in "
+            "resample.lop");
+  d.real("particles", &T::particles, Range::above(0.0), "",
+         "particles: a share of the input in (0, 1] or an integral count > 1 (may exceed the "
+         "input: upsampling); a seeded subset");
+  d.real("repulsion_cutoff", &T::repulsion_cutoff, Range::open_min(0.0, 1.0), "h",
+         "repulsion kernel cutoff as a fraction of h (section 8: 0.5)");
+  d.flag("interleave", &T::interleave,
+         "recompute the repulsion only every second iteration and in the last (section 8)");
+  declare_hem_params(d);
+}
+
+struct ClopParams {
+  double h = 0.02;
+  double mu = 0.4;
+  int iterations = 10;
+  double particles = 0.5;
+  double repulsion_cutoff = 0.5;
+  bool interleave = true;
+  // HEM (declared by declare_hem_params)
+  double alpha = 2.0;
+  int levels = 5;
+  double min_reduction = 0.025;
+  double parent_probability = 1.0 / 3.0;
+  double init_radius_factor = 2.5;
+  double cov_bias = 1e-3;
+  bool weighted = true;
+  double normal_spread0 = 1e-3;
+
+  static void declare(ParamDeclarer<ClopParams>& d) { declare_clop_params(d); }
+};
+
+/// CLOP projection of particles onto an existing mixture (no HEM): the eq. 24 initial iteration
+/// followed by p.iterations - 1 steps of F1 + mu F2. `particles` are projected in place; h_abs is
+/// absolute. Only h, mu, iterations, repulsion_cutoff, interleave, weighted of p are used.
+/// Throws InputError on an empty mixture.
+void clop_project(const GaussianMixture& m, Eigen::Matrix3Xf& particles, const ClopParams& p,
+                  double h_abs, RunContext& ctx);
+
+/// The exact continuous attraction F1(q, M) of eq. 22 summed over every component (no cutoff;
+/// a reference for tests, O(|M|)). h_abs absolute.
+Eigen::Vector3f clop_attraction_reference(const Eigen::Vector3f& q, const GaussianMixture& m,
+                                          double h_abs);
+
+/// resample.clop on `in` (h relative to in's bbox diagonal). Output: the particles (no normals)
+/// and the HEM mixture. Throws InputError on an empty or invalid cloud, ParamError on a bad
+/// particle count.
+AlgorithmOutput clop(const PointCloud& in, const ClopParams& p, RunContext& ctx);
+
+}  // namespace scanbench::algorithms

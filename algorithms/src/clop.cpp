@@ -1,0 +1,264 @@
+#include "scanbench/algorithms/clop.h"
+
+#include <fmt/format.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/LU>
+#include <algorithm>
+#include <cmath>
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include "projection_kernels.h"
+#include "scanbench/core/errors.h"
+#include "scanbench/core/kdtree.h"
+
+namespace scanbench::algorithms {
+
+namespace {
+
+using Eigen::Index;
+
+constexpr Index kGrain = 64;
+
+// Per component, for the three fit Gaussians (k = 0..2) and the eq. 24 kernel (k = 3): the
+// inverse of Lambda as (xx, xy, xz, yy, yz, zz) and the dimensionless weight prefactor.
+struct Precomputed {
+  float inv[4][6];
+  float coef[4];
+};
+
+// A size class of components with its own kd-tree and cutoff radii (see clop.h).
+struct Bucket {
+  Eigen::Matrix3Xf centers;
+  std::vector<Index> ids;
+  std::unique_ptr<KdTree> tree;
+  float r_attraction = 0.0f;
+  float r_initial = 0.0f;
+};
+
+class PreparedMixture {
+ public:
+  PreparedMixture(const GaussianMixture& m, double h) : means_(m.means) {
+    const Index k = m.size();
+    for (int j = 0; j < 3; ++j)
+      s2_[j] = static_cast<float>(kClopFitSigmas[j] * kClopFitSigmas[j] * h * h);
+    s2_[3] = static_cast<float>(h * h / 32.0);
+    pre_.resize(static_cast<std::size_t>(k));
+    std::vector<double> lmax(static_cast<std::size_t>(k));
+    tbb::parallel_for(tbb::blocked_range<Index>(0, k, 256), [&](const auto& r) {
+      for (Index s = r.begin(); s != r.end(); ++s) {
+        const Eigen::Matrix3d cov = m.covariance(s).cast<double>();
+        Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov, Eigen::EigenvaluesOnly);
+        lmax[static_cast<std::size_t>(s)] = std::max(es.eigenvalues()(2), 0.0);
+        Precomputed& p = pre_[static_cast<std::size_t>(s)];
+        for (int j = 0; j < 4; ++j) {
+          const double var = j < 3 ? kClopFitSigmas[j] * kClopFitSigmas[j] * h * h : h * h / 32.0;
+          const Eigen::Matrix3d lambda = cov + var * Eigen::Matrix3d::Identity();
+          const Eigen::Matrix3d inv = lambda.inverse();
+          const double det = lambda.determinant();
+          p.inv[j][0] = static_cast<float>(inv(0, 0));
+          p.inv[j][1] = static_cast<float>(inv(0, 1));
+          p.inv[j][2] = static_cast<float>(inv(0, 2));
+          p.inv[j][3] = static_cast<float>(inv(1, 1));
+          p.inv[j][4] = static_cast<float>(inv(1, 2));
+          p.inv[j][5] = static_cast<float>(inv(2, 2));
+          // eq. 19 times h^3 (dimensionless; the common h^3 cancels in eq. 22) and eq. 24 times
+          // the constant (h^2/32)^(3/2) (2 pi)^(3/2) / c_theta that cancels in eq. 23.
+          const double scale = j < 3 ? kClopFitWeights[j] * std::pow(var, 1.5) : std::pow(var, 1.5);
+          p.coef[j] = static_cast<float>(m.weights(s) * scale / std::sqrt(det));
+        }
+      }
+    });
+    // Size classes: largest eigenvalue within a factor 4 of each other.
+    const double base = s2_[0];
+    std::vector<int> cls(static_cast<std::size_t>(k));
+    int max_cls = 0;
+    for (Index s = 0; s < k; ++s) {
+      const double l = lmax[static_cast<std::size_t>(s)];
+      int c = l <= base ? 0 : static_cast<int>(std::ceil(std::log(l / base) / std::log(4.0)));
+      c = std::clamp(c, 0, 24);
+      cls[static_cast<std::size_t>(s)] = c;
+      max_cls = std::max(max_cls, c);
+    }
+    std::vector<std::vector<Index>> ids(static_cast<std::size_t>(max_cls + 1));
+    std::vector<double> bound(static_cast<std::size_t>(max_cls + 1), 0.0);
+    for (Index s = 0; s < k; ++s) {
+      const auto c = static_cast<std::size_t>(cls[static_cast<std::size_t>(s)]);
+      ids[c].push_back(s);
+      bound[c] = std::max(bound[c], lmax[static_cast<std::size_t>(s)]);
+    }
+    for (std::size_t c = 0; c < ids.size(); ++c) {
+      if (ids[c].empty()) continue;
+      auto b = std::make_unique<Bucket>();
+      b->ids = std::move(ids[c]);
+      b->centers.resize(3, static_cast<Index>(b->ids.size()));
+      for (std::size_t i = 0; i < b->ids.size(); ++i)
+        b->centers.col(static_cast<Index>(i)) = m.means.col(b->ids[i]);
+      b->tree = std::make_unique<KdTree>(b->centers);
+      // |d|^2 >= 32 lambda_max(Lambda) gives a weight exponent below -16 (see clop.h).
+      b->r_attraction = static_cast<float>(std::sqrt(32.0 * (bound[c] + s2_[0])) * 1.001);
+      b->r_initial = static_cast<float>(std::sqrt(32.0 * (bound[c] + s2_[3])) * 1.001);
+      buckets_.push_back(std::move(b));
+    }
+  }
+
+  // eq. 24 (j = 3) or eq. 22 (j = 0..2): q + sum_j s2_j w_j Lambda_j^-1 (mu - q) / sum_j w_j.
+  template <bool kInitial>
+  Eigen::Vector3f step(const Eigen::Vector3f& q, std::vector<std::pair<Index, float>>& hits) const {
+    float nx = 0.0f, ny = 0.0f, nz = 0.0f, den = 0.0f;
+    for (const auto& b : buckets_) {
+      b->tree->radius(q, kInitial ? b->r_initial : b->r_attraction, hits);
+      for (const auto& hit : hits) {
+        const Index s = b->ids[static_cast<std::size_t>(hit.first)];
+        const Precomputed& p = pre_[static_cast<std::size_t>(s)];
+        const float dx = means_(0, s) - q.x();
+        const float dy = means_(1, s) - q.y();
+        const float dz = means_(2, s) - q.z();
+        constexpr int j0 = kInitial ? 3 : 0;
+        constexpr int j1 = kInitial ? 4 : 3;
+        for (int j = j0; j < j1; ++j) {
+          const float* a = p.inv[j];
+          const float tx = a[0] * dx + a[1] * dy + a[2] * dz;
+          const float ty = a[1] * dx + a[3] * dy + a[4] * dz;
+          const float tz = a[2] * dx + a[4] * dy + a[5] * dz;
+          const float e = dx * tx + dy * ty + dz * tz;
+          const float w = p.coef[j] * std::exp(-0.5f * e);
+          const float ws = w * s2_[j];
+          nx += ws * tx;
+          ny += ws * ty;
+          nz += ws * tz;
+          den += w;
+        }
+      }
+    }
+    if (!(den > 0.0f)) return q;  // no component within reach: the particle stays
+    return q + Eigen::Vector3f(nx, ny, nz) / den;
+  }
+
+ private:
+  const Eigen::Matrix3Xf& means_;
+  float s2_[4];
+  std::vector<Precomputed> pre_;
+  std::vector<std::unique_ptr<Bucket>> buckets_;
+};
+
+template <class Body>
+void for_each_particle(Index m, Body body) {
+  tbb::parallel_for(tbb::blocked_range<Index>(0, m, kGrain), [&](const auto& range) {
+    std::vector<std::pair<Index, float>> hits;
+    kernels::Scratch s;
+    for (Index i = range.begin(); i != range.end(); ++i)
+      body(i, hits, s);
+  });
+}
+
+}  // namespace
+
+double clop_alpha_hat(double r, double h) {
+  double sum = 0.0;
+  for (int k = 0; k < 3; ++k) {
+    const double sh = kClopFitSigmas[k] * h;
+    sum += kClopFitWeights[k] * std::exp(-0.5 * r * r / (sh * sh));
+  }
+  return sum;
+}
+
+Eigen::Vector3f clop_attraction_reference(const Eigen::Vector3f& q, const GaussianMixture& m,
+                                          double h) {
+  Eigen::Vector3d num = Eigen::Vector3d::Zero();
+  double den = 0.0;
+  const Eigen::Vector3d qd = q.cast<double>();
+  for (Index s = 0; s < m.size(); ++s) {
+    const Eigen::Matrix3d cov = m.covariance(s).cast<double>();
+    const Eigen::Vector3d d = m.means.col(s).cast<double>() - qd;
+    for (int k = 0; k < 3; ++k) {
+      const double var = kClopFitSigmas[k] * kClopFitSigmas[k] * h * h;
+      const Eigen::Matrix3d lambda = cov + var * Eigen::Matrix3d::Identity();
+      const Eigen::Matrix3d inv = lambda.inverse();
+      const double w = m.weights(s) * kClopFitWeights[k] * std::pow(var, 1.5) /
+                       std::sqrt(lambda.determinant()) * std::exp(-0.5 * d.dot(inv * d));
+      num += w * var * (inv * d);
+      den += w;
+    }
+  }
+  if (!(den > 0.0)) return q;
+  return (qd + num / den).cast<float>();
+}
+
+void clop_project(const GaussianMixture& m, Eigen::Matrix3Xf& q, const ClopParams& p, double h_abs,
+                  RunContext& ctx) {
+  if (m.size() == 0) throw InputError("resample.clop: empty mixture");
+  const Index n = q.cols();
+  std::optional<PreparedMixture> pm;
+  {
+    auto timer = ctx.phase("init");
+    pm.emplace(m, h_abs);
+  }
+  Eigen::Matrix3Xf next(3, n);
+  {
+    auto timer = ctx.phase("attraction");
+    for_each_particle(n, [&](Index i, auto& hits, kernels::Scratch&) {
+      next.col(i) = pm->step<true>(q.col(i), hits);
+    });
+    q.swap(next);
+  }
+  const float h = static_cast<float>(h_abs);
+  const float cutoff = static_cast<float>(p.repulsion_cutoff * h_abs);
+  const float mu = static_cast<float>(p.mu);
+  Eigen::Matrix3Xf rep = Eigen::Matrix3Xf::Zero(3, n);
+  const int steps = p.iterations - 1;
+  for (int t = 0; t < steps; ++t) {
+    ctx.check_cancelled("resample.clop");
+    {
+      auto timer = ctx.phase("attraction");
+      for_each_particle(n, [&](Index i, auto& hits, kernels::Scratch&) {
+        next.col(i) = pm->step<false>(q.col(i), hits);
+      });
+    }
+    if (mu > 0.0f) {
+      const bool recompute = !p.interleave || t % 2 == 0 || t == steps - 1;
+      if (recompute) {
+        auto timer = ctx.phase("repulsion");
+        const KdTree tree(q);
+        Eigen::VectorXf w;  // empty: unweighted repulsion (LOP)
+        if (p.weighted) w = kernels::density_weights(q, tree, h);
+        for_each_particle(n, [&](Index i, auto&, kernels::Scratch& s) {
+          rep.col(i) = kernels::repulsion(i, q, tree, w, h, cutoff, s);
+        });
+      }
+      next += mu * rep;
+    }
+    q.swap(next);
+  }
+}
+
+AlgorithmOutput clop(const PointCloud& in, const ClopParams& p, RunContext& ctx) {
+  constexpr const char* stage = "resample.clop";
+  in.validate(stage);
+  if (in.empty()) throw InputError(fmt::format("{}: the input has no points", stage));
+  const double diag = in.bbox().diagonal();
+  if (!(diag > 0.0))
+    throw InputError(fmt::format("{}: the input's bounding box has a zero diagonal", stage));
+  const double h = p.h * diag;
+  const Index m = kernels::particle_count(p.particles, in.size(), stage);
+  AlgorithmOutput out;
+  Eigen::Matrix3Xf q;
+  {
+    auto timer = ctx.phase("init");
+    q = kernels::initial_particles(in.positions, m, ctx.stream_seed("particles"),
+                                   static_cast<float>(0.01 * h));
+  }
+  {
+    auto timer = ctx.phase("hem");
+    out.mixture = hem_mixture(in.positions, hem_params_of(p, h), h, diag, ctx);
+  }
+  clop_project(*out.mixture, q, p, h, ctx);
+  out.points.positions = std::move(q);
+  return out;
+}
+
+}  // namespace scanbench::algorithms
