@@ -1,0 +1,39 @@
+#pragma once
+// Two-sided distances between the output points O and a fixed, seeded set S of uniform
+// area-weighted ground-truth surface samples (GroundTruth::surface_samples), REFERENCE 6:
+//   accuracy     = mean over o in O of d(o, mesh)            (exact oracle, or the field path)
+//   completeness = mean over s in S of min_o |s - o|          (kd-tree over O)
+//   chamfer      = accuracy + completeness                    (means, not sums)
+//   hausdorff    = max(max_o d(o, mesh), max_s min_o |s - o|)
+//   precision    = share of O with d(o, mesh) < tau, recall = share of S with min_o |s-o| < tau,
+//   fscore       = 2 P R / (P + R) (0 when both are 0)        (Tanks and Temples style)
+// Lengths are reported absolute and as fractions of the diagonal (`_rel`); tau is a fraction of
+// the ground-truth diagonal.
+#include "scanbench/metrics/ground_truth.h"
+#include "scanbench/metrics/registry.h"
+
+namespace scanbench::metrics {
+
+struct ChamferParams {
+  double tau = 0.005;             ///< F-score threshold, fraction of the diagonal
+  std::int64_t samples = 100000;  ///< surface samples for completeness and recall
+  std::string path = "exact";     ///< accuracy distances: "exact" or "field"
+  double hist_max = 0.02;         ///< histogram range, fraction of the diagonal
+  int bins = 50;
+  static void declare(ParamDeclarer<ChamferParams>& d) {
+    d.real("tau", &ChamferParams::tau, Range::above(0.0), "diag",
+           "F-score distance threshold (Tanks and Temples style)");
+    d.integer("samples", &ChamferParams::samples, Range::closed(1, 1e8), "",
+              "fixed seeded uniform surface samples for completeness and recall");
+    d.choice("path", &ChamferParams::path, {"exact", "field"},
+             "oracle for output-to-surface distances (field: OpenVDB band, exact outside it)");
+    d.real("hist_max", &ChamferParams::hist_max, Range::above(0.0), "diag",
+           "upper end of the accuracy/completeness histograms");
+    d.integer("bins", &ChamferParams::bins, Range::closed(1, 10000), "", "histogram bins");
+  }
+};
+
+/// Metric "accuracy.chamfer". Throws InputError for an empty output.
+Json chamfer_metric(const MetricInput& in, const ChamferParams& p);
+
+}  // namespace scanbench::metrics

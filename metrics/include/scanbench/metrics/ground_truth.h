@@ -1,0 +1,85 @@
+#pragma once
+// GroundTruth: a ground-truth mesh with its two distance oracles and its fixed surface samples.
+//
+//  - Exact path: closest point on the mesh through an Embree BVH (rtcPointQuery) and our own
+//    point-triangle routine (closest_point.h, in double). The query radius starts at the distance
+//    to the nearest mesh vertex (kd-tree), a valid upper bound, and shrinks with every hit.
+//    Returns the point, the distance and the unit face normal of the closest face (so sharp edges
+//    stay sharp); on ties (a point nearest to an edge or vertex) the lowest face index wins.
+//  - Field path: an OpenVDB narrow-band distance field (distance_field.h), signed when the mesh
+//    is closed and consistently oriented, unsigned otherwise, voxel size = field_voxel x bbox
+//    diagonal, band half-width band_voxels. Distance only; queries outside the band fall back to
+//    the exact path. Built lazily on first use (thread-safe).
+//  - Surface samples: count uniform area-weighted samples seeded from sample_seed
+//    (surface_sampling.h), cached per count, so completeness and recall use the same samples in
+//    every run.
+// Embree and OpenVDB stay private (pimpl). All const methods are thread-safe.
+#include <Eigen/Core>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "scanbench/core/bbox.h"
+#include "scanbench/core/point_cloud.h"
+#include "scanbench/core/triangle_mesh.h"
+
+namespace scanbench::metrics {
+
+class DistanceField;
+
+/// Result of an exact closest-point query.
+struct ClosestPoint {
+  Eigen::Vector3f point = Eigen::Vector3f::Zero();   ///< closest point on the mesh
+  Eigen::Vector3f normal = Eigen::Vector3f::Zero();  ///< unit normal of `face` (0 if degenerate)
+  float distance = 0.0f;                             ///< |q - point|
+  std::int32_t face = -1;                            ///< index of the closest face
+};
+
+/// Which oracle answers distance queries.
+enum class DistancePath { Exact, Field };
+
+struct GroundTruthOptions {
+  double field_voxel = 1.0 / 512.0;  ///< voxel size of the field, fraction of the bbox diagonal
+  float band_voxels = 3.0f;          ///< half-width of the field's narrow band, in voxels
+};
+
+class GroundTruth {
+ public:
+  /// Validates the mesh (InputError for no faces, non-finite vertices, bad indices, zero area)
+  /// and builds the exact oracle. The field is built on first use.
+  GroundTruth(const TriangleMesh& mesh, std::uint64_t sample_seed, GroundTruthOptions options = {});
+  ~GroundTruth();
+  GroundTruth(const GroundTruth&) = delete;
+  GroundTruth& operator=(const GroundTruth&) = delete;
+
+  const TriangleMesh& mesh() const;
+  /// Diagonal of the mesh's bounding box: the unit of every "_rel" value.
+  float diagonal() const;
+  BoundingBox bbox() const;
+  /// True when the mesh is closed and consistently oriented (then the field is signed).
+  bool closed() const;
+  std::uint64_t sample_seed() const;
+  const GroundTruthOptions& options() const;
+
+  /// Exact closest point (see the header comment). q must be finite (InputError otherwise).
+  ClosestPoint closest_point(const Eigen::Vector3f& q) const;
+  /// Exact closest points of every column of q, in parallel; out has q.cols() entries.
+  std::vector<ClosestPoint> closest_points(const Eigen::Matrix3Xf& q) const;
+
+  /// Unsigned distances of every column of q by the chosen path. With DistancePath::Field,
+  /// queries outside the band use the exact path; *fallbacks (if given) receives their count.
+  Eigen::VectorXf distances(const Eigen::Matrix3Xf& q, DistancePath path,
+                            Eigen::Index* fallbacks = nullptr) const;
+
+  /// The distance field (built on first call).
+  const DistanceField& field() const;
+
+  /// The first `count` fixed surface samples (positions and face normals); cached.
+  const PointCloud& surface_samples(Eigen::Index count) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace scanbench::metrics

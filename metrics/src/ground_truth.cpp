@@ -1,0 +1,242 @@
+#include "scanbench/metrics/ground_truth.h"
+
+#include <embree3/rtcore.h>
+#include <tbb/parallel_for.h>
+
+#include <cmath>
+#include <limits>
+#include <map>
+#include <mutex>
+
+#include "scanbench/core/errors.h"
+#include "scanbench/core/kdtree.h"
+#include "scanbench/metrics/closest_point.h"
+#include "scanbench/metrics/distance_field.h"
+#include "scanbench/metrics/surface_sampling.h"
+
+namespace scanbench::metrics {
+
+namespace {
+
+struct QueryState {
+  const Eigen::Matrix3Xd* vertices;
+  const Eigen::Matrix3Xi* faces;
+  Eigen::Vector3d q;
+  double best_d2 = std::numeric_limits<double>::infinity();
+  std::int64_t best_face = -1;
+  Eigen::Vector3d best_point = Eigen::Vector3d::Zero();
+
+  void visit(std::int64_t f) {
+    const Eigen::Vector3d p =
+        closest_point_on_triangle(q, vertices->col((*faces)(0, f)), vertices->col((*faces)(1, f)),
+                                  vertices->col((*faces)(2, f)));
+    const double d2 = (p - q).squaredNorm();
+    if (d2 < best_d2 || (d2 == best_d2 && f < best_face)) {
+      best_d2 = d2;
+      best_face = f;
+      best_point = p;
+    }
+  }
+};
+
+bool point_query_callback(RTCPointQueryFunctionArguments* args) {
+  auto* s = static_cast<QueryState*>(args->userPtr);
+  s->visit(static_cast<std::int64_t>(args->primID));
+  // Shrink the search sphere to the best distance, rounded up so that ties stay visited.
+  const float r = std::nextafter(static_cast<float>(std::sqrt(s->best_d2)),
+                                 std::numeric_limits<float>::infinity());
+  if (r < args->query->radius) {
+    args->query->radius = r;
+    return true;
+  }
+  return false;
+}
+
+}  // namespace
+
+struct GroundTruth::Impl {
+  TriangleMesh mesh;
+  Eigen::Matrix3Xd vertices;  // double copy for the point-triangle routine
+  Eigen::Matrix3Xf face_normals;
+  BoundingBox bbox;
+  float diagonal = 0.0f;
+  bool closed = false;
+  std::uint64_t seed = 0;
+  GroundTruthOptions options;
+  RTCDevice device = nullptr;
+  RTCScene scene = nullptr;
+  std::unique_ptr<KdTree> vertex_tree;
+
+  std::once_flag field_once;
+  std::unique_ptr<DistanceField> field;
+
+  std::mutex samples_mutex;
+  std::map<Eigen::Index, std::unique_ptr<PointCloud>> samples;
+
+  ~Impl() {
+    if (scene) rtcReleaseScene(scene);
+    if (device) rtcReleaseDevice(device);
+  }
+};
+
+GroundTruth::GroundTruth(const TriangleMesh& mesh, std::uint64_t sample_seed,
+                         GroundTruthOptions options)
+    : impl_(std::make_unique<Impl>()) {
+  mesh.validate("ground truth");
+  if (!(mesh.area() > 0.0)) throw InputError("ground truth: mesh has zero area");
+  if (!(options.field_voxel > 0.0) || !(options.band_voxels >= 2.0f))
+    throw ParamError("ground truth: field_voxel must be > 0 and band_voxels >= 2");
+  Impl& m = *impl_;
+  m.mesh = mesh;
+  m.vertices = mesh.vertices.cast<double>();
+  m.face_normals.resize(3, mesh.num_faces());
+  for (Eigen::Index f = 0; f < mesh.num_faces(); ++f)
+    m.face_normals.col(f) = mesh.face_normal(f);
+  m.bbox = mesh.bbox();
+  m.diagonal = m.bbox.diagonal();
+  m.closed = mesh.is_closed_and_oriented();
+  m.seed = sample_seed;
+  m.options = options;
+  m.vertex_tree = std::make_unique<KdTree>(m.mesh.vertices);
+
+  m.device = rtcNewDevice(nullptr);
+  if (!m.device) throw Error("ground truth: cannot create Embree device");
+  m.scene = rtcNewScene(m.device);
+  RTCGeometry geom = rtcNewGeometry(m.device, RTC_GEOMETRY_TYPE_TRIANGLE);
+  // Embree allocates (and pads) its own buffers, so the last vertex can be read as 16 bytes.
+  auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0,
+                                                         RTC_FORMAT_FLOAT3, 3 * sizeof(float),
+                                                         static_cast<size_t>(mesh.num_vertices())));
+  auto* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0,
+                                                            RTC_FORMAT_UINT3, 3 * sizeof(unsigned),
+                                                            static_cast<size_t>(mesh.num_faces())));
+  if (!vb || !ib) {
+    rtcReleaseGeometry(geom);
+    throw Error("ground truth: Embree buffer allocation failed");
+  }
+  for (Eigen::Index i = 0; i < mesh.num_vertices(); ++i)
+    for (int k = 0; k < 3; ++k)
+      vb[3 * i + k] = mesh.vertices(k, i);
+  for (Eigen::Index f = 0; f < mesh.num_faces(); ++f)
+    for (int k = 0; k < 3; ++k)
+      ib[3 * f + k] = static_cast<unsigned>(mesh.faces(k, f));
+  rtcCommitGeometry(geom);
+  rtcAttachGeometry(m.scene, geom);
+  rtcReleaseGeometry(geom);
+  rtcCommitScene(m.scene);
+  if (rtcGetDeviceError(m.device) != RTC_ERROR_NONE)
+    throw Error("ground truth: Embree scene build failed");
+}
+
+GroundTruth::~GroundTruth() = default;
+
+const TriangleMesh& GroundTruth::mesh() const {
+  return impl_->mesh;
+}
+float GroundTruth::diagonal() const {
+  return impl_->diagonal;
+}
+BoundingBox GroundTruth::bbox() const {
+  return impl_->bbox;
+}
+bool GroundTruth::closed() const {
+  return impl_->closed;
+}
+std::uint64_t GroundTruth::sample_seed() const {
+  return impl_->seed;
+}
+const GroundTruthOptions& GroundTruth::options() const {
+  return impl_->options;
+}
+
+ClosestPoint GroundTruth::closest_point(const Eigen::Vector3f& q) const {
+  if (!q.allFinite()) throw InputError("ground truth: query point is not finite");
+  const Impl& m = *impl_;
+  QueryState s{&m.vertices, &m.mesh.faces, q.cast<double>()};
+
+  float vd2 = 0.0f;
+  m.vertex_tree->nearest(q, &vd2);
+  // The nearest vertex lies on the mesh: its distance bounds the answer. The margin covers the
+  // float rounding of Embree's box tests.
+  const float bound = std::sqrt(vd2) * (1.0f + 1e-4f) + 1e-6f * m.diagonal;
+
+  RTCPointQuery query;
+  query.x = q.x();
+  query.y = q.y();
+  query.z = q.z();
+  query.time = 0.0f;
+  query.radius = bound;
+  RTCPointQueryContext context;
+  rtcInitPointQueryContext(&context);
+  rtcPointQuery(m.scene, &query, &context, point_query_callback, &s);
+  if (s.best_face < 0) {
+    // Not reached in practice (the bound always holds a face); keep the oracle total anyway.
+    for (Eigen::Index f = 0; f < m.mesh.num_faces(); ++f)
+      s.visit(f);
+  }
+  ClosestPoint r;
+  r.point = s.best_point.cast<float>();
+  r.distance = static_cast<float>(std::sqrt(s.best_d2));
+  r.face = static_cast<std::int32_t>(s.best_face);
+  r.normal = m.face_normals.col(s.best_face);
+  return r;
+}
+
+std::vector<ClosestPoint> GroundTruth::closest_points(const Eigen::Matrix3Xf& q) const {
+  std::vector<ClosestPoint> out(static_cast<std::size_t>(q.cols()));
+  if (!q.allFinite()) throw InputError("ground truth: a query point is not finite");
+  tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, q.cols(), 256),
+                    [&](const tbb::blocked_range<Eigen::Index>& r) {
+                      for (Eigen::Index i = r.begin(); i < r.end(); ++i)
+                        out[static_cast<std::size_t>(i)] = closest_point(q.col(i));
+                    });
+  return out;
+}
+
+Eigen::VectorXf GroundTruth::distances(const Eigen::Matrix3Xf& q, DistancePath path,
+                                       Eigen::Index* fallbacks) const {
+  if (!q.allFinite()) throw InputError("ground truth: a query point is not finite");
+  Eigen::VectorXf out(q.cols());
+  if (path == DistancePath::Exact) {
+    tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, q.cols(), 256),
+                      [&](const tbb::blocked_range<Eigen::Index>& r) {
+                        for (Eigen::Index i = r.begin(); i < r.end(); ++i)
+                          out[i] = closest_point(q.col(i)).distance;
+                      });
+    if (fallbacks) *fallbacks = 0;
+    return out;
+  }
+  std::vector<std::uint8_t> inside;
+  field().distances(q, out, inside);
+  std::vector<Eigen::Index> outside;
+  for (Eigen::Index i = 0; i < q.cols(); ++i)
+    if (!inside[static_cast<std::size_t>(i)]) outside.push_back(i);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, outside.size(), 64),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t k = r.begin(); k < r.end(); ++k)
+                        out[outside[k]] = closest_point(q.col(outside[k])).distance;
+                    });
+  if (fallbacks) *fallbacks = static_cast<Eigen::Index>(outside.size());
+  return out;
+}
+
+const DistanceField& GroundTruth::field() const {
+  Impl& m = *impl_;
+  std::call_once(m.field_once, [&] {
+    const float voxel = static_cast<float>(m.options.field_voxel * m.diagonal);
+    m.field = std::make_unique<DistanceField>(
+        m.mesh, voxel, m.options.band_voxels,
+        m.closed ? DistanceField::Kind::Signed : DistanceField::Kind::Unsigned);
+  });
+  return *m.field;
+}
+
+const PointCloud& GroundTruth::surface_samples(Eigen::Index count) const {
+  Impl& m = *impl_;
+  std::lock_guard<std::mutex> lock(m.samples_mutex);
+  auto& slot = m.samples[count];
+  if (!slot) slot = std::make_unique<PointCloud>(sample_surface(m.mesh, count, m.seed));
+  return *slot;
+}
+
+}  // namespace scanbench::metrics
