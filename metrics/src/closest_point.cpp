@@ -1,5 +1,6 @@
 #include "scanbench/metrics/closest_point.h"
 
+#include <Eigen/Geometry>
 #include <algorithm>
 
 namespace scanbench::metrics {
@@ -8,6 +9,20 @@ Eigen::Vector3d closest_point_on_triangle(const Eigen::Vector3d& p, const Eigen:
                                           const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
   const Eigen::Vector3d ab = b - a;
   const Eigen::Vector3d ac = c - a;
+  // Degenerate (collinear or repeated) vertices break the region tests (a zero edge makes two
+  // regions coincide): the nearest point of the three edges is the answer then.
+  if (ab.cross(ac).squaredNorm() <= 1e-20 * ab.squaredNorm() * ac.squaredNorm()) {
+    auto on_segment = [&](const Eigen::Vector3d& s, const Eigen::Vector3d& e) {
+      const Eigen::Vector3d d = e - s;
+      const double l2 = d.squaredNorm();
+      const double t = l2 > 0.0 ? std::clamp((p - s).dot(d) / l2, 0.0, 1.0) : 0.0;
+      return Eigen::Vector3d(s + t * d);
+    };
+    Eigen::Vector3d best = on_segment(a, b);
+    for (const Eigen::Vector3d& q : {on_segment(b, c), on_segment(c, a)})
+      if ((q - p).squaredNorm() < (best - p).squaredNorm()) best = q;
+    return best;
+  }
   const Eigen::Vector3d ap = p - a;
   const double d1 = ab.dot(ap);
   const double d2 = ac.dot(ap);
@@ -41,22 +56,7 @@ Eigen::Vector3d closest_point_on_triangle(const Eigen::Vector3d& p, const Eigen:
     return denom > 0.0 ? Eigen::Vector3d(b + ((d4 - d3) / denom) * (c - b)) : b;
   }
 
-  const double sum = va + vb + vc;
-  if (!(sum > 0.0)) {
-    // Degenerate (zero-area) triangle whose regions did not classify p: the nearest of the
-    // three edges is the answer.
-    auto on_segment = [&](const Eigen::Vector3d& s, const Eigen::Vector3d& e) {
-      const Eigen::Vector3d d = e - s;
-      const double l2 = d.squaredNorm();
-      const double t = l2 > 0.0 ? std::clamp((p - s).dot(d) / l2, 0.0, 1.0) : 0.0;
-      return Eigen::Vector3d(s + t * d);
-    };
-    Eigen::Vector3d best = on_segment(a, b);
-    for (const Eigen::Vector3d& q : {on_segment(b, c), on_segment(c, a)})
-      if ((q - p).squaredNorm() < (best - p).squaredNorm()) best = q;
-    return best;
-  }
-  const double denom = 1.0 / sum;  // face region
+  const double denom = 1.0 / (va + vb + vc);  // face region
   const double v = vb * denom;
   const double w = vc * denom;
   return a + ab * v + ac * w;
