@@ -1,0 +1,413 @@
+// Mesh files: dispatch by extension, OFF and STL (hand-written, see io_readers.h), OBJ through
+// tinyobjloader, and the OBJ writer.
+#include <fmt/format.h>
+#include <tiny_obj_loader.h>
+
+#include <bit>
+#include <cctype>
+#include <charconv>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <iterator>
+#include <vector>
+
+#include "io_readers.h"
+#include "ply.h"
+#include "scanbench/core/errors.h"
+#include "scanbench/core/io.h"
+#include "scanbench/core/procedural.h"
+
+namespace scanbench {
+
+namespace {
+
+std::string lower_extension(const std::filesystem::path& path) {
+  std::string ext = path.extension().string();
+  for (char& c : ext)
+    c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return ext;
+}
+
+std::string slurp(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw IoError(fmt::format("{}: cannot open for reading", path.string()));
+  std::string data((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  if (in.bad()) throw IoError(fmt::format("{}: read failed", path.string()));
+  return data;
+}
+
+bool space(char c) {
+  return c == ' ' || c == '\t' || c == '\r' || c == '\n' || c == '\v' || c == '\f';
+}
+
+// Lines of a text file with '#' comments removed and surrounding whitespace trimmed; keeps the
+// 1-based line number for messages.
+class Lines {
+ public:
+  explicit Lines(std::string_view text) : text_(text) {}
+  // Next non-empty line; false at the end.
+  bool next(std::string_view& line) {
+    while (pos_ < text_.size()) {
+      const std::size_t end = std::min(text_.find('\n', pos_), text_.size());
+      std::string_view l = text_.substr(pos_, end - pos_);
+      pos_ = end + 1;
+      ++number_;
+      if (const std::size_t hash = l.find('#'); hash != std::string_view::npos)
+        l = l.substr(0, hash);
+      while (!l.empty() && space(l.front()))
+        l.remove_prefix(1);
+      while (!l.empty() && space(l.back()))
+        l.remove_suffix(1);
+      if (!l.empty()) {
+        line = l;
+        return true;
+      }
+    }
+    return false;
+  }
+  std::size_t number() const { return number_; }
+
+ private:
+  std::string_view text_;
+  std::size_t pos_ = 0;
+  std::size_t number_ = 0;
+};
+
+// Whitespace-separated tokens of one line.
+class Tokens {
+ public:
+  explicit Tokens(std::string_view s) : s_(s) {}
+  bool next(std::string_view& tok) {
+    while (i_ < s_.size() && space(s_[i_]))
+      ++i_;
+    if (i_ == s_.size()) return false;
+    const std::size_t start = i_;
+    while (i_ < s_.size() && !space(s_[i_]))
+      ++i_;
+    tok = s_.substr(start, i_ - start);
+    return true;
+  }
+
+ private:
+  std::string_view s_;
+  std::size_t i_ = 0;
+};
+
+template <class T>
+bool parse_number(std::string_view tok, T& out) {
+  const char* first = tok.data();
+  const char* last = tok.data() + tok.size();
+  if (first != last && *first == '+') ++first;
+  const auto [p, ec] = std::from_chars(first, last, out);
+  return ec == std::errc() && p == last;
+}
+
+TriangleMesh to_mesh(const std::vector<float>& xyz, const std::vector<int>& tri) {
+  TriangleMesh m;
+  m.vertices =
+      Eigen::Map<const Eigen::Matrix3Xf>(xyz.data(), 3, static_cast<Eigen::Index>(xyz.size() / 3));
+  m.faces =
+      Eigen::Map<const Eigen::Matrix3Xi>(tri.data(), 3, static_cast<Eigen::Index>(tri.size() / 3));
+  return m;
+}
+
+TriangleMesh read_obj(const std::filesystem::path& path) {
+  const std::string name = path.string();
+  if (!std::filesystem::is_regular_file(path)) {
+    throw IoError(fmt::format("{}: cannot open for reading", name));
+  }
+  tinyobj::ObjReaderConfig config;
+  config.triangulate = false;  // our own fan, with index checks; tinyobj skips bad faces quietly
+  config.vertex_color = false;
+  config.mtl_search_path = path.parent_path().string();
+  tinyobj::ObjReader reader;
+  if (!reader.ParseFromFile(name, config)) {
+    std::string err = reader.Error();
+    while (!err.empty() && space(err.back()))
+      err.pop_back();
+    for (char& c : err)
+      if (c == '\n') c = ' ';
+    throw IoError(fmt::format("{}: {}", name, err.empty() ? "cannot parse OBJ" : err));
+  }
+  const std::string& warn = reader.Warning();
+  if (warn.find("Degenerated face") != std::string::npos ||
+      warn.find("invalid") != std::string::npos) {
+    throw IoError(fmt::format("{}: malformed face ({})", name, warn.substr(0, warn.find('\n'))));
+  }
+  const auto& attrib = reader.GetAttrib();
+  std::vector<float> xyz(attrib.vertices.begin(), attrib.vertices.end());
+  const auto nv = static_cast<std::int64_t>(xyz.size() / 3);
+  std::vector<int> tri;
+  for (const auto& shape : reader.GetShapes()) {
+    std::size_t base = 0;
+    for (std::size_t f = 0; f < shape.mesh.num_face_vertices.size(); ++f) {
+      const std::size_t n = shape.mesh.num_face_vertices[f];
+      if (n < 3) throw IoError(fmt::format("{}: face with {} vertices", name, n));
+      for (std::size_t k = 0; k < n; ++k) {
+        const int v = shape.mesh.indices[base + k].vertex_index;
+        if (v < 0 || v >= nv) {
+          throw IoError(fmt::format("{}: face refers to vertex {} of {}", name, v + 1, nv));
+        }
+      }
+      for (std::size_t k = 1; k + 1 < n; ++k) {
+        tri.push_back(shape.mesh.indices[base].vertex_index);
+        tri.push_back(shape.mesh.indices[base + k].vertex_index);
+        tri.push_back(shape.mesh.indices[base + k + 1].vertex_index);
+      }
+      base += n;
+    }
+  }
+  TriangleMesh m = to_mesh(xyz, tri);
+  io_detail::check_mesh(m, name);
+  return m;
+}
+
+void write_obj(const TriangleMesh& mesh, const std::filesystem::path& path) {
+  mesh.validate(path.string());
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  if (!out) throw IoError(fmt::format("{}: cannot open for writing", path.string()));
+  std::string buf = "# scanbench mesh\n";
+  for (Eigen::Index v = 0; v < mesh.num_vertices(); ++v) {
+    // Shortest representation that reads back to the same float.
+    fmt::format_to(std::back_inserter(buf), "v {} {} {}\n", mesh.vertices(0, v),
+                   mesh.vertices(1, v), mesh.vertices(2, v));
+  }
+  for (Eigen::Index f = 0; f < mesh.num_faces(); ++f) {
+    fmt::format_to(std::back_inserter(buf), "f {} {} {}\n", mesh.faces(0, f) + 1,
+                   mesh.faces(1, f) + 1, mesh.faces(2, f) + 1);
+  }
+  out.write(buf.data(), static_cast<std::streamsize>(buf.size()));
+  out.flush();
+  if (!out) throw IoError(fmt::format("{}: write failed", path.string()));
+}
+
+float read_le_float(const char* p) {
+  std::uint32_t u;
+  std::memcpy(&u, p, 4);
+  if constexpr (std::endian::native == std::endian::big) u = __builtin_bswap32(u);
+  return std::bit_cast<float>(u);
+}
+
+}  // namespace
+
+namespace io_detail {
+
+TriangleMesh read_off(std::string_view text, const std::string& name) {
+  Lines lines(text);
+  std::string_view line;
+  auto fail = [&](const std::string& what) -> void {
+    throw IoError(fmt::format("{}: line {}: {}", name, lines.number(), what));
+  };
+  if (!lines.next(line)) throw IoError(fmt::format("{}: empty OFF file", name));
+  Tokens head(line);
+  std::string_view tok;
+  head.next(tok);
+  bool homogeneous = false;
+  std::vector<std::string_view> counts;
+  if (tok.size() >= 3 && tok.substr(tok.size() - 3) == "OFF") {
+    std::string_view prefix = tok.substr(0, tok.size() - 3);
+    auto eat = [&](std::string_view s) {
+      if (prefix.substr(0, s.size()) != s) return false;
+      prefix.remove_prefix(s.size());
+      return true;
+    };
+    eat("ST");
+    eat("C");
+    eat("N");
+    homogeneous = eat("4");
+    if (eat("n")) fail("nOFF (arbitrary dimension) is not supported");
+    if (!prefix.empty()) fail(fmt::format("unknown OFF header '{}'", tok));
+    while (head.next(tok)) {
+      if (tok == "BINARY") fail("binary OFF is not supported");
+      counts.push_back(tok);
+    }
+    if (counts.empty()) {
+      if (!lines.next(line)) fail("missing vertex and face counts");
+      Tokens t(line);
+      while (t.next(tok))
+        counts.push_back(tok);
+    }
+  } else {
+    // The OFF keyword is optional in the format; the first line then holds the counts.
+    counts.push_back(tok);
+    while (head.next(tok))
+      counts.push_back(tok);
+  }
+  std::int64_t nv = 0;
+  std::int64_t nf = 0;
+  std::int64_t ne = 0;
+  if (counts.size() < 2 || counts.size() > 3 || !parse_number(counts[0], nv) ||
+      !parse_number(counts[1], nf) || (counts.size() == 3 && !parse_number(counts[2], ne))) {
+    fail("expected '<vertices> <faces> [<edges>]'");
+  }
+  constexpr std::int64_t kMax = std::numeric_limits<std::int32_t>::max() / 3;
+  if (nv < 0 || nf < 0 || nv > kMax || nf > kMax || ne < 0) {
+    fail(fmt::format("invalid counts {} {}", nv, nf));
+  }
+  // Each vertex and face takes at least two bytes, so larger counts cannot fit in the file.
+  if (static_cast<std::uint64_t>(nv + nf) > text.size()) {
+    fail(fmt::format("counts {} vertices and {} faces exceed the file size", nv, nf));
+  }
+  std::vector<float> xyz;
+  xyz.reserve(static_cast<std::size_t>(3 * nv));
+  for (std::int64_t v = 0; v < nv; ++v) {
+    if (!lines.next(line)) {
+      throw IoError(fmt::format("{}: unexpected end of file at vertex {} of {}", name, v, nv));
+    }
+    Tokens t(line);
+    std::array<double, 4> c{0.0, 0.0, 0.0, 1.0};
+    for (int k = 0; k < (homogeneous ? 4 : 3); ++k) {
+      if (!t.next(tok) || !parse_number(tok, c[static_cast<std::size_t>(k)])) {
+        fail(fmt::format("vertex {}: expected {} coordinates", v, homogeneous ? 4 : 3));
+      }
+    }
+    for (int k = 0; k < 3; ++k) {
+      const float x = static_cast<float>(c[static_cast<std::size_t>(k)] / c[3]);
+      if (!std::isfinite(x)) fail(fmt::format("vertex {}: non-finite coordinate", v));
+      xyz.push_back(x);
+    }
+  }
+  std::vector<int> tri;
+  tri.reserve(static_cast<std::size_t>(3 * nf));
+  std::vector<int> poly;
+  for (std::int64_t f = 0; f < nf; ++f) {
+    if (!lines.next(line)) {
+      throw IoError(fmt::format("{}: unexpected end of file at face {} of {}", name, f, nf));
+    }
+    Tokens t(line);
+    std::int64_t n = 0;
+    if (!t.next(tok) || !parse_number(tok, n)) fail(fmt::format("face {}: expected a count", f));
+    if (n < 3) fail(fmt::format("face {}: polygon with {} vertices", f, n));
+    poly.clear();
+    for (std::int64_t k = 0; k < n; ++k) {
+      std::int64_t v = -1;
+      if (!t.next(tok) || !parse_number(tok, v)) {
+        fail(fmt::format("face {}: expected {} vertex indices", f, n));
+      }
+      if (v < 0 || v >= nv) fail(fmt::format("face {}: vertex index {} out of range", f, v));
+      poly.push_back(static_cast<int>(v));
+    }
+    // Anything after the indices is a face colour, which scanbench does not keep.
+    for (std::size_t k = 1; k + 1 < poly.size(); ++k) {
+      tri.push_back(poly[0]);
+      tri.push_back(poly[k]);
+      tri.push_back(poly[k + 1]);
+    }
+  }
+  if (lines.next(line)) fail("unexpected content after the last face");
+  TriangleMesh m = to_mesh(xyz, tri);
+  check_mesh(m, name);
+  return m;
+}
+
+TriangleMesh read_stl(std::string_view data, const std::string& name) {
+  std::vector<float> xyz;
+  std::vector<int> tri;
+  auto add_vertex = [&](float x, float y, float z) {
+    if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z)) return false;
+    tri.push_back(static_cast<int>(xyz.size() / 3));
+    xyz.push_back(x);
+    xyz.push_back(y);
+    xyz.push_back(z);
+    return true;
+  };
+  std::uint32_t n = 0;
+  if (data.size() >= 84) std::memcpy(&n, data.data() + 80, 4);
+  if constexpr (std::endian::native == std::endian::big) n = __builtin_bswap32(n);
+  if (data.size() >= 84 && data.size() == 84 + 50 * static_cast<std::uint64_t>(n)) {
+    if (n > static_cast<std::uint32_t>(std::numeric_limits<std::int32_t>::max() / 3)) {
+      throw IoError(fmt::format("{}: too many triangles ({})", name, n));
+    }
+    xyz.reserve(9 * std::size_t{n});
+    tri.reserve(3 * std::size_t{n});
+    for (std::uint32_t t = 0; t < n; ++t) {
+      const char* p = data.data() + 84 + 50 * std::size_t{t} + 12;  // skip the facet normal
+      for (int k = 0; k < 3; ++k, p += 12) {
+        if (!add_vertex(read_le_float(p), read_le_float(p + 4), read_le_float(p + 8))) {
+          throw IoError(fmt::format("{}: triangle {}: non-finite coordinate", name, t));
+        }
+      }
+    }
+  } else {
+    std::size_t start = 0;
+    while (start < data.size() && space(data[start]))
+      ++start;
+    if (data.substr(start, 5) != "solid") {
+      if (data.size() >= 84) {
+        throw IoError(fmt::format(
+            "{}: not an ascii STL (no 'solid') and not a binary STL (size {} != 84 + 50 * {})",
+            name, data.size(), n));
+      }
+      throw IoError(fmt::format("{}: not an STL file (too short for binary, no 'solid')", name));
+    }
+    Lines lines(data);
+    std::string_view line;
+    std::string_view tok;
+    // States: 0 outside solid, 1 in solid, 2 in facet, 3 in loop (k vertices read), 4 loop closed.
+    int state = 0;
+    int k = 0;
+    auto fail = [&](const std::string& what) -> void {
+      throw IoError(fmt::format("{}: line {}: {}", name, lines.number(), what));
+    };
+    while (lines.next(line)) {
+      Tokens t(line);
+      t.next(tok);
+      if (tok == "solid" && state == 0) {
+        state = 1;
+      } else if (tok == "endsolid" && state == 1) {
+        state = 0;
+      } else if (tok == "facet" && state == 1) {
+        state = 2;  // the facet normal is recomputed from the vertices by every consumer
+      } else if (tok == "outer" && state == 2) {
+        if (!t.next(tok) || tok != "loop") fail("expected 'outer loop'");
+        state = 3;
+        k = 0;
+      } else if (tok == "vertex" && state == 3) {
+        if (k == 3) fail("facet with more than 3 vertices");
+        std::array<float, 3> c{};
+        for (auto& x : c) {
+          if (!t.next(tok) || !parse_number(tok, x)) fail("expected 'vertex <x> <y> <z>'");
+        }
+        if (!add_vertex(c[0], c[1], c[2])) fail("non-finite coordinate");
+        ++k;
+      } else if (tok == "endloop" && state == 3) {
+        if (k != 3) fail(fmt::format("facet with {} vertices", k));
+        state = 4;
+      } else if (tok == "endfacet" && state == 4) {
+        state = 1;
+      } else {
+        fail(fmt::format("unexpected '{}'", tok.substr(0, 40)));
+      }
+    }
+    if (state != 0) {
+      throw IoError(fmt::format("{}: unexpected end of file (missing endsolid)", name));
+    }
+  }
+  TriangleMesh m = weld_coincident_vertices(to_mesh(xyz, tri));
+  check_mesh(m, name);
+  return m;
+}
+
+}  // namespace io_detail
+
+TriangleMesh read_mesh(const std::filesystem::path& path) {
+  const std::string ext = lower_extension(path);
+  const std::string name = path.string();
+  if (ext == ".ply") return io_detail::mesh_from_ply(ply::read(path), name);
+  if (ext == ".off") return io_detail::read_off(slurp(path), name);
+  if (ext == ".stl") return io_detail::read_stl(slurp(path), name);
+  if (ext == ".obj") return read_obj(path);
+  throw IoError(fmt::format("{}: unsupported mesh format '{}' (expected .off, .ply, .obj, .stl)",
+                            name, path.extension().string()));
+}
+
+void write_mesh(const TriangleMesh& mesh, const std::filesystem::path& path) {
+  const std::string ext = lower_extension(path);
+  if (ext == ".ply") return io_detail::write_mesh_ply(mesh, path);
+  if (ext == ".obj") return write_obj(mesh, path);
+  throw IoError(fmt::format("{}: unsupported mesh output format '{}' (expected .ply, .obj)",
+                            path.string(), path.extension().string()));
+}
+
+}  // namespace scanbench

@@ -1,0 +1,362 @@
+// PLY mapping of meshes, point clouds and Gaussian mixtures (the codec itself is ply.cpp).
+#include <fmt/format.h>
+
+#include <cmath>
+#include <set>
+
+#include "io_readers.h"
+#include "ply.h"
+#include "scanbench/core/errors.h"
+#include "scanbench/core/io.h"
+
+namespace scanbench {
+
+namespace {
+
+const ply::Element& require_element(const ply::File& f, std::string_view element,
+                                    const std::string& name) {
+  const ply::Element* e = f.find(element);
+  if (e == nullptr) throw IoError(fmt::format("{}: no element '{}'", name, element));
+  return *e;
+}
+
+const ply::Property& require_scalar(const ply::Element& e, std::string_view prop,
+                                    const std::string& name) {
+  const ply::Property* p = e.find(prop);
+  if (p == nullptr) {
+    throw IoError(fmt::format("{}: element {} has no property '{}'", name, e.name, prop));
+  }
+  if (p->is_list) {
+    throw IoError(fmt::format("{}: element {}, property {}: expected a scalar, got a list", name,
+                              e.name, prop));
+  }
+  return *p;
+}
+
+// Fills `out` (rows x 3, column-major 3 x rows) from three scalar properties; every value must be
+// finite as a float.
+void read_xyz(const ply::Element& e, const std::array<const char*, 3>& names, bool require_finite,
+              Eigen::Matrix3Xf& out, const std::string& name) {
+  out.resize(3, static_cast<Eigen::Index>(e.count));
+  for (int k = 0; k < 3; ++k) {
+    const ply::Property& p = require_scalar(e, names[static_cast<std::size_t>(k)], name);
+    for (std::size_t r = 0; r < e.count; ++r) {
+      const float v = static_cast<float>(p.values[r]);
+      if (require_finite && !std::isfinite(v)) {
+        throw IoError(fmt::format("{}: element {}, row {}, property {}: non-finite value {}", name,
+                                  e.name, r, p.name, p.values[r]));
+      }
+      out(k, static_cast<Eigen::Index>(r)) = v;
+    }
+  }
+}
+
+// Present as a complete group (true), absent (false), or partial (error).
+bool group_present(const ply::Element& e, std::initializer_list<const char*> names,
+                   const std::string& name) {
+  std::size_t n = 0;
+  for (const char* s : names)
+    n += e.find(s) != nullptr ? 1 : 0;
+  if (n != 0 && n != names.size()) {
+    std::string list;
+    for (const char* s : names)
+      list += (list.empty() ? "" : ", ") + std::string(s);
+    throw IoError(
+        fmt::format("{}: element {} has only some of the properties {}", name, e.name, list));
+  }
+  return n != 0;
+}
+
+ply::Property float_prop(std::string name, std::vector<double> values) {
+  ply::Property p;
+  p.name = std::move(name);
+  p.type = ply::Type::Float32;
+  p.values = std::move(values);
+  return p;
+}
+
+template <class Row>
+std::vector<double> column(Eigen::Index n, Row row) {
+  std::vector<double> v(static_cast<std::size_t>(n));
+  for (Eigen::Index i = 0; i < n; ++i)
+    v[static_cast<std::size_t>(i)] = static_cast<double>(row(i));
+  return v;
+}
+
+void append_xyz(ply::Element& e, const Eigen::Matrix3Xf& m, std::array<const char*, 3> names) {
+  for (int k = 0; k < 3; ++k) {
+    e.properties.push_back(float_prop(names[static_cast<std::size_t>(k)],
+                                      column(m.cols(), [&](Eigen::Index i) { return m(k, i); })));
+  }
+}
+
+ply::Format to_ply(PlyFormat f) {
+  return f == PlyFormat::Ascii ? ply::Format::Ascii : ply::Format::BinaryLittleEndian;
+}
+
+std::string lower_extension(const std::filesystem::path& path) {
+  std::string ext = path.extension().string();
+  for (char& c : ext)
+    c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return ext;
+}
+
+void require_ply_extension(const std::filesystem::path& path, const char* what) {
+  if (lower_extension(path) != ".ply") {
+    throw IoError(fmt::format("{}: unsupported {} format '{}' (expected .ply)", path.string(), what,
+                              path.extension().string()));
+  }
+}
+
+}  // namespace
+
+namespace io_detail {
+
+void check_mesh(const TriangleMesh& mesh, const std::string& name) {
+  if (mesh.num_faces() == 0) throw IoError(fmt::format("{}: mesh has no faces", name));
+  for (Eigen::Index v = 0; v < mesh.num_vertices(); ++v) {
+    if (!mesh.vertices.col(v).allFinite()) {
+      throw IoError(fmt::format("{}: vertex {} has a non-finite coordinate", name, v));
+    }
+  }
+  for (Eigen::Index f = 0; f < mesh.num_faces(); ++f) {
+    for (int k = 0; k < 3; ++k) {
+      if (mesh.faces(k, f) < 0 || mesh.faces(k, f) >= mesh.num_vertices()) {
+        throw IoError(fmt::format("{}: face {} refers to vertex {} of {}", name, f,
+                                  mesh.faces(k, f), mesh.num_vertices()));
+      }
+    }
+  }
+}
+
+TriangleMesh mesh_from_ply(const ply::File& file, const std::string& name) {
+  const ply::Element& ve = require_element(file, "vertex", name);
+  TriangleMesh mesh;
+  read_xyz(ve, {"x", "y", "z"}, true, mesh.vertices, name);
+  const ply::Element& fe = require_element(file, "face", name);
+  const ply::Property* idx = fe.find("vertex_indices");
+  if (idx == nullptr) idx = fe.find("vertex_index");
+  if (idx == nullptr || !idx->is_list) {
+    throw IoError(fmt::format("{}: element face has no list property vertex_indices", name));
+  }
+  std::vector<int> tri;
+  const double nv = static_cast<double>(ve.count);
+  for (std::size_t r = 0; r < fe.count; ++r) {
+    const std::size_t b = idx->offsets[r];
+    const std::size_t n = idx->offsets[r + 1] - b;
+    if (n < 3) {
+      throw IoError(fmt::format("{}: element face, row {}: polygon with {} vertices", name, r, n));
+    }
+    for (std::size_t k = 0; k < n; ++k) {
+      const double v = idx->values[b + k];
+      if (!(v >= 0 && v < nv) || v != std::trunc(v)) {
+        throw IoError(fmt::format("{}: element face, row {}: vertex index {} out of range [0, {})",
+                                  name, r, v, ve.count));
+      }
+    }
+    for (std::size_t k = 1; k + 1 < n; ++k) {  // fan
+      tri.push_back(static_cast<int>(idx->values[b]));
+      tri.push_back(static_cast<int>(idx->values[b + k]));
+      tri.push_back(static_cast<int>(idx->values[b + k + 1]));
+    }
+  }
+  mesh.faces =
+      Eigen::Map<const Eigen::Matrix3Xi>(tri.data(), 3, static_cast<Eigen::Index>(tri.size() / 3));
+  check_mesh(mesh, name);
+  return mesh;
+}
+
+PointCloud cloud_from_ply(const ply::File& file, const std::string& name) {
+  const ply::Element& ve = require_element(file, "vertex", name);
+  PointCloud cloud;
+  read_xyz(ve, {"x", "y", "z"}, true, cloud.positions, name);
+  const auto n = static_cast<Eigen::Index>(ve.count);
+  if (group_present(ve, {"nx", "ny", "nz"}, name)) {
+    read_xyz(ve, {"nx", "ny", "nz"}, true, cloud.normals, name);
+  }
+  static const std::set<std::string> known{"x", "y", "z", "nx", "ny", "nz", "weight", "scan_id"};
+  for (const ply::Property& p : ve.properties) {
+    if (p.is_list) {
+      throw IoError(
+          fmt::format("{}: element vertex: list property '{}' is not supported", name, p.name));
+    }
+    if (p.name == "weight") {
+      cloud.weights.resize(n);
+      for (Eigen::Index i = 0; i < n; ++i)
+        cloud.weights[i] = static_cast<float>(p.values[static_cast<std::size_t>(i)]);
+    } else if (p.name == "scan_id") {
+      cloud.scan_ids.resize(n);
+      for (Eigen::Index i = 0; i < n; ++i) {
+        const double v = p.values[static_cast<std::size_t>(i)];
+        if (!(v >= 0 && v <= std::numeric_limits<int>::max()) || v != std::trunc(v)) {
+          throw IoError(
+              fmt::format("{}: element vertex, row {}: scan_id {} is not an index", name, i, v));
+        }
+        cloud.scan_ids[i] = static_cast<int>(v);
+      }
+    } else if (known.count(p.name) == 0) {
+      Eigen::VectorXf& values = cloud.properties[p.name];
+      values.resize(n);
+      for (Eigen::Index i = 0; i < n; ++i)
+        values[i] = static_cast<float>(p.values[static_cast<std::size_t>(i)]);
+    }
+  }
+  if (const ply::Element* se = file.find("sensor")) {
+    read_xyz(*se, {"x", "y", "z"}, true, cloud.sensor_origins, name);
+  }
+  try {
+    cloud.validate(name);
+  } catch (const InputError& e) {
+    throw IoError(e.what());
+  }
+  return cloud;
+}
+
+GaussianMixture mixture_from_ply(const ply::File& file, const std::string& name) {
+  const ply::Element& ce = require_element(file, "component", name);
+  const auto k = static_cast<Eigen::Index>(ce.count);
+  GaussianMixture m;
+  m.resize(k);
+  read_xyz(ce, {"x", "y", "z"}, true, m.means, name);
+  static constexpr std::array<const char*, 6> cov{"covxx", "covxy", "covxz",
+                                                  "covyy", "covyz", "covzz"};
+  for (std::size_t c = 0; c < cov.size(); ++c) {
+    const ply::Property& p = require_scalar(ce, cov[c], name);
+    for (Eigen::Index i = 0; i < k; ++i)
+      m.covariances(static_cast<Eigen::Index>(c), i) =
+          static_cast<float>(p.values[static_cast<std::size_t>(i)]);
+  }
+  const ply::Property& w = require_scalar(ce, "weight", name);
+  for (Eigen::Index i = 0; i < k; ++i)
+    m.weights[i] = static_cast<float>(w.values[static_cast<std::size_t>(i)]);
+  if (group_present(ce, {"nx", "ny", "nz", "normal_spread"}, name)) {
+    read_xyz(ce, {"nx", "ny", "nz"}, true, m.normal_axes, name);
+    const ply::Property& s = require_scalar(ce, "normal_spread", name);
+    m.normal_spreads.resize(k);
+    for (Eigen::Index i = 0; i < k; ++i)
+      m.normal_spreads[i] = static_cast<float>(s.values[static_cast<std::size_t>(i)]);
+  }
+  try {
+    m.validate(name);
+  } catch (const InputError& e) {
+    throw IoError(e.what());
+  }
+  return m;
+}
+
+void write_mesh_ply(const TriangleMesh& mesh, const std::filesystem::path& path) {
+  mesh.validate(path.string());
+  ply::File f;
+  f.format = ply::Format::BinaryLittleEndian;
+  f.comments.push_back("scanbench mesh");
+  ply::Element ve;
+  ve.name = "vertex";
+  ve.count = static_cast<std::size_t>(mesh.num_vertices());
+  append_xyz(ve, mesh.vertices, {"x", "y", "z"});
+  ply::Element fe;
+  fe.name = "face";
+  fe.count = static_cast<std::size_t>(mesh.num_faces());
+  ply::Property idx;
+  idx.name = "vertex_indices";
+  idx.is_list = true;
+  idx.count_type = ply::Type::UInt8;
+  idx.type = ply::Type::Int32;
+  idx.values.reserve(3 * fe.count);
+  idx.offsets.reserve(fe.count + 1);
+  idx.offsets.push_back(0);
+  for (Eigen::Index t = 0; t < mesh.num_faces(); ++t) {
+    for (int k = 0; k < 3; ++k)
+      idx.values.push_back(mesh.faces(k, t));
+    idx.offsets.push_back(idx.values.size());
+  }
+  fe.properties.push_back(std::move(idx));
+  f.elements.push_back(std::move(ve));
+  f.elements.push_back(std::move(fe));
+  ply::write(f, path);
+}
+
+}  // namespace io_detail
+
+PointCloud read_point_cloud(const std::filesystem::path& path) {
+  require_ply_extension(path, "point cloud");
+  return io_detail::cloud_from_ply(ply::read(path), path.string());
+}
+
+void write_point_cloud(const PointCloud& cloud, const std::filesystem::path& path,
+                       PlyFormat format) {
+  require_ply_extension(path, "point cloud");
+  cloud.validate(path.string());
+  static const std::set<std::string> reserved{"x", "y", "z", "nx", "ny", "nz", "weight", "scan_id"};
+  ply::File f;
+  f.format = to_ply(format);
+  f.comments.push_back("scanbench point cloud");
+  ply::Element ve;
+  ve.name = "vertex";
+  ve.count = static_cast<std::size_t>(cloud.size());
+  append_xyz(ve, cloud.positions, {"x", "y", "z"});
+  if (cloud.has_normals()) append_xyz(ve, cloud.normals, {"nx", "ny", "nz"});
+  if (cloud.has_weights()) {
+    ve.properties.push_back(float_prop(
+        "weight", column(cloud.size(), [&](Eigen::Index i) { return cloud.weights[i]; })));
+  }
+  if (cloud.has_scan_ids()) {
+    ply::Property p;
+    p.name = "scan_id";
+    p.type = ply::Type::Int32;
+    p.values = column(cloud.size(), [&](Eigen::Index i) { return cloud.scan_ids[i]; });
+    ve.properties.push_back(std::move(p));
+  }
+  for (const auto& [pname, values] : cloud.properties) {
+    if (reserved.count(pname) != 0) {
+      throw IoError(fmt::format("{}: property name '{}' is reserved", path.string(), pname));
+    }
+    ve.properties.push_back(
+        float_prop(pname, column(cloud.size(), [&](Eigen::Index i) { return values[i]; })));
+  }
+  f.elements.push_back(std::move(ve));
+  if (cloud.sensor_origins.cols() > 0) {
+    ply::Element se;
+    se.name = "sensor";
+    se.count = static_cast<std::size_t>(cloud.sensor_origins.cols());
+    append_xyz(se, cloud.sensor_origins, {"x", "y", "z"});
+    f.elements.push_back(std::move(se));
+  }
+  ply::write(f, path);
+}
+
+GaussianMixture read_mixture(const std::filesystem::path& path) {
+  require_ply_extension(path, "mixture");
+  return io_detail::mixture_from_ply(ply::read(path), path.string());
+}
+
+void write_mixture(const GaussianMixture& mixture, const std::filesystem::path& path,
+                   PlyFormat format) {
+  require_ply_extension(path, "mixture");
+  mixture.validate(path.string());
+  ply::File f;
+  f.format = to_ply(format);
+  f.comments.push_back("scanbench gaussian mixture");
+  ply::Element ce;
+  ce.name = "component";
+  ce.count = static_cast<std::size_t>(mixture.size());
+  append_xyz(ce, mixture.means, {"x", "y", "z"});
+  static constexpr std::array<const char*, 6> cov{"covxx", "covxy", "covxz",
+                                                  "covyy", "covyz", "covzz"};
+  for (int c = 0; c < 6; ++c) {
+    ce.properties.push_back(float_prop(
+        cov[static_cast<std::size_t>(c)],
+        column(mixture.size(), [&](Eigen::Index i) { return mixture.covariances(c, i); })));
+  }
+  ce.properties.push_back(float_prop(
+      "weight", column(mixture.size(), [&](Eigen::Index i) { return mixture.weights[i]; })));
+  if (mixture.has_normal_axes()) {
+    append_xyz(ce, mixture.normal_axes, {"nx", "ny", "nz"});
+    ce.properties.push_back(float_prop("normal_spread", column(mixture.size(), [&](Eigen::Index i) {
+                                         return mixture.normal_spreads[i];
+                                       })));
+  }
+  f.elements.push_back(std::move(ce));
+  ply::write(f, path);
+}
+
+}  // namespace scanbench

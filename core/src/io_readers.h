@@ -1,0 +1,41 @@
+#pragma once
+// Private entry points of core's readers, on data already in memory, shared by the path-based
+// functions of io.h and by the fuzz target (tests/fuzz/fuzz_readers.cpp). Each throws
+// IoError("<name>: ...") for malformed input; none of them touches the file system.
+//
+// OFF and STL are hand-written: Debian 12 has no maintained library for them other than assimp,
+// which is not a chosen dependency of scanbench (large, and it silently repairs meshes).
+#include <filesystem>
+#include <string>
+#include <string_view>
+
+#include "ply.h"
+#include "scanbench/core/gaussian_mixture.h"
+#include "scanbench/core/point_cloud.h"
+#include "scanbench/core/triangle_mesh.h"
+
+namespace scanbench::io_detail {
+
+/// Element `vertex` (x, y, z) and element `face` (list vertex_indices or vertex_index; polygons
+/// fan-triangulated). A PLY without faces is not a mesh.
+TriangleMesh mesh_from_ply(const ply::File& file, const std::string& name);
+/// See io.h for the mapping of properties.
+PointCloud cloud_from_ply(const ply::File& file, const std::string& name);
+GaussianMixture mixture_from_ply(const ply::File& file, const std::string& name);
+
+/// OFF, with the [ST][C][N][4]OFF header variants (extra per-vertex values after x y z are
+/// skipped; 4OFF divides by w), '#' comments, counts on the header line or the next one, and
+/// polygons fan-triangulated. Binary OFF and nOFF are rejected.
+TriangleMesh read_off(std::string_view text, const std::string& name);
+/// STL: binary when the size is exactly 84 + 50 n for the n in its header, else ascii ("solid").
+/// Exactly coincident vertices are merged (weld_coincident_vertices).
+TriangleMesh read_stl(std::string_view data, const std::string& name);
+
+/// Binary little-endian PLY: element vertex (float x, y, z), element face (list uchar int
+/// vertex_indices).
+void write_mesh_ply(const TriangleMesh& mesh, const std::filesystem::path& path);
+
+/// Throws IoError("<name>: ...") unless the mesh has faces, finite vertices and indices in range.
+void check_mesh(const TriangleMesh& mesh, const std::string& name);
+
+}  // namespace scanbench::io_detail
