@@ -55,22 +55,26 @@ std::vector<Component> initial_mixture(const Eigen::Matrix3Xf& pts, const HemPar
                                        double h_abs, double abs_floor) {
   const Index n = pts.cols();
   const KdTree tree(pts);
-  // Nearest-neighbour distance to the first distinct point; duplicates of a point are skipped.
+  // Mean distance to the init_neighbors nearest distinct points (duplicates skipped).
   std::vector<double> nn(static_cast<std::size_t>(n), 0.0);
+  const int k_nn = p.init_neighbors;
   tbb::parallel_for(tbb::blocked_range<Index>(0, n, 256), [&](const tbb::blocked_range<Index>& r) {
     std::vector<Index> idx;
     std::vector<float> d2;
     for (Index j = r.begin(); j < r.end(); ++j) {
-      tree.knn(pts.col(j), 8, idx, d2);
+      tree.knn(pts.col(j), k_nn + 8, idx, d2);
+      double sum = 0.0;
+      int found = 0;
       for (float d : d2) {
-        if (d > 0.0f) {
-          nn[static_cast<std::size_t>(j)] = std::sqrt(static_cast<double>(d));
-          break;
+        if (d > 0.0f && found < k_nn) {
+          sum += std::sqrt(static_cast<double>(d));
+          ++found;
         }
       }
+      if (found > 0) nn[static_cast<std::size_t>(j)] = sum / found;
     }
   });
-  // Points with only duplicates among their 8 nearest take the median distinct spacing.
+  // Points with only duplicates among their nearest take the median distinct spacing.
   std::vector<double> positive;
   for (double d : nn)
     if (d > 0.0) positive.push_back(d);

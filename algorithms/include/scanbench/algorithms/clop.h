@@ -42,9 +42,9 @@
 namespace scanbench::algorithms {
 
 /// Coefficients of alpha(r) = theta(r)/r ~ sum_k w_k exp(-r^2 / (2 sigma_k^2 h^2)) for h = 1
-/// (CLOP paper Fig. 5b, confirmed against the reference code). Fit on r in [0, h]; good to
-/// about 10% on [0.01 h, 0.3 h], poor beyond (ratio 0.56 at 0.3 h, 0.04 at 0.5 h): that is the
-/// method.
+/// (CLOP paper Fig. 5b, confirmed against the reference code). Fitted on r in [0, h]; the sum
+/// matches alpha within 10% on [0.01 h, 0.2 h] and falls off beyond (ratio 0.82 at 0.25 h, 0.56 at
+/// 0.3 h, 0.04 at 0.5 h): that is the method, not a bug (tests/algorithms/test_clop.cpp).
 inline constexpr std::array<double, 3> kClopFitWeights = {11.453, 29.886, 97.761};
 inline constexpr std::array<double, 3> kClopFitSigmas = {0.11772, 0.03287, 0.01010};
 
@@ -84,6 +84,7 @@ struct ClopParams {
   double min_reduction = 0.025;
   double parent_probability = 1.0 / 3.0;
   double init_radius_factor = 2.5;
+  int init_neighbors = 4;
   double cov_bias = 1e-3;
   bool weighted = true;
   double normal_spread0 = 1e-3;

@@ -57,6 +57,10 @@ void declare_hem_params(ParamDeclarer<T>& d) {
   d.real("init_radius_factor", &T::init_radius_factor, Range::closed(1.0, 10.0), "",
          "initial kernel radius r as a multiple of each point's nearest-neighbour distance "
          "(alpha_0 of Algorithm 1, paper: 2-3)");
+  d.integer("init_neighbors", &T::init_neighbors, Range::closed(1, 64), "",
+            "the nearest-neighbour distance of Algorithm 1 line 2 is the mean distance to this "
+            "many nearest distinct points (1 = the paper's literal nearest neighbour; more is "
+            "stable on irregular sampling)");
   d.real("cov_bias", &T::cov_bias, Range::closed(0.0, 1.0), "r^2",
          "trace bias c of eq. 12 as a fraction of r^2 (gives every initial Gaussian a minimum "
          "extent)");
@@ -73,6 +77,7 @@ struct HemParams {
   double min_reduction = 0.025;
   double parent_probability = 1.0 / 3.0;
   double init_radius_factor = 2.5;
+  int init_neighbors = 4;
   double cov_bias = 1e-3;
   bool weighted = true;
   double normal_spread0 = 1e-3;
@@ -94,6 +99,7 @@ HemParams hem_params_of(const T& t, double h) {
   p.min_reduction = t.min_reduction;
   p.parent_probability = t.parent_probability;
   p.init_radius_factor = t.init_radius_factor;
+  p.init_neighbors = t.init_neighbors;
   p.cov_bias = t.cov_bias;
   p.weighted = t.weighted;
   p.normal_spread0 = t.normal_spread0;

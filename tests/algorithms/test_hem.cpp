@@ -1,0 +1,234 @@
+// mixture.hem: eq. 12 against a brute-force covariance, mixture invariants (weights sum to 1,
+// symmetric positive definite covariances, unit normal axes), determinism across thread counts,
+// compression growing with alpha, WLOP density weighting (eq. 26) and orphans.
+#include <gtest/gtest.h>
+
+#include <Eigen/Eigenvalues>
+#include <cmath>
+#include <cstring>
+#include <limits>
+
+#include "scanbench/algorithms/hem.h"
+#include "scanbench/core/errors.h"
+#include "scanbench/core/rng.h"
+
+namespace scanbench::algorithms {
+namespace {
+
+PointCloud noisy_sphere(int n, float radius, float sigma, std::uint64_t seed) {
+  Rng rng(seed);
+  PointCloud c;
+  c.positions.resize(3, n);
+  for (int i = 0; i < n; ++i) {
+    Eigen::Vector3f d;
+    do {
+      d = Eigen::Vector3f(static_cast<float>(rng.normal()), static_cast<float>(rng.normal()),
+                          static_cast<float>(rng.normal()));
+    } while (d.norm() < 1e-6f);
+    c.positions.col(i) = d.normalized() * (radius + static_cast<float>(rng.normal(0.0, sigma)));
+  }
+  return c;
+}
+
+// The z = 0 plane sampled uniformly on [0, 1]^2 with density `dense` times higher for x < 0.5.
+PointCloud two_density_plane(int n_sparse, int dense, std::uint64_t seed) {
+  Rng rng(seed);
+  const int n = n_sparse + n_sparse * dense;
+  PointCloud c;
+  c.positions.resize(3, n);
+  for (int i = 0; i < n; ++i) {
+    const bool left = i >= n_sparse;
+    const double x = left ? rng.uniform(0.0, 0.5) : rng.uniform(0.5, 1.0);
+    c.positions.col(i) =
+        Eigen::Vector3f(static_cast<float>(x), static_cast<float>(rng.uniform()), 0.0f);
+  }
+  return c;
+}
+
+void expect_valid_mixture(const GaussianMixture& m) {
+  ASSERT_GT(m.size(), 0);
+  m.validate("test");
+  EXPECT_NEAR(m.weights.cast<double>().sum(), 1.0, 1e-5);
+  ASSERT_TRUE(m.has_normal_axes());
+  for (Eigen::Index s = 0; s < m.size(); ++s) {
+    EXPECT_GT(m.weights(s), 0.0f);
+    const Eigen::Matrix3d c = m.covariance(s).cast<double>();
+    EXPECT_LT((c - c.transpose()).norm(), 1e-12);
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(c);
+    ASSERT_GT(es.eigenvalues()(0), 0.0) << "component " << s << " is not positive definite";
+    EXPECT_NEAR(m.normal_axes.col(s).norm(), 1.0f, 1e-5f);
+    EXPECT_GE(m.normal_spreads(s), 0.0f);
+  }
+}
+
+TEST(Hem, MixtureInvariants) {
+  const PointCloud c = noisy_sphere(4000, 1.0f, 0.01f, 1);
+  RunContext ctx(7);
+  HemParams p;
+  const AlgorithmOutput out = hem(c, p, ctx);
+  ASSERT_TRUE(out.mixture.has_value());
+  expect_valid_mixture(*out.mixture);
+  EXPECT_LT(out.mixture->size(), c.size() / 2);  // HEM actually reduces
+  EXPECT_EQ(out.points.size(), out.mixture->size());
+  // Means stay near the sphere: the mixture does not smooth the shape away.
+  double err = 0.0;
+  for (Eigen::Index s = 0; s < out.mixture->size(); ++s)
+    err += out.mixture->weights(s) * std::abs(out.mixture->means.col(s).norm() - 1.0f);
+  EXPECT_LT(err, 0.01);
+  // Normal axes of a sphere are radial.
+  double cos_sum = 0.0;
+  for (Eigen::Index s = 0; s < out.mixture->size(); ++s)
+    cos_sum +=
+        out.mixture->weights(s) *
+        std::abs(out.mixture->normal_axes.col(s).dot(out.mixture->means.col(s).normalized()));
+  EXPECT_GT(cos_sum, 0.97);
+}
+
+TEST(Hem, LevelZeroMatchesEq12BruteForce) {
+  const PointCloud c = noisy_sphere(600, 1.0f, 0.0f, 3);
+  HemParams p;
+  p.levels = 0;
+  p.weighted = false;
+  p.init_neighbors = 1;  // the paper's literal nearest-neighbour distance
+  RunContext ctx(1);
+  const double diag = c.bbox().diagonal();
+  const GaussianMixture m = hem_mixture(c.positions, p, p.h * diag, diag, ctx);
+  ASSERT_EQ(m.size(), c.size());
+  for (Eigen::Index j = 0; j < c.size(); j += 37) {
+    const Eigen::Vector3d pj = c.positions.col(j).cast<double>();
+    double nn = std::numeric_limits<double>::infinity();
+    for (Eigen::Index i = 0; i < c.size(); ++i)
+      if (i != j) nn = std::min(nn, (c.positions.col(i).cast<double>() - pj).norm());
+    const double r = p.init_radius_factor * nn;  // nn: mean of the init_neighbors nearest
+    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+    Eigen::Matrix3d m2 = Eigen::Matrix3d::Zero();
+    double n = 0;
+    for (Eigen::Index i = 0; i < c.size(); ++i) {
+      const Eigen::Vector3d d = c.positions.col(i).cast<double>() - pj;
+      if (d.norm() <= r) {
+        mean += d;
+        m2 += d * d.transpose();
+        n += 1;
+      }
+    }
+    mean /= n;
+    const Eigen::Matrix3d cov_r = m2 / n - mean * mean.transpose();
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov_r);
+    const double smax = std::sqrt(es.eigenvalues()(2));
+    const Eigen::Matrix3d expect =
+        cov_r * (r / (smax * std::cbrt(n))) + p.cov_bias * r * r * Eigen::Matrix3d::Identity();
+    const Eigen::Matrix3d got = m.covariance(j).cast<double>();
+    EXPECT_LT((got - expect).norm(), 1e-4 * expect.norm()) << "point " << j;
+    EXPECT_NEAR(m.weights(j), 1.0 / static_cast<double>(c.size()), 1e-7);
+    EXPECT_NEAR(std::abs(m.normal_axes.col(j).cast<double>().dot(es.eigenvectors().col(0))), 1.0,
+                1e-3);
+  }
+}
+
+TEST(Hem, IdenticalAcrossThreadCounts) {
+  const PointCloud c = noisy_sphere(6000, 1.0f, 0.01f, 5);
+  HemParams p;
+  GaussianMixture a, b;
+  {
+    RunContext ctx(42, 1);
+    a = *hem(c, p, ctx).mixture;
+  }
+  {
+    RunContext ctx(42, 2);
+    b = *hem(c, p, ctx).mixture;
+  }
+  ASSERT_EQ(a.size(), b.size());
+  EXPECT_EQ(0, std::memcmp(a.means.data(), b.means.data(), sizeof(float) * 3 * a.size()));
+  EXPECT_EQ(0,
+            std::memcmp(a.covariances.data(), b.covariances.data(), sizeof(float) * 6 * a.size()));
+  EXPECT_EQ(0, std::memcmp(a.weights.data(), b.weights.data(), sizeof(float) * a.size()));
+  EXPECT_EQ(0,
+            std::memcmp(a.normal_axes.data(), b.normal_axes.data(), sizeof(float) * 3 * a.size()));
+  // Another seed picks other parents.
+  RunContext ctx(43, 2);
+  const GaussianMixture d = *hem(c, p, ctx).mixture;
+  EXPECT_TRUE(d.size() != a.size() || !d.means.isApprox(a.means));
+}
+
+TEST(Hem, CompressionGrowsWithAlpha) {
+  const PointCloud c = noisy_sphere(5000, 1.0f, 0.005f, 9);
+  Eigen::Index prev = std::numeric_limits<Eigen::Index>::max();
+  for (double alpha : {1.0, 1.5, 2.0, 3.0}) {
+    HemParams p;
+    p.alpha = alpha;
+    p.levels = 4;
+    p.min_reduction = 0.0;
+    RunContext ctx(11);
+    const GaussianMixture m = *hem(c, p, ctx).mixture;
+    expect_valid_mixture(m);
+    EXPECT_LT(m.size(), prev) << "alpha " << alpha;
+    prev = m.size();
+  }
+}
+
+TEST(Hem, StopsWhenALevelRemovesLittle) {
+  const PointCloud c = noisy_sphere(3000, 1.0f, 0.005f, 13);
+  HemParams p;
+  p.levels = 30;
+  RunContext ctx(3);
+  HemStats stats;
+  const double diag = c.bbox().diagonal();
+  hem_mixture(c.positions, p, p.h * diag, diag, ctx, &stats);
+  ASSERT_GE(stats.level_sizes.size(), 2u);
+  EXPECT_LT(stats.level_sizes.size(), 31u);  // stopped before the level cap
+  for (std::size_t l = 1; l + 1 < stats.level_sizes.size(); ++l) {
+    const double removed = static_cast<double>(stats.level_sizes[l - 1] - stats.level_sizes[l]);
+    EXPECT_GE(removed, p.min_reduction * static_cast<double>(stats.level_sizes[l - 1]));
+  }
+  const std::size_t last = stats.level_sizes.size() - 1;
+  const double removed_last =
+      static_cast<double>(stats.level_sizes[last - 1] - stats.level_sizes[last]);
+  EXPECT_LT(removed_last, p.min_reduction * static_cast<double>(stats.level_sizes[last - 1]));
+}
+
+TEST(Hem, DensityWeightsBalanceTheMass) {
+  // Left half 4x denser: unweighted mass ~0.8 on the left; WLOP weights (eq. 26) balance it.
+  const PointCloud c = two_density_plane(3000, 4, 17);
+  auto left_mass = [&](bool weighted) {
+    HemParams p;
+    p.weighted = weighted;
+    p.h = 0.05;
+    RunContext ctx(5);
+    const GaussianMixture m = *hem(c, p, ctx).mixture;
+    double left = 0.0;
+    for (Eigen::Index s = 0; s < m.size(); ++s)
+      if (m.means(0, s) < 0.5f) left += m.weights(s);
+    return left;
+  };
+  EXPECT_NEAR(left_mass(false), 0.8, 0.02);
+  EXPECT_NEAR(left_mass(true), 0.5, 0.06);
+}
+
+TEST(Hem, OutlierStaysAnOrphan) {
+  PointCloud c = noisy_sphere(3000, 1.0f, 0.005f, 19);
+  c.positions.conservativeResize(3, c.size() + 1);
+  const Eigen::Vector3f outlier(0.0f, 0.0f, 1.6f);
+  c.positions.col(c.size() - 1) = outlier;
+  HemParams p;
+  RunContext ctx(21);
+  const GaussianMixture m = *hem(c, p, ctx).mixture;
+  int found = 0;
+  for (Eigen::Index s = 0; s < m.size(); ++s)
+    if ((m.means.col(s) - outlier).norm() < 1e-6f) ++found;
+  EXPECT_EQ(found, 1);  // never merged into (or merging) surface components
+}
+
+TEST(Hem, BadInputThrows) {
+  HemParams p;
+  RunContext ctx(1);
+  EXPECT_THROW(hem(PointCloud{}, p, ctx), InputError);
+  PointCloud c = noisy_sphere(10, 1.0f, 0.0f, 1);
+  c.positions(1, 3) = std::numeric_limits<float>::quiet_NaN();
+  EXPECT_THROW(hem(c, p, ctx), InputError);
+  EXPECT_THROW(params_from_json<HemParams>(Json{{"alpha", -1.0}}, "t"), ParamError);
+  EXPECT_THROW(params_from_json<HemParams>(Json{{"levels", "x"}}, "t"), ParamError);
+  EXPECT_THROW(params_from_json<HemParams>(Json{{"bogus", 1}}, "t"), ParamError);
+}
+
+}  // namespace
+}  // namespace scanbench::algorithms
