@@ -1,0 +1,116 @@
+#pragma once
+// The virtual scanner: turns a ground-truth triangle mesh into a point cloud with the artifacts of
+// real range acquisition (REFERENCE.md section 7: Berger et al. 2013 "reconbench", HELIOS++,
+// SCUTSurface). Rays are cast with Embree (an implementation detail of scanner-sim/src).
+//
+// The rig. `views` range cameras sit around the object at distance range_min + diag/2 from the
+// centre of its bounding box (diag = bbox diagonal; Berger et al.: sensors on a sphere of radius
+// min_range + half the diagonal). Their directions are a Fibonacci spiral over the sphere
+// (z_i = 1 - (2i+1)/views, azimuth i * golden angle: deterministic, nearly uniform), or the
+// explicit `poses`. Each camera is a pinhole with `resolution` x `resolution` pixels and a full
+// field of view `fov_deg`, looking at the bbox centre (up = world z, or world y when looking
+// along z).
+//
+// One pixel, in this order (every random number from a stream derived from the run seed, the
+// view and the pixel index, so no result depends on the thread count):
+//  1. Beam: `sub_rays` rays in a cone of full angle `beam_divergence_deg` (sub-ray 0 on the axis,
+//     the others on a sunflower spiral over the footprint disk). The pixel returns when at least
+//     ceil(sub_rays/2) sub-rays hit; its range is the mean hit distance of those sub-rays, reported
+//     along the axis. Sub-rays that straddle a depth discontinuity give mixed pixels between the
+//     surfaces (HELIOS++ beam divergence).
+//  2. The clean point: the hit of the lowest-numbered sub-ray that hit (on the surface).
+//  3. Drop-outs: incidence angle at the clean point (between the ray and the unoriented face
+//     normal) above `max_incidence_deg`; range outside [range_min, range_max] (diag).
+//  4. Flying pixels: a pixel whose 4-neighbour has no hit (silhouette) or a range differing by more
+//     than `flying_depth_jump` becomes, with probability `flying_pixel_prob`, a point on its own
+//     ray at a uniform depth between its range and the far neighbour's range (range +
+//     `flying_spread` behind a silhouette). Flagged outlier = 1; no range noise.
+//  5. Range noise along the ray, N(0, sigma) with
+//        sigma = diag * (noise_sigma + noise_range_slope * r / diag
+//                        + noise_incidence_slope * (1 / max(cos(incidence), 0.01) - 1)),
+//     i.e. constant accuracy (HELIOS++) growing linearly with range and with 1/cos(incidence).
+//  6. Uniform outliers: after each returned point, further points uniform in the bbox grown by
+//     `outlier_box_scale` about its centre (Berger et al.: 1.1) follow with probability
+//     `outlier_fraction` each (a geometric run), so every output point is independently a uniform
+//     outlier with probability outlier_fraction (flying pixels aside). Flagged outlier = 1.
+// Then per scan, for round(misalign_fraction * views) scans chosen at random (SCUTSurface: 50%):
+//  7. Misalignment (registration error, Berger et al.): rotation by `misalign_deg` about a random
+//     axis through the centre of mass of the scan's non-outlier points, then a shift of length
+//     misalign_shift * diag in a random direction: p' = R p + t with t = c - R c + s. Applied to
+//     the scan's surface and flying points and to its sensor origin (the scan is registered
+//     wrongly as a whole); not to uniform outliers nor to the clean points.
+//
+// Output order is fixed: by view, then pixel (row-major), then the pixel's point before its
+// uniform outliers.
+#include <cstdint>
+#include <filesystem>
+#include <string>
+
+#include "scanbench/core/params.h"
+#include "scanbench/core/point_cloud.h"
+#include "scanbench/core/run_context.h"
+#include "scanbench/core/triangle_mesh.h"
+
+namespace scanbench::scanner {
+
+/// Every parameter of the virtual scanner. Lengths are fractions of the bbox diagonal ("diag"),
+/// angles in degrees. Defaults: a clean scanner (8 views of 256 x 256 pixels, no artifacts).
+struct ScannerParams {
+  int views = 8;
+  int resolution = 256;
+  double fov_deg = 0.0;
+  std::string poses;
+  double range_min = 0.5;
+  double range_max = 10.0;
+  double noise_sigma = 0.0;
+  double noise_range_slope = 0.0;
+  double noise_incidence_slope = 0.0;
+  double max_incidence_deg = 90.0;
+  double beam_divergence_deg = 0.0;
+  int sub_rays = 1;
+  double flying_pixel_prob = 0.0;
+  double flying_depth_jump = 0.02;
+  double flying_spread = 0.05;
+  double misalign_fraction = 1.0;
+  double misalign_deg = 0.0;
+  double misalign_shift = 0.0;
+  double outlier_fraction = 0.0;
+  double outlier_box_scale = 1.1;
+
+  static void declare(ParamDeclarer<ScannerParams>& d);
+};
+
+/// Checks what the schema cannot: range_max > range_min and the `poses` text (count = views).
+/// Throws ParamError("<where>.<key>: ..."). scan() calls it (and the schema's range checks).
+void validate(const ScannerParams& p, const std::string& where = "scanner");
+
+/// The output of one scan.
+struct Scan {
+  /// positions; scan_ids; sensor_origins (one per view, in the scan's registered frame, i.e.
+  /// misaligned with it); properties "outlier" (0/1: uniform outliers and flying pixels) and
+  /// "clean_x", "clean_y", "clean_z" (the noise-free surface hit in the true frame; for uniform
+  /// outliers, which have none, the outlier's own position).
+  PointCloud cloud;
+  /// {"params", "seed", "mesh", "counts", "scans": [{"id", "sensor_origin", "registered_origin",
+  ///  "forward", "up", "fov_deg", "resolution", "points", "outliers", "misaligned",
+  ///  "misalignment": {"center", "axis", "angle_deg", "shift", "rotation", "translation"}}]};
+  /// rotation is row-major 3x3, p_registered = rotation * p + translation (identity for scans
+  /// that are not misaligned). Lengths in the mesh's units.
+  Json record;
+};
+
+/// Scans `mesh`. Throws InputError for an empty mesh, non-finite vertices, bad face indices or a
+/// mesh whose triangles are all degenerate (single degenerate triangles are legal geometry: they
+/// are never hit; their count is recorded), and ParamError for invalid parameters (zero views,
+/// range_max <= range_min, malformed poses). Random streams: "scan.pixels", "scan.outliers",
+/// "scan.misalign" of ctx.
+Scan scan(const TriangleMesh& mesh, const ScannerParams& p, RunContext& ctx);
+
+/// Writes the cloud as binary PLY (core write_point_cloud; deterministic bytes) and the record as
+/// `<ply>.json` (e.g. out.ply.json). Throws IoError naming the file.
+void write_scan(const Scan& s, const std::filesystem::path& ply);
+
+/// The sidecar path of a scan PLY: "<ply>.json".
+std::filesystem::path sidecar_path(const std::filesystem::path& ply);
+
+}  // namespace scanbench::scanner

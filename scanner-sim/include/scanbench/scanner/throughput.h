@@ -1,0 +1,41 @@
+#pragma once
+// Throughput of the virtual scanner against bare Embree (used by `scanbench bench scanner` and
+// bench/bench_scanner.cpp). Both sides use one BVH and the very same rays (every sub-ray of every
+// pixel of every view, in the scanner's tile order); the bare side is a TBB-parallel loop of
+// rtcIntersect1M over the precomputed rays, the scanner side is the full scan (ray generation,
+// every artifact, output assembly). BVH construction is excluded from both.
+#include <cstdint>
+#include <vector>
+
+#include "scanbench/core/run_context.h"
+#include "scanbench/core/triangle_mesh.h"
+#include "scanbench/scanner/scanner.h"
+
+namespace scanbench::scanner {
+
+struct ThroughputResult {
+  std::int64_t triangles = 0;
+  std::int64_t rays_per_run = 0;        ///< views * resolution^2 * sub_rays
+  std::int64_t points = 0;              ///< points of one scan
+  std::vector<double> scanner_seconds;  ///< every repeat
+  std::vector<double> bare_seconds;     ///< every repeat
+  double scanner_rays_per_second = 0;   ///< rays_per_run / median(scanner_seconds)
+  double bare_rays_per_second = 0;      ///< rays_per_run / median(bare_seconds)
+  double ratio = 0;                     ///< scanner / bare
+};
+
+/// Runs `repeats` (>= 1) alternating repeats of the scanner and of bare rtcIntersect1M on `mesh`.
+/// Throws like scan().
+ThroughputResult measure_throughput(const TriangleMesh& mesh, const ScannerParams& p, int repeats,
+                                    RunContext& ctx);
+
+/// The benchmark's scanner: every artifact on (noise with range and incidence growth, grazing
+/// drop-out, 4 sub-rays with 0.25 deg divergence, flying pixels, misalignment, 5% outliers),
+/// 8 views of 128 x 128 pixels.
+ScannerParams all_artifacts_params();
+
+/// A closed latitude-longitude sphere of radius 1 at the origin with about `target_triangles`
+/// triangles (at least 8); counter-clockwise from outside.
+TriangleMesh uv_sphere(int target_triangles);
+
+}  // namespace scanbench::scanner

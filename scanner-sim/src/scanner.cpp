@@ -1,0 +1,670 @@
+#include "scanbench/scanner/scanner.h"
+
+#include <fmt/format.h>
+#include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+
+#include <Eigen/Geometry>
+#include <atomic>
+#include <cmath>
+#include <fstream>
+#include <limits>
+#include <numeric>
+#include <sstream>
+
+#include "scanbench/core/errors.h"
+#include "scanbench/core/io.h"
+#include "scanner_engine.h"
+
+namespace scanbench::scanner {
+
+void ScannerParams::declare(ParamDeclarer<ScannerParams>& d) {
+  using P = ScannerParams;
+  d.integer("views", &P::views, Range::closed(1, 10000), "",
+            "number of scans (range cameras) around the object");
+  d.integer("resolution", &P::resolution, Range::closed(1, 8192), "px",
+            "pixels per side of each range image");
+  d.real("fov_deg", &P::fov_deg, Range::half_open(0, 170), "deg",
+         "full field of view; 0 = fit the bbox's bounding sphere (2 asin(diag/2 / distance))");
+  d.text("poses", &P::poses,
+         "explicit sensor positions 'x y z; x y z; ...' relative to the bbox centre in diag "
+         "units (count must equal views); empty = Fibonacci spiral at range_min + diag/2");
+  d.real("range_min", &P::range_min, Range::closed(0, 100), "diag",
+         "minimum measurable range; sensors sit at range_min + diag/2 from the centre (Berger "
+         "et al. 2013)");
+  d.real("range_max", &P::range_max, Range::open_min(0, 1000), "diag",
+         "maximum measurable range (farther surfaces give no return)");
+  d.real("noise_sigma", &P::noise_sigma, Range::closed(0, 1), "diag",
+         "standard deviation of Gaussian range noise along the ray (HELIOS++ accuracy)");
+  d.real("noise_range_slope", &P::noise_range_slope, Range::closed(0, 1), "",
+         "noise growth with range: sigma += slope * range (diag per diag)");
+  d.real("noise_incidence_slope", &P::noise_incidence_slope, Range::closed(0, 1), "diag",
+         "noise growth with incidence: sigma += slope * (1/max(cos(incidence), 0.01) - 1)");
+  d.real("max_incidence_deg", &P::max_incidence_deg, Range::open_min(0, 90), "deg",
+         "grazing-angle drop-out: hits whose incidence angle exceeds this are lost (90 = off)");
+  d.real("beam_divergence_deg", &P::beam_divergence_deg, Range::closed(0, 10), "deg",
+         "full beam divergence angle; with sub_rays > 1 gives mixed pixels at depth edges");
+  d.integer("sub_rays", &P::sub_rays, Range::closed(1, 16), "",
+            "rays per pixel over the beam footprint (HELIOS++ sub-rays); a pixel returns when "
+            "at least half hit, at their mean range");
+  d.real("flying_pixel_prob", &P::flying_pixel_prob, Range::closed(0, 1), "",
+         "probability that a pixel at a depth discontinuity becomes a flying pixel (outlier)");
+  d.real("flying_depth_jump", &P::flying_depth_jump, Range::open_min(0, 10), "diag",
+         "range difference to a 4-neighbour that counts as a depth discontinuity");
+  d.real("flying_spread", &P::flying_spread, Range::closed(0, 10), "diag",
+         "how far behind a silhouette (neighbour without hit) a flying pixel may land");
+  d.real("misalign_fraction", &P::misalign_fraction, Range::closed(0, 1), "",
+         "share of scans that get a registration error: round(fraction * views) scans chosen "
+         "at random (SCUTSurface: 0.5)");
+  d.real("misalign_deg", &P::misalign_deg, Range::closed(0, 180), "deg",
+         "registration error: rotation about a random axis through the scan's centre of mass "
+         "(Berger et al. 2013)");
+  d.real("misalign_shift", &P::misalign_shift, Range::closed(0, 1), "diag",
+         "registration error: translation of this length in a random direction");
+  d.real("outlier_fraction", &P::outlier_fraction, Range::closed(0, 0.9), "",
+         "probability that an output point is a uniform outlier in the enlarged bbox");
+  d.real("outlier_box_scale", &P::outlier_box_scale, Range::closed(1, 10), "",
+         "outliers are uniform in the bbox grown by this factor about its centre (Berger: 1.1)");
+}
+
+namespace {
+
+/// Parses "x y z; x y z" (commas allowed between numbers) into diag-unit offsets.
+std::vector<Eigen::Vector3d> parse_poses(const std::string& text, const std::string& where) {
+  std::vector<Eigen::Vector3d> out;
+  std::stringstream all(text);
+  std::string item;
+  int index = 0;
+  while (std::getline(all, item, ';')) {
+    ++index;
+    std::string cleaned = item;
+    for (char& c : cleaned) {
+      if (c == ',') c = ' ';
+    }
+    std::istringstream in(cleaned);
+    Eigen::Vector3d v;
+    std::string rest;
+    if (!(in >> v.x() >> v.y() >> v.z()) || (in >> rest) || !v.allFinite()) {
+      throw ParamError(fmt::format("{}.poses: pose {}: expected three finite numbers, got '{}'",
+                                   where, index, item));
+    }
+    out.push_back(v);
+  }
+  return out;
+}
+
+Json vec_json(const Eigen::Vector3f& v) {
+  return Json::array(
+      {static_cast<double>(v.x()), static_cast<double>(v.y()), static_cast<double>(v.z())});
+}
+Json vec_json(const Eigen::Vector3d& v) {
+  return Json::array({v.x(), v.y(), v.z()});
+}
+
+constexpr double kGoldenAngle = 2.399963229728653;  // pi (3 - sqrt 5)
+constexpr int kTile = 8;                            // tiles of 8 x 8 pixels
+
+/// What pass A learns about one pixel.
+enum class PixelStatus : std::uint8_t { Miss, Point, Grazing, OutOfRange };
+struct PixelHit {
+  float raw_range;  ///< beam range when the beam returned (before drop-outs), else +inf
+  float cos_incidence;
+  Eigen::Vector3f clean;
+  PixelStatus status;
+  bool mixed;  ///< sub-rays disagree (some missed, or ranges spread over flying_depth_jump)
+};
+/// What pass B decides for one returned pixel.
+enum class PointKind : std::uint8_t { None, Surface, Flying, Uniform };
+struct PixelOut {
+  Eigen::Vector3f position;
+  PointKind kind;
+  std::int32_t outliers;  ///< uniform outliers following this pixel's point
+};
+
+struct Counters {
+  std::atomic<std::int64_t> misses{0}, grazing{0}, out_of_range{0}, mixed{0}, flying{0}, uniform{0},
+      returned{0};
+};
+
+}  // namespace
+
+void validate(const ScannerParams& p, const std::string& where) {
+  schema_of<ScannerParams>().validate(params_to_json(p), where);
+  if (!(p.range_max > p.range_min)) {
+    throw ParamError(fmt::format("{}.range_max: expected more than range_min = {}, got {}", where,
+                                 p.range_min, p.range_max));
+  }
+  if (!p.poses.empty()) {
+    const auto poses = parse_poses(p.poses, where);
+    if (static_cast<int>(poses.size()) != p.views) {
+      throw ParamError(
+          fmt::format("{}.poses: {} poses given but views = {}", where, poses.size(), p.views));
+    }
+  }
+}
+
+namespace detail {
+
+ScannerEngine::ScannerEngine(const TriangleMesh& mesh, const ScannerParams& p)
+    : mesh_(mesh), p_(p) {
+  validate(p_, "scanner");
+  mesh.validate("scan");
+  degenerate_faces_ = mesh.count_degenerate_faces();
+  if (degenerate_faces_ == mesh.num_faces()) {
+    throw InputError(fmt::format("scan: all {} triangles of the mesh are degenerate (zero area)",
+                                 mesh.num_faces()));
+  }
+  // The bbox of the referenced vertices only.
+  for (Eigen::Index f = 0; f < mesh.num_faces(); ++f) {
+    for (int k = 0; k < 3; ++k)
+      box_.extend(mesh.vertices.col(mesh.faces(k, f)));
+  }
+  center_ = box_.center();
+  diag_ = box_.diagonal();
+  sub_rays_ = p_.sub_rays;
+  resolution_ = p_.resolution;
+  tiles_x_ = (resolution_ + kTile - 1) / kTile;
+  tiles_ = tiles_x_ * tiles_x_;
+
+  // Rig.
+  std::vector<Eigen::Vector3d> offsets;
+  if (p_.poses.empty()) {
+    const double dist = p_.range_min + 0.5;
+    for (int i = 0; i < p_.views; ++i) {
+      const double z = 1.0 - (2.0 * i + 1.0) / p_.views;
+      const double rho = std::sqrt(std::max(0.0, 1.0 - z * z));
+      const double phi = kGoldenAngle * i;
+      offsets.emplace_back(dist * rho * std::cos(phi), dist * rho * std::sin(phi), dist * z);
+    }
+  } else {
+    offsets = parse_poses(p_.poses, "scanner");
+  }
+  for (std::size_t i = 0; i < offsets.size(); ++i) {
+    const double len = offsets[i].norm();
+    if (!(len > 1e-6)) {
+      throw ParamError(fmt::format("scanner.poses: pose {} is at the bbox centre", i + 1));
+    }
+    Camera c;
+    c.origin = center_ + (offsets[i] * diag_).cast<float>();
+    const Eigen::Vector3d fwd = -offsets[i] / len;
+    const Eigen::Vector3d up_ref =
+        std::abs(fwd.z()) > 0.999 ? Eigen::Vector3d::UnitY() : Eigen::Vector3d::UnitZ();
+    const Eigen::Vector3d right = fwd.cross(up_ref).normalized();
+    const Eigen::Vector3d up = right.cross(fwd);
+    c.forward = fwd.cast<float>();
+    c.right = right.cast<float>();
+    c.up = up.cast<float>();
+    double fov = p_.fov_deg;
+    if (fov == 0.0) {
+      // Fit the bounding sphere of the bbox (radius diag/2); 120 deg when inside it.
+      const double s = 0.5 / len;
+      fov = s < 1.0 ? std::min(120.0, 2.0 * std::asin(s) * 180.0 / M_PI) : 120.0;
+    }
+    c.fov_deg = static_cast<float>(fov);
+    c.tan_half = static_cast<float>(std::tan(0.5 * fov * M_PI / 180.0));
+    cameras_.push_back(c);
+  }
+
+  // Beam footprint: sub-ray 0 on the axis, the rest on a sunflower spiral over the disk of
+  // radius tan(divergence / 2).
+  const double b = std::tan(0.5 * p_.beam_divergence_deg * M_PI / 180.0);
+  beam_offsets_.assign(static_cast<std::size_t>(sub_rays_), Eigen::Vector2f::Zero());
+  for (int k = 1; k < sub_rays_; ++k) {
+    const double r = b * std::sqrt(static_cast<double>(k) / (sub_rays_ - 1));
+    beam_offsets_[static_cast<std::size_t>(k)] =
+        Eigen::Vector2f(static_cast<float>(r * std::cos(kGoldenAngle * k)),
+                        static_cast<float>(r * std::sin(kGoldenAngle * k)));
+  }
+
+  device_ = std::make_unique<EmbreeDevice>();
+  scene_ = std::make_unique<EmbreeScene>(*device_, mesh);
+}
+
+std::int64_t ScannerEngine::rays_per_run() const {
+  return static_cast<std::int64_t>(cameras_.size()) * resolution_ * resolution_ * sub_rays_;
+}
+
+ScannerEngine::Tile ScannerEngine::tile(int t) const {
+  const int tx = t % tiles_x_;
+  const int ty = t / tiles_x_;
+  return {tx * kTile, std::min(resolution_, (tx + 1) * kTile), ty * kTile,
+          std::min(resolution_, (ty + 1) * kTile)};
+}
+
+Eigen::Vector3f ScannerEngine::pixel_dir(const Camera& cam, int u, int v, int sub) const {
+  const float inv = 2.0f / static_cast<float>(resolution_);
+  const Eigen::Vector2f& o = beam_offsets_[static_cast<std::size_t>(sub)];
+  const float x = ((static_cast<float>(u) + 0.5f) * inv - 1.0f) * cam.tan_half + o.x();
+  const float y = (1.0f - (static_cast<float>(v) + 0.5f) * inv) * cam.tan_half + o.y();
+  return (cam.forward + x * cam.right + y * cam.up).normalized();
+}
+
+void ScannerEngine::make_tile_rays(const Camera& cam, const Tile& t, RTCRayHit* out) const {
+  const float tfar = static_cast<float>(p_.range_max) * diag_;
+  for (int v = t.v0; v < t.v1; ++v) {
+    for (int u = t.u0; u < t.u1; ++u) {
+      for (int k = 0; k < sub_rays_; ++k) {
+        const Eigen::Vector3f d = pixel_dir(cam, u, v, k);
+        RTCRayHit& r = *out++;
+        r.ray.org_x = cam.origin.x();
+        r.ray.org_y = cam.origin.y();
+        r.ray.org_z = cam.origin.z();
+        r.ray.tnear = 0.0f;
+        r.ray.dir_x = d.x();
+        r.ray.dir_y = d.y();
+        r.ray.dir_z = d.z();
+        r.ray.time = 0.0f;
+        r.ray.tfar = tfar;
+        r.ray.mask = 0xffffffffu;
+        r.ray.id = 0;
+        r.ray.flags = 0;
+        r.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+        r.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+      }
+    }
+  }
+}
+
+std::vector<RTCRayHit> ScannerEngine::make_all_rays() const {
+  std::vector<RTCRayHit> rays(static_cast<std::size_t>(rays_per_run()));
+  std::size_t offset = 0;
+  for (const Camera& cam : cameras_) {
+    for (int t = 0; t < tiles_; ++t) {
+      const Tile tl = tile(t);
+      make_tile_rays(cam, tl, rays.data() + offset);
+      offset += static_cast<std::size_t>(tile_ray_count(tl));
+    }
+  }
+  return rays;
+}
+
+void ScannerEngine::cast_all(std::vector<RTCRayHit>& rays) const {
+  const RayCaster caster(*scene_);
+  // Offsets of each (view, tile) chunk, as in the scanner.
+  const int chunks = static_cast<int>(cameras_.size()) * tiles_;
+  std::vector<std::size_t> start(static_cast<std::size_t>(chunks) + 1, 0);
+  for (int c = 0; c < chunks; ++c) {
+    start[static_cast<std::size_t>(c) + 1] =
+        start[static_cast<std::size_t>(c)] +
+        static_cast<std::size_t>(tile_ray_count(tile(c % tiles_)));
+  }
+  tbb::parallel_for(tbb::blocked_range<int>(0, chunks, 1), [&](const tbb::blocked_range<int>& r) {
+    for (int c = r.begin(); c < r.end(); ++c) {
+      const std::size_t s = start[static_cast<std::size_t>(c)];
+      caster.intersect(rays.data() + s,
+                       static_cast<unsigned>(start[static_cast<std::size_t>(c) + 1] - s));
+    }
+  });
+}
+
+Scan ScannerEngine::run(RunContext& ctx) const {
+  const int R = resolution_;
+  const std::size_t npix = static_cast<std::size_t>(R) * static_cast<std::size_t>(R);
+  const int views = static_cast<int>(cameras_.size());
+  const RayCaster caster(*scene_);
+  const float cos_max = p_.max_incidence_deg >= 90.0
+                            ? -1.0f
+                            : static_cast<float>(std::cos(p_.max_incidence_deg * M_PI / 180.0));
+  const float range_lo = static_cast<float>(p_.range_min) * diag_;
+  const float range_hi = static_cast<float>(p_.range_max) * diag_;
+  const float jump = static_cast<float>(p_.flying_depth_jump) * diag_;
+  const float spread = static_cast<float>(p_.flying_spread) * diag_;
+  const double f_out = p_.outlier_fraction;
+  const BoundingBox obox = box_.scaled(static_cast<float>(p_.outlier_box_scale));
+  const int need = (sub_rays_ + 1) / 2;
+
+  const std::uint64_t pixel_seed = ctx.stream_seed("scan.pixels");
+  const std::uint64_t outlier_seed = ctx.stream_seed("scan.outliers");
+  const std::uint64_t misalign_seed = ctx.stream_seed("scan.misalign");
+
+  // Which scans are misaligned: a seeded partial Fisher-Yates shuffle.
+  std::vector<char> misaligned(static_cast<std::size_t>(views), 0);
+  {
+    const int k = static_cast<int>(std::llround(p_.misalign_fraction * views));
+    std::vector<int> order(static_cast<std::size_t>(views));
+    std::iota(order.begin(), order.end(), 0);
+    Rng rng(misalign_seed);
+    for (int i = 0; i < k; ++i) {
+      const int j = i + static_cast<int>(rng.below(static_cast<std::uint64_t>(views - i)));
+      std::swap(order[static_cast<std::size_t>(i)], order[static_cast<std::size_t>(j)]);
+      misaligned[static_cast<std::size_t>(order[static_cast<std::size_t>(i)])] = 1;
+    }
+  }
+
+  std::vector<PixelHit> image(npix);
+  std::vector<PixelOut> outs(npix);
+  std::vector<std::int64_t> row_start(static_cast<std::size_t>(R) + 1);
+  tbb::enumerable_thread_specific<std::vector<RTCRayHit>> buffers(
+      [&] { return std::vector<RTCRayHit>(static_cast<std::size_t>(kTile * kTile * sub_rays_)); });
+  Counters counters;
+
+  // Output, appended view by view.
+  std::vector<float> pos, clean;
+  std::vector<float> flag;
+  std::vector<int> ids;
+  Eigen::Matrix3Xf origins(3, views);
+  Json scans = Json::array();
+
+  auto phase = ctx.phase("scan");
+  for (int view = 0; view < views; ++view) {
+    ctx.check_cancelled("scan");
+    const Camera& cam = cameras_[static_cast<std::size_t>(view)];
+    const std::uint64_t view_pixel_seed = derive_seed(pixel_seed, static_cast<std::uint64_t>(view));
+    const std::uint64_t view_outlier_seed =
+        derive_seed(outlier_seed, static_cast<std::uint64_t>(view));
+
+    // Pass A: cast every beam, tile by tile, and evaluate the beam at each pixel.
+    tbb::parallel_for(tbb::blocked_range<int>(0, tiles_, 1), [&](const tbb::blocked_range<int>& r) {
+      std::vector<RTCRayHit>& buf = buffers.local();
+      for (int t = r.begin(); t < r.end(); ++t) {
+        const Tile tl = tile(t);
+        make_tile_rays(cam, tl, buf.data());
+        caster.intersect(buf.data(), static_cast<unsigned>(tile_ray_count(tl)));
+        const RTCRayHit* rh = buf.data();
+        for (int v = tl.v0; v < tl.v1; ++v) {
+          for (int u = tl.u0; u < tl.u1; ++u, rh += sub_rays_) {
+            PixelHit& px = image[static_cast<std::size_t>(v) * R + u];
+            int hits = 0;
+            int first = -1;
+            double sum = 0.0;
+            float lo = std::numeric_limits<float>::infinity();
+            float hi = -lo;
+            for (int k = 0; k < sub_rays_; ++k) {
+              if (rh[k].hit.geomID == RTC_INVALID_GEOMETRY_ID) continue;
+              ++hits;
+              if (first < 0) first = k;
+              sum += rh[k].ray.tfar;
+              lo = std::min(lo, rh[k].ray.tfar);
+              hi = std::max(hi, rh[k].ray.tfar);
+            }
+            px.mixed = hits > 0 && (hits < sub_rays_ || hi - lo > jump);
+            if (hits < need) {
+              px.status = PixelStatus::Miss;
+              px.raw_range = std::numeric_limits<float>::infinity();
+              continue;
+            }
+            const RTCRayHit& h = rh[first];
+            const Eigen::Vector3f d(h.ray.dir_x, h.ray.dir_y, h.ray.dir_z);
+            px.raw_range = hits == 1 ? h.ray.tfar : static_cast<float>(sum / hits);
+            px.clean = cam.origin + h.ray.tfar * d;
+            const Eigen::Vector3f ng(h.hit.Ng_x, h.hit.Ng_y, h.hit.Ng_z);
+            const float len = ng.norm();
+            px.cos_incidence = len > 0.0f ? std::min(1.0f, std::abs(ng.dot(d)) / len) : 0.0f;
+            if (px.cos_incidence < cos_max) {
+              px.status = PixelStatus::Grazing;
+            } else if (px.raw_range < range_lo || px.raw_range > range_hi) {
+              px.status = PixelStatus::OutOfRange;
+            } else {
+              px.status = PixelStatus::Point;
+            }
+          }
+        }
+      }
+    });
+
+    // Pass B: flying pixels, range noise and the number of uniform outliers, row by row.
+    tbb::parallel_for(tbb::blocked_range<int>(0, R, 1), [&](const tbb::blocked_range<int>& rows) {
+      std::int64_t c_miss = 0, c_grazing = 0, c_range = 0, c_mixed = 0, c_flying = 0, c_uniform = 0,
+                   c_returned = 0;
+      for (int v = rows.begin(); v < rows.end(); ++v) {
+        std::int64_t count = 0;
+        for (int u = 0; u < R; ++u) {
+          const std::size_t i = static_cast<std::size_t>(v) * R + u;
+          const PixelHit& px = image[i];
+          PixelOut& out = outs[i];
+          out.kind = PointKind::None;
+          out.outliers = 0;
+          c_mixed += px.mixed ? 1 : 0;
+          if (px.status != PixelStatus::Point) {
+            c_miss += px.status == PixelStatus::Miss;
+            c_grazing += px.status == PixelStatus::Grazing;
+            c_range += px.status == PixelStatus::OutOfRange;
+            continue;
+          }
+          ++c_returned;
+          Rng rng(derive_seed(view_pixel_seed, i));
+          float range = px.raw_range;
+          out.kind = PointKind::Surface;
+          if (p_.flying_pixel_prob > 0.0) {
+            // The 4-neighbour with the largest range difference; behind a silhouette (no hit)
+            // the far end is range + flying_spread.
+            float target = range;
+            float best = 0.0f;
+            bool edge = false;
+            auto look = [&](int nu, int nv) {
+              if (nu < 0 || nv < 0 || nu >= R || nv >= R) return;
+              const float nr = image[static_cast<std::size_t>(nv) * R + nu].raw_range;
+              float cand;
+              if (!std::isfinite(nr)) {
+                cand = range + spread;
+              } else if (std::abs(nr - range) > jump) {
+                cand = nr;
+              } else {
+                return;
+              }
+              edge = true;
+              if (std::abs(cand - range) > best) {
+                best = std::abs(cand - range);
+                target = cand;
+              }
+            };
+            look(u - 1, v);
+            look(u + 1, v);
+            look(u, v - 1);
+            look(u, v + 1);
+            if (edge && rng.uniform() < p_.flying_pixel_prob) {
+              range += static_cast<float>(rng.uniform()) * (target - range);
+              out.kind = PointKind::Flying;
+              ++c_flying;
+            }
+          }
+          if (out.kind == PointKind::Surface) {
+            const double r_diag = static_cast<double>(range) / diag_;
+            const double sigma =
+                diag_ * (p_.noise_sigma + p_.noise_range_slope * r_diag +
+                         p_.noise_incidence_slope *
+                             (1.0 / std::max(static_cast<double>(px.cos_incidence), 0.01) - 1.0));
+            if (sigma > 0.0) range += static_cast<float>(sigma * rng.normal());
+          }
+          out.position = cam.origin + range * pixel_dir(cam, u, v, 0);
+          if (f_out > 0.0) {
+            Rng orng(derive_seed(view_outlier_seed, i));
+            while (orng.uniform() < f_out)
+              ++out.outliers;
+            c_uniform += out.outliers;
+          }
+          count += 1 + out.outliers;
+        }
+        row_start[static_cast<std::size_t>(v) + 1] = count;
+      }
+      counters.misses += c_miss;
+      counters.grazing += c_grazing;
+      counters.out_of_range += c_range;
+      counters.mixed += c_mixed;
+      counters.flying += c_flying;
+      counters.uniform += c_uniform;
+      counters.returned += c_returned;
+    });
+    row_start[0] = 0;
+    for (int v = 0; v < R; ++v)
+      row_start[static_cast<std::size_t>(v) + 1] += row_start[static_cast<std::size_t>(v)];
+    const std::size_t base = ids.size();
+    const std::size_t n_view = static_cast<std::size_t>(row_start[static_cast<std::size_t>(R)]);
+    pos.resize(3 * (base + n_view));
+    clean.resize(3 * (base + n_view));
+    flag.resize(base + n_view);
+    ids.resize(base + n_view, view);
+    std::vector<PointKind> kinds(n_view);
+
+    // Pass C: write the view's points in pixel order; uniform outliers after their pixel.
+    tbb::parallel_for(tbb::blocked_range<int>(0, R, 1), [&](const tbb::blocked_range<int>& rows) {
+      for (int v = rows.begin(); v < rows.end(); ++v) {
+        std::size_t j = static_cast<std::size_t>(row_start[static_cast<std::size_t>(v)]);
+        for (int u = 0; u < R; ++u) {
+          const std::size_t i = static_cast<std::size_t>(v) * R + u;
+          const PixelOut& out = outs[i];
+          if (out.kind == PointKind::None) continue;
+          float* p = &pos[3 * (base + j)];
+          float* c = &clean[3 * (base + j)];
+          for (int k = 0; k < 3; ++k) {
+            p[k] = out.position[k];
+            c[k] = image[i].clean[k];
+          }
+          flag[base + j] = out.kind == PointKind::Flying ? 1.0f : 0.0f;
+          kinds[j] = out.kind;
+          ++j;
+          if (out.outliers == 0) continue;
+          Rng orng(derive_seed(view_outlier_seed, i));
+          for (int k = 0; k <= out.outliers; ++k)
+            orng.uniform();  // replay the count draws of pass B
+          for (int o = 0; o < out.outliers; ++o, ++j) {
+            float* q = &pos[3 * (base + j)];
+            float* qc = &clean[3 * (base + j)];
+            for (int k = 0; k < 3; ++k) {
+              q[k] = static_cast<float>(orng.uniform(obox.min[k], obox.max[k]));
+              qc[k] = q[k];
+            }
+            flag[base + j] = 1.0f;
+            kinds[j] = PointKind::Uniform;
+          }
+        }
+      }
+    });
+
+    // Misalignment of the whole scan (registration error).
+    Json scan_rec = Json::object();
+    scan_rec["id"] = view;
+    scan_rec["sensor_origin"] = vec_json(cam.origin);
+    Eigen::Matrix3d rot = Eigen::Matrix3d::Identity();
+    Eigen::Vector3d trans = Eigen::Vector3d::Zero();
+    Json mis = Json(nullptr);
+    if (misaligned[static_cast<std::size_t>(view)]) {
+      Rng rng(derive_seed(misalign_seed, static_cast<std::uint64_t>(view)));
+      auto random_unit = [&rng] {
+        while (true) {
+          const Eigen::Vector3d a(rng.normal(), rng.normal(), rng.normal());
+          const double n = a.norm();
+          if (n > 1e-6) return Eigen::Vector3d(a / n);
+        }
+      };
+      const Eigen::Vector3d axis = random_unit();
+      const Eigen::Vector3d shift = random_unit() * (p_.misalign_shift * diag_);
+      Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+      std::int64_t n_surface = 0;
+      for (std::size_t j = 0; j < n_view; ++j) {
+        if (kinds[j] != PointKind::Surface) continue;
+        const float* p = &pos[3 * (base + j)];
+        centre += Eigen::Vector3d(p[0], p[1], p[2]);
+        ++n_surface;
+      }
+      if (n_surface > 0) centre /= static_cast<double>(n_surface);
+      const double angle = p_.misalign_deg * M_PI / 180.0;
+      rot = Eigen::AngleAxisd(angle, axis).toRotationMatrix();
+      trans = centre - rot * centre + shift;
+      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n_view, 4096),
+                        [&](const tbb::blocked_range<std::size_t>& r) {
+                          for (std::size_t j = r.begin(); j < r.end(); ++j) {
+                            if (kinds[j] == PointKind::Uniform) continue;
+                            float* p = &pos[3 * (base + j)];
+                            const Eigen::Vector3d q =
+                                rot * Eigen::Vector3d(p[0], p[1], p[2]) + trans;
+                            for (int k = 0; k < 3; ++k)
+                              p[k] = static_cast<float>(q[k]);
+                          }
+                        });
+      mis = Json::object();
+      mis["center"] = vec_json(centre);
+      mis["axis"] = vec_json(axis);
+      mis["angle_deg"] = p_.misalign_deg;
+      mis["shift"] = vec_json(shift);
+    }
+    const Eigen::Vector3d reg_origin = rot * cam.origin.cast<double>() + trans;
+    origins.col(view) = reg_origin.cast<float>();
+    scan_rec["registered_origin"] = vec_json(reg_origin);
+    scan_rec["forward"] = vec_json(cam.forward);
+    scan_rec["up"] = vec_json(cam.up);
+    scan_rec["fov_deg"] = static_cast<double>(cam.fov_deg);
+    scan_rec["resolution"] = R;
+    std::int64_t n_out = 0;
+    for (std::size_t j = 0; j < n_view; ++j)
+      n_out += kinds[j] == PointKind::Flying || kinds[j] == PointKind::Uniform;
+    scan_rec["points"] = static_cast<std::int64_t>(n_view);
+    scan_rec["outliers"] = n_out;
+    scan_rec["misaligned"] = misaligned[static_cast<std::size_t>(view)] != 0;
+    if (!mis.is_null()) {
+      Json rows = Json::array();
+      for (int a = 0; a < 3; ++a)
+        rows.push_back(Json::array({rot(a, 0), rot(a, 1), rot(a, 2)}));
+      mis["rotation"] = rows;
+      mis["translation"] = vec_json(trans);
+    }
+    scan_rec["misalignment"] = mis;
+    scans.push_back(std::move(scan_rec));
+  }
+
+  Scan s;
+  const auto n = static_cast<Eigen::Index>(ids.size());
+  PointCloud& cloud = s.cloud;
+  cloud.positions = Eigen::Map<const Eigen::Matrix3Xf>(pos.data(), 3, n);
+  cloud.scan_ids = Eigen::Map<const Eigen::VectorXi>(ids.data(), n);
+  cloud.sensor_origins = origins;
+  cloud.properties["outlier"] = Eigen::Map<const Eigen::VectorXf>(flag.data(), n);
+  Eigen::Map<const Eigen::Matrix<float, 3, Eigen::Dynamic>> cm(clean.data(), 3, n);
+  cloud.properties["clean_x"] = cm.row(0).transpose();
+  cloud.properties["clean_y"] = cm.row(1).transpose();
+  cloud.properties["clean_z"] = cm.row(2).transpose();
+
+  Json& rec = s.record;
+  rec = Json::object();
+  rec["params"] = params_to_json(p_);
+  rec["seed"] = ctx.seed();
+  Json mesh = Json::object();
+  mesh["vertices"] = mesh_.num_vertices();
+  mesh["faces"] = mesh_.num_faces();
+  mesh["degenerate_faces"] = degenerate_faces_;
+  mesh["bbox_min"] = vec_json(box_.min);
+  mesh["bbox_max"] = vec_json(box_.max);
+  mesh["diagonal"] = static_cast<double>(diag_);
+  rec["mesh"] = mesh;
+  Json counts = Json::object();
+  counts["rays"] = rays_per_run();
+  counts["pixels"] = static_cast<std::int64_t>(npix) * views;
+  counts["points"] = static_cast<std::int64_t>(n);
+  counts["returned_pixels"] = counters.returned.load();
+  counts["misses"] = counters.misses.load();
+  counts["dropped_grazing"] = counters.grazing.load();
+  counts["dropped_range"] = counters.out_of_range.load();
+  counts["mixed_pixels"] = counters.mixed.load();
+  counts["flying_pixels"] = counters.flying.load();
+  counts["uniform_outliers"] = counters.uniform.load();
+  counts["outliers"] = counters.flying.load() + counters.uniform.load();
+  rec["counts"] = counts;
+  rec["scans"] = std::move(scans);
+  return s;
+}
+
+}  // namespace detail
+
+Scan scan(const TriangleMesh& mesh, const ScannerParams& p, RunContext& ctx) {
+  const detail::ScannerEngine engine(mesh, p);
+  return engine.run(ctx);
+}
+
+std::filesystem::path sidecar_path(const std::filesystem::path& ply) {
+  std::filesystem::path j = ply;
+  j += ".json";
+  return j;
+}
+
+void write_scan(const Scan& s, const std::filesystem::path& ply) {
+  write_point_cloud(s.cloud, ply, PlyFormat::BinaryLittleEndian);
+  const std::filesystem::path side = sidecar_path(ply);
+  std::ofstream out(side, std::ios::binary | std::ios::trunc);
+  if (!out) throw IoError(fmt::format("{}: cannot open for writing", side.string()));
+  out << s.record.dump(2) << "\n";
+  out.flush();
+  if (!out) throw IoError(fmt::format("{}: write failed", side.string()));
+}
+
+}  // namespace scanbench::scanner

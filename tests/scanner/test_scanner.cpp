@@ -1,0 +1,578 @@
+// Virtual scanner tests against analytic oracles: exact surface hits on a sphere (brute-force
+// point-to-triangle distance), noise statistics on a plane, the recorded rigid motion, binomial
+// outlier share, grazing drop-out by the analytic incidence angle, and bitwise determinism.
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <map>
+
+#include "scanbench/core/errors.h"
+#include "scanbench/core/io.h"
+#include "scanbench/core/paths.h"
+#include "scanbench/scanner/registry.h"
+#include "scanbench/scanner/scanner.h"
+#include "scanbench/scanner/throughput.h"
+
+namespace scanbench::scanner {
+namespace {
+
+/// Icosphere of radius 1 at the origin (subdivided icosahedron, counter-clockwise from outside).
+TriangleMesh icosphere(int levels) {
+  const float t = (1.0f + std::sqrt(5.0f)) / 2.0f;
+  std::vector<Eigen::Vector3f> v = {{-1, t, 0}, {1, t, 0}, {-1, -t, 0}, {1, -t, 0},
+                                    {0, -1, t}, {0, 1, t}, {0, -1, -t}, {0, 1, -t},
+                                    {t, 0, -1}, {t, 0, 1}, {-t, 0, -1}, {-t, 0, 1}};
+  for (auto& p : v)
+    p.normalize();
+  std::vector<Eigen::Vector3i> f = {{0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11},
+                                    {1, 5, 9},  {5, 11, 4}, {11, 10, 2}, {10, 7, 6}, {7, 1, 8},
+                                    {3, 9, 4},  {3, 4, 2},  {3, 2, 6},   {3, 6, 8},  {3, 8, 9},
+                                    {4, 9, 5},  {2, 4, 11}, {6, 2, 10},  {8, 6, 7},  {9, 8, 1}};
+  for (int l = 0; l < levels; ++l) {
+    std::map<std::pair<int, int>, int> mid;
+    auto midpoint = [&](int a, int b) {
+      const auto key = std::minmax(a, b);
+      auto it = mid.find(key);
+      if (it != mid.end()) return it->second;
+      v.push_back((v[static_cast<std::size_t>(a)] + v[static_cast<std::size_t>(b)]).normalized());
+      const int id = static_cast<int>(v.size()) - 1;
+      mid[key] = id;
+      return id;
+    };
+    std::vector<Eigen::Vector3i> g;
+    for (const auto& tri : f) {
+      const int a = midpoint(tri[0], tri[1]), b = midpoint(tri[1], tri[2]),
+                c = midpoint(tri[2], tri[0]);
+      g.emplace_back(tri[0], a, c);
+      g.emplace_back(tri[1], b, a);
+      g.emplace_back(tri[2], c, b);
+      g.emplace_back(a, b, c);
+    }
+    f = g;
+  }
+  TriangleMesh m;
+  m.vertices.resize(3, static_cast<Eigen::Index>(v.size()));
+  for (std::size_t i = 0; i < v.size(); ++i)
+    m.vertices.col(static_cast<Eigen::Index>(i)) = v[i];
+  m.faces.resize(3, static_cast<Eigen::Index>(f.size()));
+  for (std::size_t i = 0; i < f.size(); ++i)
+    m.faces.col(static_cast<Eigen::Index>(i)) = f[i];
+  return m;
+}
+
+/// Axis-aligned squares at heights z with half-sizes h (normals +z).
+TriangleMesh squares(const std::vector<std::pair<float, float>>& z_half) {
+  TriangleMesh m;
+  m.vertices.resize(3, static_cast<Eigen::Index>(4 * z_half.size()));
+  m.faces.resize(3, static_cast<Eigen::Index>(2 * z_half.size()));
+  for (std::size_t k = 0; k < z_half.size(); ++k) {
+    const auto [z, h] = z_half[k];
+    const auto b = static_cast<int>(4 * k);
+    m.vertices.col(b + 0) = Eigen::Vector3f(-h, -h, z);
+    m.vertices.col(b + 1) = Eigen::Vector3f(h, -h, z);
+    m.vertices.col(b + 2) = Eigen::Vector3f(h, h, z);
+    m.vertices.col(b + 3) = Eigen::Vector3f(-h, h, z);
+    m.faces.col(static_cast<Eigen::Index>(2 * k)) = Eigen::Vector3i(b, b + 1, b + 2);
+    m.faces.col(static_cast<Eigen::Index>(2 * k + 1)) = Eigen::Vector3i(b, b + 2, b + 3);
+  }
+  return m;
+}
+
+/// Closest point on triangle abc to p (Ericson, Real-Time Collision Detection 5.1.5), in double.
+Eigen::Vector3d closest_on_triangle(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
+                                    const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
+  const Eigen::Vector3d ab = b - a, ac = c - a, ap = p - a;
+  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
+  if (d1 <= 0 && d2 <= 0) return a;
+  const Eigen::Vector3d bp = p - b;
+  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
+  if (d3 >= 0 && d4 <= d3) return b;
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) return a + d1 / (d1 - d3) * ab;
+  const Eigen::Vector3d cp = p - c;
+  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
+  if (d6 >= 0 && d5 <= d6) return c;
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) return a + d2 / (d2 - d6) * ac;
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) {
+    return b + (d4 - d3) / ((d4 - d3) + (d5 - d6)) * (c - b);
+  }
+  const double denom = 1.0 / (va + vb + vc);
+  return a + ab * (vb * denom) + ac * (vc * denom);
+}
+
+double mesh_distance(const TriangleMesh& m, const Eigen::Vector3d& p) {
+  double best = std::numeric_limits<double>::infinity();
+  for (Eigen::Index f = 0; f < m.num_faces(); ++f) {
+    const Eigen::Vector3d q = closest_on_triangle(p, m.vertices.col(m.faces(0, f)).cast<double>(),
+                                                  m.vertices.col(m.faces(1, f)).cast<double>(),
+                                                  m.vertices.col(m.faces(2, f)).cast<double>());
+    best = std::min(best, (q - p).norm());
+  }
+  return best;
+}
+
+Eigen::Vector3d clean_of(const PointCloud& c, Eigen::Index i) {
+  return {c.properties.at("clean_x")[i], c.properties.at("clean_y")[i],
+          c.properties.at("clean_z")[i]};
+}
+
+ScannerParams small(int views = 6, int resolution = 64) {
+  ScannerParams p;
+  p.views = views;
+  p.resolution = resolution;
+  return p;
+}
+
+std::string read_bytes(const std::filesystem::path& f) {
+  std::ifstream in(f, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+TEST(Scanner, SphereWithoutNoiseHitsTheSurfaceExactly) {
+  const TriangleMesh m = icosphere(3);
+  RunContext ctx(1);
+  const Scan s = scan(m, small(6, 96), ctx);
+  const PointCloud& c = s.cloud;
+  ASSERT_GT(c.size(), 5000);
+  c.validate("test");
+  // The tessellation lies between the inradius of its faces and the radius 1.
+  double inradius = 1.0;
+  for (Eigen::Index f = 0; f < m.num_faces(); ++f) {
+    inradius = std::min(
+        inradius,
+        std::abs(static_cast<double>(m.face_normal(f).dot(m.vertices.col(m.faces(0, f))))));
+  }
+  for (Eigen::Index i = 0; i < c.size(); ++i) {
+    const double r = c.positions.col(i).cast<double>().norm();
+    ASSERT_GE(r, inradius - 1e-5) << i;
+    ASSERT_LE(r, 1.0 + 1e-5) << i;
+    ASSERT_EQ(c.properties.at("outlier")[i], 0.0f);
+    ASSERT_EQ(clean_of(c, i), c.positions.col(i).cast<double>());
+  }
+  // Brute force: distance to the mesh itself, on every 5th point.
+  for (Eigen::Index i = 0; i < c.size(); i += 5)
+    ASSERT_LT(mesh_distance(m, c.positions.col(i).cast<double>()), 1e-5) << i;
+  // Sensors at range_min + diag/2 from the bbox centre, one per scan; every scan id used.
+  const double diag = m.bbox().diagonal();
+  ASSERT_EQ(c.sensor_origins.cols(), 6);
+  for (int v = 0; v < 6; ++v) {
+    EXPECT_NEAR((c.sensor_origins.col(v) - m.bbox().center()).norm(), 1.0 * diag, 1e-5);
+  }
+  EXPECT_EQ(c.scan_ids.minCoeff(), 0);
+  EXPECT_EQ(c.scan_ids.maxCoeff(), 5);
+  for (Eigen::Index i = 1; i < c.size(); ++i)
+    ASSERT_LE(c.scan_ids[i - 1], c.scan_ids[i]);  // ordered by view
+  EXPECT_EQ(s.record["counts"]["points"].get<std::int64_t>(), c.size());
+  EXPECT_EQ(s.record["scans"].size(), 6u);
+}
+
+TEST(Scanner, RangeNoiseAlongTheRayHasTheSetSigma) {
+  const TriangleMesh m = squares({{0.0f, 1.0f}});
+  const double diag = m.bbox().diagonal();
+  ScannerParams p = small(1, 128);
+  p.poses = "0 0 0.6";
+  p.fov_deg = 50;
+  p.noise_sigma = 0.004;
+  RunContext ctx(7);
+  const PointCloud c = scan(m, p, ctx).cloud;
+  ASSERT_GT(c.size(), 10000);
+  const Eigen::Vector3d o = c.sensor_origins.col(0).cast<double>();
+  double sum = 0, sum2 = 0;
+  for (Eigen::Index i = 0; i < c.size(); ++i) {
+    const Eigen::Vector3d q = clean_of(c, i);
+    EXPECT_NEAR(q.z(), 0.0, 1e-6);
+    const Eigen::Vector3d d = (q - o).normalized();
+    const Eigen::Vector3d e = c.positions.col(i).cast<double>() - q;
+    EXPECT_LT((e - e.dot(d) * d).norm(), 1e-5 * diag);  // displacement along the ray only
+    sum += e.dot(d);
+    sum2 += e.dot(d) * e.dot(d);
+  }
+  const double n = static_cast<double>(c.size());
+  const double mean = sum / n;
+  const double sd = std::sqrt((sum2 - n * mean * mean) / (n - 1));
+  const double sigma = p.noise_sigma * diag;
+  EXPECT_NEAR(sd, sigma, 0.05 * sigma);
+  EXPECT_NEAR(mean, 0.0, 4 * sigma / std::sqrt(n));
+}
+
+TEST(Scanner, NoiseGrowsWithRangeAndIncidenceAsDeclared) {
+  // Standardised residuals z = e / sigma(r, incidence) have unit variance on an oblique plane.
+  const TriangleMesh m = squares({{0.0f, 1.0f}});
+  const double diag = m.bbox().diagonal();
+  ScannerParams p = small(1, 128);
+  p.poses = "0.35 0 0.3";
+  p.fov_deg = 60;
+  p.range_min = 0.05;
+  p.noise_sigma = 0.001;
+  p.noise_range_slope = 0.004;
+  p.noise_incidence_slope = 0.002;
+  RunContext ctx(8);
+  const PointCloud c = scan(m, p, ctx).cloud;
+  ASSERT_GT(c.size(), 5000);
+  const Eigen::Vector3d o = c.sensor_origins.col(0).cast<double>();
+  double sum2 = 0;
+  double min_cos = 1;
+  for (Eigen::Index i = 0; i < c.size(); ++i) {
+    const Eigen::Vector3d q = clean_of(c, i);
+    const double r = (q - o).norm();
+    const Eigen::Vector3d d = (q - o) / r;
+    const double cosi = std::abs(d.z());
+    min_cos = std::min(min_cos, cosi);
+    const double sigma = diag * (p.noise_sigma + p.noise_range_slope * r / diag +
+                                 p.noise_incidence_slope * (1.0 / cosi - 1.0));
+    const double z = (c.positions.col(i).cast<double>() - q).dot(d) / sigma;
+    sum2 += z * z;
+  }
+  EXPECT_LT(min_cos, 0.6);  // the incidence really varies
+  EXPECT_NEAR(std::sqrt(sum2 / static_cast<double>(c.size())), 1.0, 0.05);
+}
+
+TEST(Scanner, MisalignmentIsExactlyTheRecordedRigidMotion) {
+  const TriangleMesh m = icosphere(3);
+  const double diag = m.bbox().diagonal();
+  ScannerParams p = small(6, 64);
+  p.misalign_fraction = 0.5;
+  p.misalign_deg = 3.0;
+  p.misalign_shift = 0.01;
+  RunContext ctx(3);
+  const Scan s = scan(m, p, ctx);
+  const PointCloud& c = s.cloud;
+  int misaligned = 0;
+  for (const Json& sc : s.record["scans"]) {
+    const int id = sc["id"].get<int>();
+    Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
+    Eigen::Vector3d t = Eigen::Vector3d::Zero();
+    if (sc["misaligned"].get<bool>()) {
+      ++misaligned;
+      const Json& mis = sc["misalignment"];
+      for (int a = 0; a < 3; ++a) {
+        for (int b = 0; b < 3; ++b)
+          R(a, b) = mis["rotation"][a][b].get<double>();
+        t[a] = mis["translation"][a].get<double>();
+      }
+      EXPECT_LT((R * R.transpose() - Eigen::Matrix3d::Identity()).norm(), 1e-12);
+      EXPECT_NEAR(R.determinant(), 1.0, 1e-12);
+      EXPECT_NEAR(std::acos((R.trace() - 1.0) / 2.0) * 180.0 / M_PI, 3.0, 1e-6);
+      // The rotation axis goes through the centre of mass of the scan; the rest is the shift.
+      Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+      int n = 0;
+      for (Eigen::Index i = 0; i < c.size(); ++i) {
+        if (c.scan_ids[i] != id) continue;
+        centre += clean_of(c, i);
+        ++n;
+      }
+      centre /= n;
+      const Eigen::Vector3d rec_c(mis["center"][0].get<double>(), mis["center"][1].get<double>(),
+                                  mis["center"][2].get<double>());
+      EXPECT_LT((rec_c - centre).norm(), 1e-5);
+      EXPECT_NEAR((R * centre + t - centre).norm(), 0.01 * diag, 1e-5);
+    } else {
+      EXPECT_TRUE(sc["misalignment"].is_null());
+    }
+    // Every point of the scan is the rigid motion of its noise-free hit; so is the sensor.
+    for (Eigen::Index i = 0; i < c.size(); ++i) {
+      if (c.scan_ids[i] != id) continue;
+      const Eigen::Vector3d expect = R * clean_of(c, i) + t;
+      ASSERT_LT((expect - c.positions.col(i).cast<double>()).norm(), 2e-6 * diag) << i;
+    }
+    const Eigen::Vector3d o(sc["sensor_origin"][0].get<double>(),
+                            sc["sensor_origin"][1].get<double>(),
+                            sc["sensor_origin"][2].get<double>());
+    EXPECT_LT(((R * o + t) - c.sensor_origins.col(id).cast<double>()).norm(), 1e-5);
+  }
+  EXPECT_EQ(misaligned, 3);  // round(0.5 * 6)
+}
+
+TEST(Scanner, UniformOutlierShareIsBinomial) {
+  const TriangleMesh m = icosphere(2);
+  ScannerParams p = small(4, 64);
+  p.outlier_fraction = 0.25;
+  RunContext ctx(11);
+  const Scan s = scan(m, p, ctx);
+  const PointCloud& c = s.cloud;
+  const double n = static_cast<double>(c.size());
+  const BoundingBox box = m.bbox().scaled(1.1f);
+  double outliers = 0;
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (Eigen::Index i = 0; i < c.size(); ++i) {
+    if (c.properties.at("outlier")[i] == 0.0f) {
+      ASSERT_NEAR(c.positions.col(i).norm(), 1.0, 0.03);  // coarse tessellation
+      continue;
+    }
+    outliers += 1;
+    const Eigen::Vector3f q = c.positions.col(i);
+    ASSERT_TRUE((q.array() >= box.min.array()).all() && (q.array() <= box.max.array()).all());
+    mean += q.cast<double>();
+  }
+  const double f = p.outlier_fraction;
+  EXPECT_NEAR(outliers / n, f, 4.0 * std::sqrt(f * (1 - f) / n));
+  // Uniform in the box: the mean of the outliers is near the centre (sd of a uniform coordinate
+  // is extent / sqrt(12)).
+  mean /= outliers;
+  const Eigen::Vector3f ext = box.extent();
+  for (int k = 0; k < 3; ++k)
+    EXPECT_NEAR(mean[k], box.center()[k], 4.0 * ext[k] / std::sqrt(12.0 * outliers));
+  EXPECT_EQ(s.record["counts"]["uniform_outliers"].get<double>(), outliers);
+}
+
+TEST(Scanner, GrazingDropoutRemovesExactlyTheSteepHits) {
+  const TriangleMesh m = squares({{0.0f, 1.0f}});
+  ScannerParams p = small(1, 128);
+  p.poses = "0.4 0 0.25";
+  p.fov_deg = 70;
+  p.range_min = 0.05;  // the sensor is nearer than the default minimum range
+  RunContext ctx(5);
+  const Scan all = scan(m, p, ctx);
+  const double limit = 60.0;
+  p.max_incidence_deg = limit;
+  const Scan kept = scan(m, p, ctx);
+  const Eigen::Vector3d o = all.cloud.sensor_origins.col(0).cast<double>();
+  auto incidence = [&](const PointCloud& c, Eigen::Index i) {
+    const Eigen::Vector3d d = (clean_of(c, i) - o).normalized();
+    return std::acos(std::abs(d.z())) * 180.0 / M_PI;
+  };
+  std::int64_t expect = 0, ambiguous = 0, above = 0;
+  for (Eigen::Index i = 0; i < all.cloud.size(); ++i) {
+    const double a = incidence(all.cloud, i);
+    if (std::abs(a - limit) < 1e-3) {
+      ++ambiguous;
+    } else if (a < limit) {
+      ++expect;
+    } else {
+      ++above;
+    }
+  }
+  ASSERT_GT(
+      above,
+      1000);  // the test really drops something << " " << ambiguous << " " << all.cloud.size();
+  ASSERT_GT(expect, 1000);
+  EXPECT_GE(kept.cloud.size(), expect);
+  EXPECT_LE(kept.cloud.size(), expect + ambiguous);
+  for (Eigen::Index i = 0; i < kept.cloud.size(); ++i)
+    ASSERT_LE(incidence(kept.cloud, i), limit + 1e-3);
+  EXPECT_EQ(kept.record["counts"]["dropped_grazing"].get<std::int64_t>(),
+            all.cloud.size() - kept.cloud.size());
+}
+
+TEST(Scanner, MixedPixelsLieBetweenSurfacesOnlyWithSubRays) {
+  // A small square in front of a large one: beams straddling its edge mix both ranges.
+  const TriangleMesh m = squares({{0.5f, 0.4f}, {0.0f, 1.0f}});
+  ScannerParams p = small(1, 96);
+  p.poses = "0 0 0.5";
+  p.fov_deg = 50;
+  auto between = [](const PointCloud& c) {
+    int n = 0;
+    for (Eigen::Index i = 0; i < c.size(); ++i) {
+      const float z = c.positions(2, i);
+      n += z > 0.01f && z < 0.49f;
+    }
+    return n;
+  };
+  RunContext ctx(2);
+  EXPECT_EQ(between(scan(m, p, ctx).cloud), 0);
+  p.sub_rays = 8;
+  p.beam_divergence_deg = 3.0;
+  const Scan s = scan(m, p, ctx);
+  EXPECT_GT(between(s.cloud), 10);
+  EXPECT_GT(s.record["counts"]["mixed_pixels"].get<int>(), 10);
+  for (Eigen::Index i = 0; i < s.cloud.size(); ++i)
+    ASSERT_EQ(s.cloud.properties.at("outlier")[i], 0.0f);
+}
+
+TEST(Scanner, FlyingPixelsStayOnTheirRayBehindTheSurface) {
+  const TriangleMesh m = icosphere(3);
+  const double diag = m.bbox().diagonal();
+  ScannerParams p = small(2, 64);
+  p.flying_pixel_prob = 1.0;
+  p.flying_spread = 0.1;
+  RunContext ctx(4);
+  const Scan s = scan(m, p, ctx);
+  const PointCloud& c = s.cloud;
+  int flying = 0;
+  for (Eigen::Index i = 0; i < c.size(); ++i) {
+    const Eigen::Vector3d q = clean_of(c, i);
+    const Eigen::Vector3d o = c.sensor_origins.col(c.scan_ids[i]).cast<double>();
+    const Eigen::Vector3d pp = c.positions.col(i).cast<double>();
+    if (c.properties.at("outlier")[i] == 0.0f) {
+      ASSERT_EQ(pp, q);
+      continue;
+    }
+    ++flying;
+    const double rq = (q - o).norm(), rp = (pp - o).norm();
+    ASSERT_GE(rp, rq - 1e-5);
+    ASSERT_LE(rp, rq + 0.1 * diag + 1e-5);
+    ASSERT_LT(((pp - o) / rp - (q - o) / rq).norm(), 1e-5);  // on the same ray
+  }
+  EXPECT_GT(flying, 50);  // the silhouette ring of two 64 x 64 views
+  EXPECT_EQ(s.record["counts"]["flying_pixels"].get<int>(), flying);
+}
+
+TEST(Scanner, RangeLimitsDropFarHits) {
+  const TriangleMesh m = icosphere(3);
+  const double diag = m.bbox().diagonal();
+  ScannerParams p = small(3, 64);
+  p.range_max = 0.6;  // sensors at 1.0 diag; the sphere's front is at about 0.71 diag
+  RunContext ctx(1);
+  EXPECT_EQ(scan(m, p, ctx).cloud.size(), 0);
+  p.range_max = 0.8;
+  const Scan s = scan(m, p, ctx);
+  ASSERT_GT(s.cloud.size(), 100);
+  for (Eigen::Index i = 0; i < s.cloud.size(); ++i) {
+    const Eigen::Vector3f o = s.cloud.sensor_origins.col(s.cloud.scan_ids[i]);
+    ASSERT_LE((s.cloud.positions.col(i) - o).norm(), 0.8 * diag + 1e-5);
+  }
+}
+
+TEST(Scanner, BitIdenticalFilesForOneAndTwoThreads) {
+  const TriangleMesh m = icosphere(3);
+  ScannerParams p = all_artifacts_params();
+  p.resolution = 64;
+  const auto dir = std::filesystem::temp_directory_path() / "scanbench_test_scanner";
+  std::filesystem::create_directories(dir);
+  std::string ply[2], json[2];
+  for (int threads = 1; threads <= 2; ++threads) {
+    RunContext ctx(42, threads);
+    const auto f = dir / ("t" + std::to_string(threads) + ".ply");
+    write_scan(scan(m, p, ctx), f);
+    ply[threads - 1] = read_bytes(f);
+    json[threads - 1] = read_bytes(sidecar_path(f));
+  }
+  ASSERT_GT(ply[0].size(), 10000u);
+  EXPECT_TRUE(ply[0] == ply[1]);
+  EXPECT_TRUE(json[0] == json[1]);
+  RunContext other(43, 2);
+  const auto f = dir / "seed43.ply";
+  write_scan(scan(m, p, other), f);
+  EXPECT_FALSE(read_bytes(f) == ply[0]);
+  // The PLY holds every promised property.
+  const PointCloud back = read_point_cloud(dir / "t1.ply");
+  EXPECT_TRUE(back.has_scan_ids());
+  EXPECT_EQ(back.sensor_origins.cols(), p.views);
+  for (const char* prop : {"outlier", "clean_x", "clean_y", "clean_z"})
+    EXPECT_TRUE(back.has_property(prop)) << prop;
+  std::filesystem::remove_all(dir);
+}
+
+TEST(Scanner, BadInputGivesClearErrors) {
+  RunContext ctx(1);
+  const ScannerParams p = small(2, 16);
+  EXPECT_THROW(scan(TriangleMesh{}, p, ctx), InputError);
+  TriangleMesh nan = icosphere(0);
+  nan.vertices(1, 3) = std::numeric_limits<float>::quiet_NaN();
+  EXPECT_THROW(scan(nan, p, ctx), InputError);
+  TriangleMesh flat = icosphere(0);
+  for (Eigen::Index f = 0; f < flat.num_faces(); ++f)
+    flat.faces.col(f) = Eigen::Vector3i(flat.faces(0, f), flat.faces(0, f), flat.faces(1, f));
+  try {
+    scan(flat, p, ctx);
+    FAIL() << "all-degenerate mesh accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("degenerate"), std::string::npos);
+  }
+  // Single degenerate triangles are legal: counted in the record.
+  TriangleMesh some = icosphere(1);
+  some.faces.conservativeResize(3, some.num_faces() + 1);
+  some.faces.col(some.num_faces() - 1) = Eigen::Vector3i(0, 0, 1);
+  EXPECT_EQ(scan(some, p, ctx).record["mesh"]["degenerate_faces"].get<int>(), 1);
+
+  ScannerParams zero = p;
+  zero.views = 0;
+  EXPECT_THROW(scan(icosphere(1), zero, ctx), ParamError);
+  try {
+    params_from_json<ScannerParams>(Json{{"views", 0}}, "cfg");
+    FAIL();
+  } catch (const ParamError& e) {
+    EXPECT_NE(std::string(e.what()).find("cfg.views"), std::string::npos);
+  }
+  ScannerParams range = p;
+  range.range_max = 0.2;
+  EXPECT_THROW(scan(icosphere(1), range, ctx), ParamError);
+  ScannerParams poses = p;
+  poses.poses = "0 0 1";  // one pose for two views
+  EXPECT_THROW(scan(icosphere(1), poses, ctx), ParamError);
+  poses.poses = "0 0 1; 1 0 x";
+  EXPECT_THROW(scan(icosphere(1), poses, ctx), ParamError);
+  poses.poses = "0 0 1; 0 0 0";  // at the centre
+  EXPECT_THROW(scan(icosphere(1), poses, ctx), ParamError);
+  ScannerParams nanp = p;
+  nanp.noise_sigma = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(scan(icosphere(1), nanp, ctx), ParamError);
+}
+
+TEST(ScannerPresets, EveryPresetCreatesByName) {
+  const auto& reg = presets();
+  std::vector<std::string> names;
+  for (const auto& e : reg.entries())
+    names.push_back(e.name);
+  EXPECT_EQ(names, (std::vector<std::string>{"clean", "moderate", "scut_low", "scut_medium",
+                                             "scut_high", "outliers_heavy"}));
+  const TriangleMesh m = icosphere(2);
+  for (const auto& e : reg.entries()) {
+    SCOPED_TRACE(e.name);
+    EXPECT_FALSE(e.doc.empty());
+    // The schema's defaults are the preset's values, and they validate.
+    EXPECT_EQ(e.params.defaults(), e.fn.values);
+    EXPECT_EQ(preset_values(e.name), e.fn.values);
+    ScannerParams p = params_from_json<ScannerParams>(e.fn.values, e.name);
+    p.resolution = 32;  // keep the test fast
+    RunContext ctx(9);
+    const Scan s = scan(m, p, ctx);
+    EXPECT_GT(s.cloud.size(), 100);
+    EXPECT_EQ(s.record["params"]["views"].get<int>(), p.views);
+  }
+  EXPECT_EQ(reg.at("scut_medium").fn.values["noise_sigma"].get<double>(), 0.003);
+  EXPECT_EQ(reg.at("scut_high").fn.values["misalign_fraction"].get<double>(), 0.5);
+  EXPECT_THROW(preset_values("no_such_preset"), UnknownNameError);
+}
+
+TEST(ScannerPresets, PresetFilesAreValidatedWithFileAndKey) {
+  const auto dir = std::filesystem::temp_directory_path() / "scanbench_test_presets";
+  std::filesystem::create_directories(dir);
+  auto write = [&](const std::string& name, const std::string& text) {
+    std::ofstream(dir / name) << text;
+    return dir / name;
+  };
+  const auto good = write("good.json", R"({"doc": "x", "params": {"views": 3}})");
+  EXPECT_EQ(preset_values(good.string())["views"].get<int>(), 3);
+  const auto bare = write("bare.json", R"({"noise_sigma": 0.01})");
+  EXPECT_EQ(load_preset_file(bare)["noise_sigma"].get<double>(), 0.01);
+  const auto unknown = write("unknown.json", R"({"params": {"nosie_sigma": 0.01}})");
+  try {
+    load_preset_file(unknown);
+    FAIL();
+  } catch (const ParamError& e) {
+    EXPECT_NE(std::string(e.what()).find("unknown.json"), std::string::npos);
+    EXPECT_NE(std::string(e.what()).find("nosie_sigma"), std::string::npos);
+  }
+  const auto type = write("type.json", R"({"params": {"views": "many"}})");
+  EXPECT_THROW(load_preset_file(type), ParamError);
+  const auto broken = write("broken.json", R"({"params": )");
+  EXPECT_THROW(load_preset_file(broken), IoError);
+  EXPECT_THROW(load_preset_file(dir / "missing.json"), IoError);
+  std::filesystem::remove_all(dir);
+}
+
+TEST(ScannerThroughput, BareAndScannerCastTheSameRays) {
+  ScannerParams p = all_artifacts_params();
+  p.resolution = 32;
+  p.views = 2;
+  RunContext ctx(1);
+  const ThroughputResult r = measure_throughput(uv_sphere(1000), p, 1, ctx);
+  EXPECT_EQ(r.rays_per_run, 2 * 32 * 32 * 4);
+  EXPECT_GT(r.points, 100);
+  EXPECT_EQ(r.scanner_seconds.size(), 1u);
+  EXPECT_GT(r.ratio, 0.0);
+  const TriangleMesh s = uv_sphere(1000);
+  EXPECT_TRUE(s.is_closed_and_oriented());
+  EXPECT_GT(s.signed_volume(), 0.0);
+  EXPECT_NEAR(s.num_faces(), 1000, 100);
+}
+
+}  // namespace
+}  // namespace scanbench::scanner
