@@ -2,8 +2,22 @@
 
 #include "scanbench/algorithms/clop.h"
 #include "scanbench/algorithms/hem.h"
+#include "scanbench/algorithms/lop.h"
+#include "scanbench/algorithms/pca_normals.h"
 
 namespace scanbench::algorithms {
+
+namespace {
+
+// Adapts an algorithm that returns only points to make_entry (the other outputs stay empty).
+template <class P>
+auto points_only(PointCloud (*f)(const PointCloud&, const P&, RunContext&)) {
+  return [f](const PointCloud& in, const P& p, RunContext& ctx) {
+    return AlgorithmOutput{f(in, p, ctx), std::nullopt, std::nullopt};
+  };
+}
+
+}  // namespace
 
 const AlgorithmRegistry& registry() {
   static const AlgorithmRegistry r = [] {
@@ -26,6 +40,25 @@ const AlgorithmRegistry& registry() {
         "theta(r) = exp(-16 r^2/h^2), h a fraction of the bbox diagonal; particles may exceed "
         "the input (upsampling). Phases init, hem, attraction, repulsion.",
         clop));
+    reg.add(make_entry<PcaNormalsParams>(
+        "normals.pca",
+        "k-nearest-neighbour PCA normals (Hoppe et al. 1992): smallest eigenvector of the "
+        "neighbourhood covariance; oriented toward the scan's sensor when scan_ids and "
+        "sensor_origins are known, else by MST propagation seeded outward at the point farthest "
+        "from the centroid.",
+        points_only(pca_normals)));
+    reg.add(make_entry<LopParams>(
+        "resample.lop",
+        "Locally optimal projection (Lipman et al. 2007; CLOP paper sec. 3): L2 first iteration "
+        "(eq. 2), then q <- F1 + mu F2 (eq. 3-6) with theta(r) = exp(-16 r^2/h^2), h a fraction "
+        "of the bbox diagonal, neighbours within h; v = w = 1.",
+        points_only(lop)));
+    reg.add(make_entry<LopParams>(
+        "resample.wlop",
+        "Weighted LOP (Huang et al. 2009; CLOP paper sec. 3, 7 eq. 25): as resample.lop with input "
+        "density weights v_j = 1 + sum theta (once) in F1 and particle weights w_i (every "
+        "iteration) in F2.",
+        points_only(wlop)));
     return reg;
   }();
   return r;

@@ -1,0 +1,59 @@
+#pragma once
+// LOP and WLOP: the discrete locally optimal projection operators (Lipman et al. 2007; weighted
+// variant Huang et al. 2009), as reviewed in the CLOP paper (Preiner et al. 2014) sections 3 and 7.
+//
+// Particles Q(0) are a seeded subset of the input points P (or, when more particles than points
+// are requested, every point plus jittered copies). The first iteration is the L2 weighted mean
+// (eq. 2); every further iteration sets q_i <- F1(q_i, P) + mu F2(q_i, Q) with
+//   F1 = sum_j p_j (alpha_j / v_j) / sum_j (alpha_j / v_j),   alpha_j = theta(|p_j - q|) / |p_j -
+//   q| F2 = sum_i' (q - q_i') beta_i' w_i' / sum_i' beta_i' w_i', beta = theta(r) / r  (eta(r) =
+//   -r)
+// (eq. 3-6, 25). WLOP: v_j = 1 + sum_j' theta(|p_j - p_j'|) once for the input, w_i' = 1 +
+// sum theta(|q_i' - q_i''|) every iteration; LOP: v = w = 1. All particles move simultaneously
+// (Jacobi update), so the result does not depend on the thread count.
+//
+// Kernel: theta(r) = exp(-16 r^2 / h^2) (the LOP/CLOP convention; CGAL's WLOP uses exp(-4 r^2/h^2),
+// i.e. h_CGAL = h/2 for the same kernel), h a fraction of the input's bounding-box diagonal.
+// Neighbour searches use the support radius h (theta(h) = exp(-16) ~ 1e-7) through core's KdTree;
+// distances are clamped below at 0.01 h inside alpha and beta.
+#include "scanbench/core/params.h"
+#include "scanbench/core/point_cloud.h"
+#include "scanbench/core/run_context.h"
+
+namespace scanbench::algorithms {
+
+struct LopParams {
+  /// Kernel support radius h as a fraction of the input bbox diagonal.
+  double h = 0.04;
+  /// Repulsion weight mu of eq. 3, in [0, 0.5).
+  double mu = 0.45;
+  /// Number of iterations, counting the L2 first iteration (eq. 2).
+  int iterations = 10;
+  /// Share of the input in (0, 1], or a count > 1 (integer; may exceed the input: upsampling).
+  double particles = 0.5;
+
+  static void declare(ParamDeclarer<LopParams>& d) {
+    d.real("h", &LopParams::h, Range::open_min(0.0, 1.0), "diag",
+           "kernel support radius h as a fraction of the input bbox diagonal; theta(r) = "
+           "exp(-16 r^2/h^2) (LOP/CLOP convention, CLOP paper sec. 3), searches within h");
+    d.real("mu", &LopParams::mu, Range::half_open(0.0, 0.5), "",
+           "repulsion weight mu of q <- F1 + mu F2 (CLOP paper eq. 3)");
+    d.integer("iterations", &LopParams::iterations, Range::closed(1, 1000), "",
+              "iterations including the L2 first iteration (eq. 2)");
+    d.real("particles", &LopParams::particles, Range::above(0.0), "",
+           "particles: a share of the input in (0, 1] or an integral count > 1 (a seeded subset; "
+           "counts above the input size add jittered copies)");
+  }
+};
+
+/// LOP (v = w = 1). Output: the particle positions only (no other attribute; the particles are
+/// not input points). Seed stream "particles" of ctx. Phase timers: "init" (kd-tree, particle
+/// selection, L2 iteration), "attraction", "repulsion".
+/// Throws InputError for an empty or invalid input, ParamError for an invalid particle count.
+PointCloud lop(const PointCloud& input, const LopParams& p, RunContext& ctx);
+
+/// WLOP (density weights v_j of the input once and w_i of the particles every iteration).
+/// Same output, timers ("init", "density", "attraction", "repulsion") and errors as lop().
+PointCloud wlop(const PointCloud& input, const LopParams& p, RunContext& ctx);
+
+}  // namespace scanbench::algorithms

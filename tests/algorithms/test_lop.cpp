@@ -1,0 +1,392 @@
+// LOP / WLOP and their shared kernels against brute-force oracles and geometric properties.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <set>
+
+#include "projection_kernels.h"
+#include "scanbench/algorithms/lop.h"
+#include "scanbench/core/errors.h"
+#include "scanbench/core/kdtree.h"
+#include "scanbench/core/rng.h"
+
+namespace scanbench::algorithms {
+namespace {
+
+// n points uniform on the sphere of radius R about the origin, with radial N(0, sigma) noise.
+PointCloud noisy_sphere(int n, float radius, float sigma, std::uint64_t seed) {
+  Rng rng(seed);
+  PointCloud c;
+  c.positions.resize(3, n);
+  for (int i = 0; i < n; ++i) {
+    Eigen::Vector3f d;
+    do {
+      d = Eigen::Vector3f(static_cast<float>(rng.normal()), static_cast<float>(rng.normal()),
+                          static_cast<float>(rng.normal()));
+    } while (d.norm() < 1e-6f);
+    c.positions.col(i) = d.normalized() * (radius + static_cast<float>(rng.normal(0.0, sigma)));
+  }
+  return c;
+}
+
+double mean_radial_error(const Eigen::Matrix3Xf& p, double radius) {
+  double s = 0.0;
+  for (Eigen::Index i = 0; i < p.cols(); ++i)
+    s += std::abs(static_cast<double>(p.col(i).norm()) - radius);
+  return s / static_cast<double>(p.cols());
+}
+
+// Coefficient of variation of nearest-neighbour distances (brute force).
+double nn_cv(const Eigen::Matrix3Xf& p) {
+  const Eigen::Index n = p.cols();
+  std::vector<double> d(static_cast<std::size_t>(n));
+  for (Eigen::Index i = 0; i < n; ++i) {
+    float best = std::numeric_limits<float>::infinity();
+    for (Eigen::Index j = 0; j < n; ++j) {
+      if (j != i) best = std::min(best, (p.col(i) - p.col(j)).squaredNorm());
+    }
+    d[static_cast<std::size_t>(i)] = std::sqrt(static_cast<double>(best));
+  }
+  double mean = 0.0;
+  for (double x : d)
+    mean += x;
+  mean /= static_cast<double>(n);
+  double var = 0.0;
+  for (double x : d)
+    var += (x - mean) * (x - mean);
+  return std::sqrt(var / static_cast<double>(n)) / mean;
+}
+
+double theta_d(double r, double h) {
+  return std::exp(-16.0 * r * r / (h * h));
+}
+double alpha_d(double r, double h) {
+  const double rc = std::max(r, 0.01 * h);
+  return theta_d(rc, h) / rc;
+}
+
+TEST(ProjectionKernels, ThetaAndAlpha) {
+  const float h = 0.3f;
+  EXPECT_FLOAT_EQ(kernels::theta(0.0f, h), 1.0f);
+  EXPECT_NEAR(kernels::theta(h, h), std::exp(-16.0), 1e-9);
+  EXPECT_NEAR(kernels::theta(h / 4, h), std::exp(-1.0), 1e-6);
+  EXPECT_NEAR(kernels::alpha(0.1f, h), theta_d(0.1, h) / 0.1, 1e-4);
+  // Clamped below at 0.01 h.
+  EXPECT_FLOAT_EQ(kernels::alpha(0.0f, h), kernels::alpha(0.01f * h, h));
+  EXPECT_FLOAT_EQ(kernels::alpha(1e-7f, h), kernels::alpha(0.01f * h, h));
+}
+
+// The kernels against brute-force sums over every point (no support cut).
+class KernelOracle : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    cloud_ = noisy_sphere(1500, 1.0f, 0.03f, 11);
+    particles_ = kernels::initial_particles(cloud_.positions, 400, 5, 0.0f);
+  }
+  PointCloud cloud_;
+  Eigen::Matrix3Xf particles_;
+  const float h_ = 0.35f;
+};
+
+TEST_F(KernelOracle, DensityWeightsMatchBruteForce) {
+  const auto& p = cloud_.positions;
+  const KdTree tree(p);
+  const Eigen::VectorXf v = kernels::density_weights(p, tree, h_);
+  ASSERT_EQ(v.size(), p.cols());
+  for (Eigen::Index j = 0; j < p.cols(); j += 7) {
+    double ref = 1.0;
+    for (Eigen::Index k = 0; k < p.cols(); ++k) {
+      if (k != j) ref += theta_d((p.col(j) - p.col(k)).cast<double>().norm(), h_);
+    }
+    EXPECT_NEAR(v[j], ref, 1e-5 * ref) << "point " << j;
+  }
+}
+
+TEST_F(KernelOracle, L2MeanMatchesBruteForceWeightedMean) {
+  const auto& p = cloud_.positions;
+  const KdTree tree(p);
+  kernels::Scratch s;
+  for (Eigen::Index i = 0; i < particles_.cols(); i += 5) {
+    const Eigen::Vector3f q = particles_.col(i) * 1.02f;  // off the samples
+    Eigen::Vector3d num = Eigen::Vector3d::Zero();
+    double den = 0.0;
+    for (Eigen::Index j = 0; j < p.cols(); ++j) {
+      const double t = theta_d((p.col(j) - q).cast<double>().norm(), h_);
+      num += t * p.col(j).cast<double>();
+      den += t;
+    }
+    const Eigen::Vector3f got = kernels::l2_mean(q, p, tree, h_, s);
+    EXPECT_LT((got.cast<double>() - num / den).norm(), 2e-6) << "particle " << i;
+  }
+}
+
+TEST_F(KernelOracle, AttractionMatchesBruteForceWithDensityWeights) {
+  const auto& p = cloud_.positions;
+  const KdTree tree(p);
+  const Eigen::VectorXf inv_v = kernels::density_weights(p, tree, h_).cwiseInverse();
+  kernels::Scratch s;
+  for (int weighted = 0; weighted < 2; ++weighted) {
+    const Eigen::VectorXf none;
+    for (Eigen::Index i = 0; i < particles_.cols(); i += 5) {
+      const Eigen::Vector3f q = particles_.col(i) * 0.97f;
+      Eigen::Vector3d num = Eigen::Vector3d::Zero();
+      double den = 0.0;
+      for (Eigen::Index j = 0; j < p.cols(); ++j) {
+        double a = alpha_d((p.col(j) - q).cast<double>().norm(), h_);
+        if (weighted) a *= inv_v[j];
+        num += a * p.col(j).cast<double>();
+        den += a;
+      }
+      const Eigen::Vector3f got = kernels::attraction(q, p, tree, weighted ? inv_v : none, h_, s);
+      EXPECT_LT((got.cast<double>() - num / den).norm(), 2e-6) << "particle " << i;
+    }
+  }
+}
+
+TEST_F(KernelOracle, RepulsionMatchesBruteForceWithCutoff) {
+  const auto& q = particles_;
+  const KdTree tree(q);
+  const Eigen::VectorXf w = kernels::density_weights(q, tree, h_);
+  kernels::Scratch s;
+  for (const float cutoff : {h_, 0.5f * h_}) {
+    for (Eigen::Index i = 0; i < q.cols(); i += 3) {
+      Eigen::Vector3d num = Eigen::Vector3d::Zero();
+      double den = 0.0;
+      for (Eigen::Index k = 0; k < q.cols(); ++k) {
+        const Eigen::Vector3d d = (q.col(i) - q.col(k)).cast<double>();
+        if (k == i || d.norm() > cutoff) continue;
+        const double b = alpha_d(d.norm(), h_) * w[k];
+        num += b * d;
+        den += b;
+      }
+      const Eigen::Vector3d ref = den > 0 ? Eigen::Vector3d(num / den) : Eigen::Vector3d::Zero();
+      const Eigen::Vector3f got = kernels::repulsion(i, q, tree, w, h_, cutoff, s);
+      EXPECT_LT((got.cast<double>() - ref).norm(), 1e-5) << "particle " << i;
+    }
+  }
+}
+
+TEST(ProjectionKernels, ParticleCount) {
+  EXPECT_EQ(kernels::particle_count(0.5, 1000, "x"), 500);
+  EXPECT_EQ(kernels::particle_count(1.0, 1000, "x"), 1000);
+  EXPECT_EQ(kernels::particle_count(1e-9, 1000, "x"), 1);
+  EXPECT_EQ(kernels::particle_count(250, 1000, "x"), 250);
+  EXPECT_EQ(kernels::particle_count(2500, 1000, "x"), 2500);
+  EXPECT_THROW(kernels::particle_count(2.5, 1000, "x"), ParamError);
+  EXPECT_THROW(kernels::particle_count(0.0, 1000, "x"), ParamError);
+  EXPECT_THROW(kernels::particle_count(-3, 1000, "x"), ParamError);
+}
+
+TEST(ProjectionKernels, InitialParticlesAreASeededSubset) {
+  const PointCloud c = noisy_sphere(500, 1.0f, 0.0f, 3);
+  const Eigen::Matrix3Xf a = kernels::initial_particles(c.positions, 200, 42, 0.0f);
+  const Eigen::Matrix3Xf b = kernels::initial_particles(c.positions, 200, 42, 0.0f);
+  const Eigen::Matrix3Xf other = kernels::initial_particles(c.positions, 200, 43, 0.0f);
+  ASSERT_EQ(a.cols(), 200);
+  EXPECT_TRUE(a == b);
+  EXPECT_FALSE(a == other);
+  // Distinct input points, in input order.
+  std::vector<Eigen::Index> src;
+  for (Eigen::Index i = 0; i < a.cols(); ++i) {
+    Eigen::Index found = -1;
+    for (Eigen::Index j = 0; j < c.size(); ++j) {
+      if (c.positions.col(j) == a.col(i)) found = j;
+    }
+    ASSERT_GE(found, 0);
+    src.push_back(found);
+  }
+  EXPECT_TRUE(std::is_sorted(src.begin(), src.end()));
+  EXPECT_EQ(std::set<Eigen::Index>(src.begin(), src.end()).size(), src.size());
+
+  // Upsampling: every point at least twice, copies jittered.
+  const Eigen::Matrix3Xf up = kernels::initial_particles(c.positions, 1234, 7, 0.01f);
+  ASSERT_EQ(up.cols(), 1234);
+  int exact = 0;
+  for (Eigen::Index i = 0; i < up.cols(); ++i) {
+    for (Eigen::Index j = 0; j < c.size(); ++j) {
+      if (c.positions.col(j) == up.col(i)) ++exact;
+    }
+  }
+  EXPECT_EQ(exact, 500);
+  EXPECT_THROW(kernels::initial_particles(Eigen::Matrix3Xf(3, 0), 5, 1, 0.0f), InputError);
+}
+
+class NoisySphere : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    cloud_ = noisy_sphere(6000, 1.0f, 0.015f, 2024);
+    params_.h = 0.1;
+    params_.particles = 0.25;
+    params_.iterations = 10;
+  }
+  // The initial particle subset the operators start from (same seed stream).
+  Eigen::Matrix3Xf start(std::uint64_t seed) const {
+    const Eigen::Index m = kernels::particle_count(params_.particles, cloud_.size(), "t");
+    return kernels::initial_particles(cloud_.positions, m, derive_seed(seed, "particles"), 0.0f);
+  }
+  PointCloud cloud_;
+  LopParams params_;
+};
+
+TEST_F(NoisySphere, LopAndWlopMovePointsTowardTheSurface) {
+  const Eigen::Matrix3Xf q0 = start(1);
+  const double before = mean_radial_error(q0, 1.0);
+  EXPECT_GT(before, 0.010);
+  for (const bool weighted : {false, true}) {
+    RunContext ctx(1);
+    const PointCloud out = weighted ? wlop(cloud_, params_, ctx) : lop(cloud_, params_, ctx);
+    ASSERT_EQ(out.size(), q0.cols());
+    out.validate("test");
+    const double after = mean_radial_error(out.positions, 1.0);
+    EXPECT_LT(after, 0.8 * before) << (weighted ? "wlop" : "lop");
+    EXPECT_TRUE(ctx.phase_seconds().count("attraction"));
+    EXPECT_TRUE(ctx.phase_seconds().count("repulsion"));
+    EXPECT_EQ(ctx.phase_seconds().count("density"), weighted ? 1u : 0u);
+  }
+}
+
+TEST_F(NoisySphere, WlopLowersRegularityCv) {
+  const Eigen::Matrix3Xf q0 = start(1);
+  RunContext ctx(1);
+  const PointCloud out = wlop(cloud_, params_, ctx);
+  const double cv0 = nn_cv(q0);
+  const double cv1 = nn_cv(out.positions);
+  EXPECT_LT(cv1, 0.6 * cv0) << "input subset cv " << cv0 << ", wlop cv " << cv1;
+}
+
+TEST_F(NoisySphere, BitIdenticalForOneAndTwoThreads) {
+  for (const bool weighted : {false, true}) {
+    PointCloud a, b;
+    {
+      RunContext ctx(9, 1);
+      a = weighted ? wlop(cloud_, params_, ctx) : lop(cloud_, params_, ctx);
+    }
+    {
+      RunContext ctx(9, 2);
+      b = weighted ? wlop(cloud_, params_, ctx) : lop(cloud_, params_, ctx);
+    }
+    ASSERT_EQ(a.size(), b.size());
+    EXPECT_EQ(0, std::memcmp(a.positions.data(), b.positions.data(),
+                             sizeof(float) * static_cast<std::size_t>(a.positions.size())));
+  }
+}
+
+TEST_F(NoisySphere, UpsamplingGivesMoreParticlesThanPoints) {
+  const PointCloud small = noisy_sphere(800, 1.0f, 0.01f, 5);
+  LopParams p;
+  p.h = 0.08;
+  p.particles = 2000;
+  p.iterations = 6;
+  RunContext ctx(3);
+  const PointCloud out = wlop(small, p, ctx);
+  ASSERT_EQ(out.size(), 2000);
+  out.validate("test");
+  EXPECT_LT(mean_radial_error(out.positions, 1.0), 0.02);
+}
+
+// The whole operator against a double-precision brute-force transcription of CLOP paper eq. 2-6
+// and 25 (every pair within the support radius h, no kd-tree). The support matters: a particle
+// with no other particle within h gets F2 = 0, whereas normalising the far tails would move it by
+// an arbitrary amount.
+Eigen::Matrix3Xd brute_force_wlop(const Eigen::Matrix3Xd& p, Eigen::Matrix3Xd q, double h,
+                                  double mu, int iterations, bool weighted) {
+  const Eigen::Index n = p.cols(), m = q.cols();
+  Eigen::VectorXd v = Eigen::VectorXd::Ones(n);
+  if (weighted) {
+    for (Eigen::Index j = 0; j < n; ++j)
+      for (Eigen::Index k = 0; k < n; ++k)
+        if (k != j) v[j] += theta_d((p.col(j) - p.col(k)).norm(), h);
+  }
+  Eigen::Matrix3Xd next(3, m);
+  for (Eigen::Index i = 0; i < m; ++i) {  // eq. 2
+    Eigen::Vector3d num = Eigen::Vector3d::Zero();
+    double den = 0;
+    for (Eigen::Index j = 0; j < n; ++j) {
+      const double t = theta_d((p.col(j) - q.col(i)).norm(), h);
+      num += t * p.col(j);
+      den += t;
+    }
+    next.col(i) = num / den;
+  }
+  q = next;
+  for (int it = 1; it < iterations; ++it) {
+    Eigen::VectorXd w = Eigen::VectorXd::Ones(m);
+    if (weighted) {
+      for (Eigen::Index i = 0; i < m; ++i)
+        for (Eigen::Index k = 0; k < m; ++k)
+          if (k != i) w[i] += theta_d((q.col(i) - q.col(k)).norm(), h);
+    }
+    for (Eigen::Index i = 0; i < m; ++i) {
+      Eigen::Vector3d num = Eigen::Vector3d::Zero();
+      double den = 0;
+      for (Eigen::Index j = 0; j < n; ++j) {
+        const double a = alpha_d((p.col(j) - q.col(i)).norm(), h) / v[j];
+        num += a * p.col(j);
+        den += a;
+      }
+      Eigen::Vector3d rep = Eigen::Vector3d::Zero();
+      double rden = 0;
+      for (Eigen::Index k = 0; k < m; ++k) {
+        if (k == i || (q.col(i) - q.col(k)).norm() > h) continue;
+        const double b = alpha_d((q.col(i) - q.col(k)).norm(), h) * w[k];
+        rep += b * (q.col(i) - q.col(k));
+        rden += b;
+      }
+      next.col(i) = num / den;
+      if (rden > 0) next.col(i) += mu * rep / rden;
+    }
+    q = next;
+  }
+  return q;
+}
+
+TEST(Lop, MatchesBruteForceTranscriptionOfThePaper) {
+  const PointCloud c = noisy_sphere(400, 1.0f, 0.02f, 8);
+  LopParams p;
+  p.h = 0.12;
+  p.mu = 0.4;
+  p.iterations = 5;
+  p.particles = 0.3;
+  const double h = p.h * static_cast<double>(c.bbox().diagonal());
+  for (const int iters : {1, 2, 5}) {
+    for (const bool weighted : {false, true}) {
+      p.iterations = iters;
+      RunContext ctx(4);
+      const PointCloud got = weighted ? wlop(c, p, ctx) : lop(c, p, ctx);
+      const Eigen::Matrix3Xf q0 = kernels::initial_particles(
+          c.positions, kernels::particle_count(p.particles, c.size(), "t"),
+          ctx.stream_seed("particles"), 0.0f);
+      const Eigen::Matrix3Xd ref = brute_force_wlop(c.positions.cast<double>(), q0.cast<double>(),
+                                                    h, p.mu, p.iterations, weighted);
+      ASSERT_EQ(got.size(), ref.cols());
+      const double err = (got.positions.cast<double>() - ref).colwise().norm().maxCoeff();
+      EXPECT_LT(err, 1e-4) << (weighted ? "wlop" : "lop") << " iterations " << iters;
+    }
+  }
+}
+
+TEST(Lop, BadInputThrowsTypedErrors) {
+  RunContext ctx(1);
+  LopParams p;
+  PointCloud empty;
+  EXPECT_THROW(lop(empty, p, ctx), InputError);
+  PointCloud nan = noisy_sphere(50, 1.0f, 0.0f, 1);
+  nan.positions(1, 7) = std::numeric_limits<float>::quiet_NaN();
+  EXPECT_THROW(wlop(nan, p, ctx), InputError);
+  PointCloud same;
+  same.positions = Eigen::Matrix3Xf::Ones(3, 10);
+  EXPECT_THROW(wlop(same, p, ctx), InputError);
+  p.particles = 12.5;
+  EXPECT_THROW(wlop(noisy_sphere(50, 1.0f, 0.0f, 1), p, ctx), ParamError);
+  // The declared schema rejects out-of-range values by name.
+  Json bad = {{"mu", 0.5}};
+  EXPECT_THROW(params_from_json<LopParams>(bad, "resample.lop"), ParamError);
+  bad = {{"h", 0.0}};
+  EXPECT_THROW(params_from_json<LopParams>(bad, "resample.lop"), ParamError);
+}
+
+}  // namespace
+}  // namespace scanbench::algorithms
