@@ -18,6 +18,7 @@ int run_cli(int argc, char** argv) {
 
   // One explicit list of subcommands.
   add_list_command(cli);
+  add_scan_command(cli);
   add_bench_command(cli);
 
   try {

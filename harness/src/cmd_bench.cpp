@@ -4,11 +4,14 @@
 
 namespace scanbench::harness {
 
+void add_bench_scanner(CLI::App* bench, Cli& cli);  // cmd_bench_scanner.cpp
+
 void add_bench_command(Cli& cli) {
   CLI::App* bench = cli.app.add_subcommand(
       "bench", "Benchmarks that print speed ratios measured in one run (--json FILE to save)");
   bench->require_subcommand(1);
   // One explicit list of benchmarks (each defined in its own cmd_bench_*.cpp).
+  add_bench_scanner(bench, cli);
 
   if (bench->get_subcommands({}).empty()) cli.app.remove_subcommand(bench);
 }

@@ -1,0 +1,58 @@
+#pragma once
+// Error heatmaps and histogram images (PNG, OpenImageIO; OIIO stays private to this module).
+//
+// Heatmap layout (pixels): a title bar of 40 rows on top; below it four orthographic views of
+// width x height each, side by side, in the fixed order front (camera on +z looking to -z, x
+// right, y up), right (camera on +x), back (camera on -z) and top (camera on +y, x right, -z up);
+// then a colour bar 110 columns wide. Total size: (4 * width + 110) x (height + 40). The views
+// frame the given bounding box (its diagonal spans 95% of the shorter view side).
+// Each point is splatted as a disc of splat_radius pixels with a depth test (the point nearest
+// to the camera wins a pixel; ties keep the lower index) and coloured by t = clamp(|E| / (range x
+// diagonal), 0, 1) through OIIO's "turbo" map: t = 0 is dark blue, t = 1 dark red; errors above
+// the range saturate. The background is white. The colour bar shows the map from 0 (bottom) to
+// the stated range (top) with labels in DejaVuSans.
+#include <Eigen/Core>
+#include <filesystem>
+#include <string>
+
+#include "scanbench/core/bbox.h"
+#include "scanbench/core/params.h"
+#include "scanbench/core/point_cloud.h"
+
+namespace scanbench::metrics {
+
+struct HeatmapParams {
+  int width = 400;       ///< pixels per view
+  int height = 400;      ///< pixels per view
+  double range = 0.005;  ///< colour scale [0, range], fraction of the diagonal
+  int splat_radius = 1;  ///< disc radius in pixels (0 = one pixel)
+  static void declare(ParamDeclarer<HeatmapParams>& d) {
+    d.integer("width", &HeatmapParams::width, Range::closed(64, 4096), "px", "width of a view");
+    d.integer("height", &HeatmapParams::height, Range::closed(64, 4096), "px", "height of a view");
+    d.real("range", &HeatmapParams::range, Range::above(0.0), "diag",
+           "fixed colour range: |E| = range is the top of the turbo map");
+    d.integer("splat_radius", &HeatmapParams::splat_radius, Range::closed(0, 16), "px",
+              "point splat radius");
+  }
+};
+
+/// Columns and rows of the heatmap image for these parameters.
+Eigen::Vector2i heatmap_size(const HeatmapParams& p);
+
+/// Writes the heatmap of `errors` (one per point, lengths in mesh units; the absolute value is
+/// used) to `png`. `frame` fixes the views (normally the ground truth's box) and `diagonal` the
+/// unit of `range`. Throws InputError for mismatched sizes or non-finite errors, IoError when the
+/// file or the font cannot be written or found.
+void write_heatmap(const PointCloud& points, const Eigen::VectorXf& errors,
+                   const BoundingBox& frame, float diagonal, const HeatmapParams& p,
+                   const std::filesystem::path& png, const std::string& title);
+
+/// Bar chart of a histogram record (stats histogram JSON: counts, min, max, unit, overflow) as
+/// a width x height PNG with a title, the axis range and the overflow count. Throws IoError.
+void write_histogram_image(const Json& histogram, const std::filesystem::path& png,
+                           const std::string& title, int width = 640, int height = 400);
+
+/// The RGB colour (0..1) of the turbo map at t in [0, 1], as OIIO computes it.
+Eigen::Vector3f turbo_color(float t);
+
+}  // namespace scanbench::metrics

@@ -1,0 +1,105 @@
+// Heatmap and histogram images: size, colours following the errors, depth test.
+#include <gtest/gtest.h>
+
+#include <OpenImageIO/imagebuf.h>
+
+#include <filesystem>
+
+#include "scanbench/core/errors.h"
+#include "scanbench/metrics/heatmap.h"
+
+namespace scanbench::metrics {
+namespace {
+
+namespace fs = std::filesystem;
+
+Eigen::Vector3f pixel(const OIIO::ImageBuf& img, int x, int y) {
+  float rgb[3];
+  img.getpixel(x, y, rgb, 3);
+  return {rgb[0], rgb[1], rgb[2]};
+}
+
+TEST(Heatmap, SizeColoursAndDepthTest) {
+  // A unit square in z = 0, left half error 0, right half error range/2, and a strip at
+  // y in [0.1, 0.2] with error 3 x range (saturated).
+  const int n = 200;
+  PointCloud pts;
+  pts.positions.resize(3, n * n + 2);
+  Eigen::VectorXf err(n * n + 2);
+  BoundingBox frame;
+  frame.extend({0, 0, -0.5f});
+  frame.extend({1, 1, 0.5f});
+  const float diag = frame.diagonal();
+  HeatmapParams p;
+  const float range = static_cast<float>(p.range) * diag;
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i) {
+      const float x = (i + 0.5f) / n, y = (j + 0.5f) / n;
+      pts.positions.col(j * n + i) = Eigen::Vector3f(x, y, 0);
+      err[j * n + i] = y > 0.1f && y < 0.2f ? 3 * range : (x < 0.5f ? 0.0f : -0.5f * range);
+    }
+  // Depth test: at (0.5, 0.9) a point in front (z = 0.3, t = 1) hides one behind.
+  pts.positions.col(n * n) = Eigen::Vector3f(0.5f, 0.9f, 0.3f);
+  err[n * n] = range;
+  pts.positions.col(n * n + 1) = Eigen::Vector3f(0.5f, 0.9f, -0.3f);
+  err[n * n + 1] = 0.0f;
+
+  const fs::path png = fs::temp_directory_path() / "scanbench_test_heatmap.png";
+  write_heatmap(pts, err, frame, diag, p, png, "test heatmap");
+  ASSERT_TRUE(fs::exists(png));
+  OIIO::ImageBuf img(png.string());
+  ASSERT_TRUE(img.read(0, 0, true, OIIO::TypeDesc::FLOAT));
+  const Eigen::Vector2i size = heatmap_size(p);
+  EXPECT_EQ(img.spec().width, size.x());
+  EXPECT_EQ(img.spec().height, size.y());
+  EXPECT_EQ(size, Eigen::Vector2i(4 * 400 + 110, 440));
+
+  // Front view pixel of world point (x, y): same mapping as the writer.
+  const float scale = 0.95f * 400 / diag;
+  auto front = [&](float x, float y) {
+    return Eigen::Vector2i(static_cast<int>(std::floor(200 + (x - 0.5f) * scale)),
+                           40 + static_cast<int>(std::floor(200 - (y - 0.5f) * scale)));
+  };
+  const float tol = 2.5f / 255.0f;
+  auto expect_colour = [&](Eigen::Vector2i px, float t) {
+    const Eigen::Vector3f got = pixel(img, px.x(), px.y());
+    const Eigen::Vector3f want = turbo_color(t);
+    EXPECT_LT((got - want).cwiseAbs().maxCoeff(), tol)
+        << "pixel " << px.transpose() << " got " << got.transpose() << " want " << want.transpose();
+  };
+  expect_colour(front(0.25f, 0.6f), 0.0f);
+  expect_colour(front(0.75f, 0.6f), 0.5f);
+  expect_colour(front(0.25f, 0.15f), 1.0f);  // saturated
+  expect_colour(front(0.5f, 0.9f), 1.0f);    // the nearer point wins
+  // Back view (camera on -z, x mirrored): the point at z = -0.3 is nearer there.
+  const Eigen::Vector2i b = front(0.5f, 0.9f) + Eigen::Vector2i(2 * 400, 0);
+  expect_colour(b, 0.0f);
+  // Known colours of the map: 0 is blue-dominated, 1 red-dominated, and the background white.
+  EXPECT_GT(turbo_color(0.0f).z(), turbo_color(0.0f).x());
+  EXPECT_GT(turbo_color(1.0f).x(), turbo_color(1.0f).z());
+  EXPECT_EQ(pixel(img, 3, size.y() - 3), Eigen::Vector3f(1, 1, 1));
+  fs::remove(png);
+
+  EXPECT_THROW(write_heatmap(pts, Eigen::VectorXf(3), frame, diag, p, png, "x"), InputError);
+}
+
+TEST(Heatmap, HistogramImage) {
+  Json h = {{"unit", "diag"},         {"min", 0.0},    {"max", 0.01}, {"bins", 4},
+            {"counts", {1, 5, 2, 0}}, {"overflow", 3}, {"count", 11}};
+  const fs::path png = fs::temp_directory_path() / "scanbench_test_hist.png";
+  write_histogram_image(h, png, "p2plane |E|", 500, 300);
+  OIIO::ImageBuf img(png.string());
+  ASSERT_TRUE(img.read(0, 0, true, OIIO::TypeDesc::FLOAT));
+  EXPECT_EQ(img.spec().width, 500);
+  EXPECT_EQ(img.spec().height, 300);
+  // The tallest bar (bin 1) reaches the top of the plot area; bin 3 is empty.
+  const int x0 = 60, x1 = 480, y0 = 40, y1 = 250;
+  const double bw = (x1 - x0) / 4.0;
+  EXPECT_NE(pixel(img, x0 + static_cast<int>(1.5 * bw), y0 + 1), Eigen::Vector3f(1, 1, 1));
+  EXPECT_EQ(pixel(img, x0 + static_cast<int>(3.5 * bw), y1 - 2), Eigen::Vector3f(1, 1, 1));
+  fs::remove(png);
+  EXPECT_THROW(write_histogram_image(Json::object(), png, "x"), InputError);
+}
+
+}  // namespace
+}  // namespace scanbench::metrics
