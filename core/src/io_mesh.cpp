@@ -114,15 +114,38 @@ TriangleMesh to_mesh(const std::vector<float>& xyz, const std::vector<int>& tri)
 
 TriangleMesh read_obj(const std::filesystem::path& path) {
   const std::string name = path.string();
-  if (!std::filesystem::is_regular_file(path)) {
-    throw IoError(fmt::format("{}: cannot open for reading", name));
+  const std::string text = slurp(path);
+  // tinyobjloader reads an unparsable coordinate ("nan", "1,5", a missing z) as 0 without a
+  // warning; scanbench never repairs silently, so geometric vertex lines are checked first.
+  Lines lines(text);
+  std::string_view line;
+  while (lines.next(line)) {
+    Tokens t(line);
+    std::string_view tok;
+    t.next(tok);
+    if (tok != "v") continue;
+    int n = 0;
+    while (t.next(tok)) {
+      double x = 0.0;
+      if (!parse_number(tok, x) || !std::isfinite(x)) {
+        throw IoError(fmt::format("{}: line {}: vertex coordinate '{}' is not a finite number",
+                                  name, lines.number(), tok.substr(0, 40)));
+      }
+      ++n;
+    }
+    if (n < 3 || n > 7) {
+      throw IoError(
+          fmt::format("{}: line {}: vertex with {} values (expected x y z [w] or x y z "
+                      "r g b)",
+                      name, lines.number(), n));
+    }
   }
   tinyobj::ObjReaderConfig config;
   config.triangulate = false;  // our own fan, with index checks; tinyobj skips bad faces quietly
   config.vertex_color = false;
-  config.mtl_search_path = path.parent_path().string();
   tinyobj::ObjReader reader;
-  if (!reader.ParseFromFile(name, config)) {
+  // Materials are not used: no .mtl file is read.
+  if (!reader.ParseFromString(text, std::string(), config)) {
     std::string err = reader.Error();
     while (!err.empty() && space(err.back()))
       err.pop_back();

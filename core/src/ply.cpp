@@ -82,15 +82,13 @@ class Input {
  public:
   explicit Input(std::istream& in) : in_(in), buf_(1 << 16) {}
 
-  // One line without its '\n' (and a trailing '\r'); false at end of data. Lines longer than
-  // `max` set `too_long`.
+  // One line without its '\n' (and a trailing '\r'); false when the data ends before a '\n'.
+  // Lines longer than `max` set `too_long`.
   bool line(std::string& out, std::size_t max, bool& too_long) {
     out.clear();
     too_long = false;
-    bool any = false;
     for (;;) {
-      if (pos_ == end_ && !fill()) return any;
-      any = true;
+      if (pos_ == end_ && !fill()) return false;
       const char c = buf_[pos_++];
       if (c == '\n') break;
       if (out.size() >= max) {
