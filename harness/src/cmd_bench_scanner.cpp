@@ -1,0 +1,97 @@
+// scanbench bench scanner [--json FILE] [--sizes N,...] [--repeats N] [--threads N]: rays per
+// second of the full scanner (every artifact on) against a bare rtcIntersect1M loop over the same
+// scene and the same rays, measured in one run, for procedural spheres of increasing size.
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <fstream>
+#include <memory>
+#include <vector>
+
+#include "commands.h"
+#include "scanbench/core/errors.h"
+#include "scanbench/core/run_context.h"
+#include "scanbench/scanner/throughput.h"
+
+namespace scanbench::harness {
+
+namespace {
+double median_of(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  const std::size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+}  // namespace
+
+void add_bench_scanner(CLI::App* bench, Cli& cli) {
+  struct Opts {
+    std::string json;
+    std::vector<int> sizes{1000, 10000, 100000, 1000000};
+    int repeats = 5;
+    int threads = 0;
+  };
+  auto opts = std::make_shared<Opts>();
+  CLI::App* sub = bench->add_subcommand(
+      "scanner",
+      "Rays/s of the scanner with every artifact on vs bare rtcIntersect1M on the same rays "
+      "(medians; ratio = median over sizes)");
+  sub->add_option("--json", opts->json, "Write the results as JSON to this file");
+  sub->add_option("--sizes", opts->sizes, "Triangle counts of the procedural spheres")
+      ->delimiter(',')
+      ->check(CLI::Range(8, 50000000));
+  sub->add_option("--repeats", opts->repeats, "Timed repeats per size (medians are reported)")
+      ->check(CLI::Range(1, 1000));
+  sub->add_option("--threads", opts->threads, "Worker threads (0 = all)")
+      ->check(CLI::NonNegativeNumber);
+  sub->callback([&cli, opts] {
+    cli.action = [opts] {
+      RunContext ctx(1, opts->threads);
+      const scanner::ScannerParams p = scanner::all_artifacts_params();
+      Json cases = Json::array();
+      std::vector<double> ratios;
+      fmt::print("{:>10} {:>10} {:>14} {:>16} {:>7}\n", "triangles", "rays", "bare Mrays/s",
+                 "scanner Mrays/s", "ratio");
+      for (int size : opts->sizes) {
+        const TriangleMesh mesh = scanner::uv_sphere(size);
+        const scanner::ThroughputResult r =
+            scanner::measure_throughput(mesh, p, opts->repeats, ctx);
+        fmt::print("{:>10} {:>10} {:>14.2f} {:>16.2f} {:>7.3f}\n", r.triangles, r.rays_per_run,
+                   r.bare_rays_per_second * 1e-6, r.scanner_rays_per_second * 1e-6, r.ratio);
+        Json c = Json::object();
+        c["triangles"] = r.triangles;
+        c["rays_per_run"] = r.rays_per_run;
+        c["points"] = r.points;
+        c["bare_rays_per_second"] = r.bare_rays_per_second;
+        c["scanner_rays_per_second"] = r.scanner_rays_per_second;
+        c["ratio"] = r.ratio;
+        c["bare_seconds"] = r.bare_seconds;
+        c["scanner_seconds"] = r.scanner_seconds;
+        cases.push_back(std::move(c));
+        ratios.push_back(r.ratio);
+      }
+      const double med = median_of(ratios);
+      fmt::print("scanner_over_bare_embree (median over sizes): {:.3f} (target >= 0.8)\n", med);
+      if (!opts->json.empty()) {
+        Json out = Json::object();
+        out["benchmark"] = "scanner";
+        out["params"] = params_to_json(p);
+        out["repeats"] = opts->repeats;
+        out["threads"] = opts->threads;
+        out["cases"] = std::move(cases);
+        Json rat = Json::object();
+        rat["scanner_over_bare_embree"] = med;
+        rat["scanner_over_bare_embree_min"] = *std::min_element(ratios.begin(), ratios.end());
+        rat["scanner_over_bare_embree_largest"] = ratios.back();
+        out["ratios"] = rat;
+        out["target"] = 0.8;
+        std::ofstream f(opts->json, std::ios::binary | std::ios::trunc);
+        f << out.dump(2) << "\n";
+        f.flush();
+        if (!f) throw IoError(fmt::format("{}: cannot write", opts->json));
+      }
+      return 0;
+    };
+  });
+}
+
+}  // namespace scanbench::harness
