@@ -1,5 +1,6 @@
 #include "scanbench/algorithms/registry.h"
 
+#include "scanbench/algorithms/cgal_peers.h"
 #include "scanbench/algorithms/clop.h"
 #include "scanbench/algorithms/hem.h"
 #include "scanbench/algorithms/lop.h"
@@ -59,6 +60,24 @@ const AlgorithmRegistry& registry() {
         "density weights v_j = 1 + sum theta (once) in F1 and particle weights w_i (every "
         "iteration) in F2.",
         points_only(wlop)));
+    reg.add(make_entry<CgalWlopParams>(
+        "peer.cgal_wlop",
+        "CGAL 5.5 wlop_simplify_and_regularize_point_set (peer, not the definition): h is "
+        "scanbench's kernel width, passed to CGAL as neighbor_radius = h/2 because CGAL's "
+        "kernel is exp(-4 r^2/R^2); CGAL hard-codes mu = 0.45, uses an L2 attraction "
+        "(no 1/r) and theta/r^2 repulsion, no L2 first iteration; seeded particle subset; TBB.",
+        points_only(cgal_wlop)));
+    reg.add(make_entry<CgalBilateralParams>(
+        "peer.cgal_bilateral",
+        "CGAL 5.5 bilateral_smooth_point_set (Huang et al. 2013; peer): edge-aware smoothing "
+        "of points and normals, k nearest neighbours, CGAL's own kernel radius; input normals, "
+        "else normals.pca first.",
+        points_only(cgal_bilateral)));
+    reg.add(make_entry<CgalJetParams>(
+        "peer.cgal_jet",
+        "CGAL 5.5 jet_smooth_point_set (Cazals and Pouget 2005; peer): each point projected "
+        "onto the jet fitted to its k nearest neighbours.",
+        points_only(cgal_jet)));
     return reg;
   }();
   return r;
