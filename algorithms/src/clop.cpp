@@ -12,6 +12,7 @@
 #include <optional>
 #include <vector>
 
+#include "mixture_index.h"
 #include "projection_kernels.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/kdtree.h"
@@ -31,29 +32,18 @@ struct Precomputed {
   float coef[4];
 };
 
-// A size class of components with its own kd-tree and cutoff radii (see clop.h).
-struct Bucket {
-  Eigen::Matrix3Xf centers;
-  std::vector<Index> ids;
-  std::unique_ptr<KdTree> tree;
-  float r_attraction = 0.0f;
-  float r_initial = 0.0f;
-};
-
 class PreparedMixture {
  public:
-  PreparedMixture(const GaussianMixture& m, double h) : means_(m.means) {
+  PreparedMixture(const GaussianMixture& m, double h)
+      : means_(m.means), index_(m, kClopFitSigmas[0] * kClopFitSigmas[0] * h * h) {
     const Index k = m.size();
     for (int j = 0; j < 3; ++j)
       s2_[j] = static_cast<float>(kClopFitSigmas[j] * kClopFitSigmas[j] * h * h);
     s2_[3] = static_cast<float>(h * h / 32.0);
     pre_.resize(static_cast<std::size_t>(k));
-    std::vector<double> lmax(static_cast<std::size_t>(k));
     tbb::parallel_for(tbb::blocked_range<Index>(0, k, 256), [&](const auto& r) {
       for (Index s = r.begin(); s != r.end(); ++s) {
         const Eigen::Matrix3d cov = m.covariance(s).cast<double>();
-        Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov, Eigen::EigenvaluesOnly);
-        lmax[static_cast<std::size_t>(s)] = std::max(es.eigenvalues()(2), 0.0);
         Precomputed& p = pre_[static_cast<std::size_t>(s)];
         for (int j = 0; j < 4; ++j) {
           const double var = j < 3 ? kClopFitSigmas[j] * kClopFitSigmas[j] * h * h : h * h / 32.0;
@@ -73,68 +63,35 @@ class PreparedMixture {
         }
       }
     });
-    // Size classes: largest eigenvalue within a factor 4 of each other.
-    const double base = s2_[0];
-    std::vector<int> cls(static_cast<std::size_t>(k));
-    int max_cls = 0;
-    for (Index s = 0; s < k; ++s) {
-      const double l = lmax[static_cast<std::size_t>(s)];
-      int c = l <= base ? 0 : static_cast<int>(std::ceil(std::log(l / base) / std::log(4.0)));
-      c = std::clamp(c, 0, 24);
-      cls[static_cast<std::size_t>(s)] = c;
-      max_cls = std::max(max_cls, c);
-    }
-    std::vector<std::vector<Index>> ids(static_cast<std::size_t>(max_cls + 1));
-    std::vector<double> bound(static_cast<std::size_t>(max_cls + 1), 0.0);
-    for (Index s = 0; s < k; ++s) {
-      const auto c = static_cast<std::size_t>(cls[static_cast<std::size_t>(s)]);
-      ids[c].push_back(s);
-      bound[c] = std::max(bound[c], lmax[static_cast<std::size_t>(s)]);
-    }
-    for (std::size_t c = 0; c < ids.size(); ++c) {
-      if (ids[c].empty()) continue;
-      auto b = std::make_unique<Bucket>();
-      b->ids = std::move(ids[c]);
-      b->centers.resize(3, static_cast<Index>(b->ids.size()));
-      for (std::size_t i = 0; i < b->ids.size(); ++i)
-        b->centers.col(static_cast<Index>(i)) = m.means.col(b->ids[i]);
-      b->tree = std::make_unique<KdTree>(b->centers);
-      // |d|^2 >= 32 lambda_max(Lambda) gives a weight exponent below -16 (see clop.h).
-      b->r_attraction = static_cast<float>(std::sqrt(32.0 * (bound[c] + s2_[0])) * 1.001);
-      b->r_initial = static_cast<float>(std::sqrt(32.0 * (bound[c] + s2_[3])) * 1.001);
-      buckets_.push_back(std::move(b));
-    }
+    r_attraction_ = index_.radii(s2_[0]);
+    r_initial_ = index_.radii(s2_[3]);
   }
 
   // eq. 24 (j = 3) or eq. 22 (j = 0..2): q + sum_j s2_j w_j Lambda_j^-1 (mu - q) / sum_j w_j.
   template <bool kInitial>
   Eigen::Vector3f step(const Eigen::Vector3f& q, std::vector<std::pair<Index, float>>& hits) const {
     float nx = 0.0f, ny = 0.0f, nz = 0.0f, den = 0.0f;
-    for (const auto& b : buckets_) {
-      b->tree->radius(q, kInitial ? b->r_initial : b->r_attraction, hits);
-      for (const auto& hit : hits) {
-        const Index s = b->ids[static_cast<std::size_t>(hit.first)];
-        const Precomputed& p = pre_[static_cast<std::size_t>(s)];
-        const float dx = means_(0, s) - q.x();
-        const float dy = means_(1, s) - q.y();
-        const float dz = means_(2, s) - q.z();
-        constexpr int j0 = kInitial ? 3 : 0;
-        constexpr int j1 = kInitial ? 4 : 3;
-        for (int j = j0; j < j1; ++j) {
-          const float* a = p.inv[j];
-          const float tx = a[0] * dx + a[1] * dy + a[2] * dz;
-          const float ty = a[1] * dx + a[3] * dy + a[4] * dz;
-          const float tz = a[2] * dx + a[4] * dy + a[5] * dz;
-          const float e = dx * tx + dy * ty + dz * tz;
-          const float w = p.coef[j] * std::exp(-0.5f * e);
-          const float ws = w * s2_[j];
-          nx += ws * tx;
-          ny += ws * ty;
-          nz += ws * tz;
-          den += w;
-        }
+    index_.for_each_near(q, kInitial ? r_initial_ : r_attraction_, hits, [&](Index s) {
+      const Precomputed& p = pre_[static_cast<std::size_t>(s)];
+      const float dx = means_(0, s) - q.x();
+      const float dy = means_(1, s) - q.y();
+      const float dz = means_(2, s) - q.z();
+      constexpr int j0 = kInitial ? 3 : 0;
+      constexpr int j1 = kInitial ? 4 : 3;
+      for (int j = j0; j < j1; ++j) {
+        const float* a = p.inv[j];
+        const float tx = a[0] * dx + a[1] * dy + a[2] * dz;
+        const float ty = a[1] * dx + a[3] * dy + a[4] * dz;
+        const float tz = a[2] * dx + a[4] * dy + a[5] * dz;
+        const float e = dx * tx + dy * ty + dz * tz;
+        const float w = p.coef[j] * std::exp(-0.5f * e);
+        const float ws = w * s2_[j];
+        nx += ws * tx;
+        ny += ws * ty;
+        nz += ws * tz;
+        den += w;
       }
-    }
+    });
     if (!(den > 0.0f)) return q;  // no component within reach: the particle stays
     return q + Eigen::Vector3f(nx, ny, nz) / den;
   }
@@ -143,7 +100,8 @@ class PreparedMixture {
   const Eigen::Matrix3Xf& means_;
   float s2_[4];
   std::vector<Precomputed> pre_;
-  std::vector<std::unique_ptr<Bucket>> buckets_;
+  detail::MixtureIndex index_;
+  std::vector<float> r_attraction_, r_initial_;
 };
 
 template <class Body>

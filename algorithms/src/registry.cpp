@@ -2,6 +2,7 @@
 
 #include "scanbench/algorithms/cgal_peers.h"
 #include "scanbench/algorithms/clop.h"
+#include "scanbench/algorithms/csw.h"
 #include "scanbench/algorithms/hem.h"
 #include "scanbench/algorithms/lop.h"
 #include "scanbench/algorithms/pca_normals.h"
@@ -41,6 +42,13 @@ const AlgorithmRegistry& registry() {
         "theta(r) = exp(-16 r^2/h^2), h a fraction of the bbox diagonal; particles may exceed "
         "the input (upsampling). Phases init, hem, attraction, repulsion.",
         clop));
+    reg.add(make_entry<CswParams>(
+        "normals.csw",
+        "Continuous spherical Weiszfeld normals (CLOP paper sec. 9, eq. 29-34) on the CLOP "
+        "particles (or the input points with resample=false): wrapped normal axes merged by HEM, "
+        "spherical kernel H = pi, spatial localisation by the eq. 24 kernel integral of width "
+        "normal_h; start from the input normals or the continuous PCA normal.",
+        csw));
     reg.add(make_entry<PcaNormalsParams>(
         "normals.pca",
         "k-nearest-neighbour PCA normals (Hoppe et al. 1992): smallest eigenvector of the "
