@@ -19,6 +19,9 @@ void add_list_command(Cli& cli);
 /// `scanbench scan`: virtual scan of a mesh (scanner-sim).
 void add_scan_command(Cli& cli);
 
+/// `scanbench algo NAME`: one registered algorithm on a point cloud (algorithms module).
+void add_algo_command(Cli& cli);
+
 /// `scanbench bench <name>`: benchmarks that print ratios measured in one run. Each module's
 /// benchmark adds itself in cmd_bench.cpp; the command is hidden while none exists.
 void add_bench_command(Cli& cli);
