@@ -52,9 +52,11 @@ void print_text(const std::string& title, const Json& entries) {
       }
       if (p.contains("choices")) {
         std::string c;
-        for (const auto& x : p["choices"])
-          c += (c.empty() ? "" : "|") + x.get<std::string>();
-        range = " {" + c + "}";
+        for (const auto& x : p["choices"]) {
+          if (!c.empty()) c += '|';
+          c += x.get<std::string>();
+        }
+        range = fmt::format(" {{{}}}", c);
       }
       const std::string unit = p["unit"].get<std::string>();
       fmt::print("      {:<22} {:<7} default {}{}{}  {}\n", p["name"].get<std::string>(),
