@@ -306,7 +306,9 @@ void write_point_cloud(const PointCloud& cloud, const std::filesystem::path& pat
     p.values = column(cloud.size(), [&](Eigen::Index i) { return cloud.scan_ids[i]; });
     ve.properties.push_back(std::move(p));
   }
-  for (const auto& [pname, values] : cloud.properties) {
+  for (const auto& property : cloud.properties) {
+    const std::string& pname = property.first;
+    const Eigen::VectorXf& values = property.second;  // not a binding: lambdas capture it
     if (reserved.count(pname) != 0) {
       throw IoError(fmt::format("{}: property name '{}' is reserved", path.string(), pname));
     }
