@@ -1,8 +1,6 @@
 #include "scanbench/algorithms/lop.h"
 
 #include <fmt/format.h>
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
 
 #include <optional>
 #include <string_view>
@@ -14,17 +12,6 @@
 namespace scanbench::algorithms {
 
 namespace {
-
-constexpr Eigen::Index kGrain = 256;
-
-template <class Body>
-void for_each_particle(Eigen::Index m, Body body) {
-  tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, m, kGrain), [&](const auto& range) {
-    kernels::Scratch s;
-    for (Eigen::Index i = range.begin(); i != range.end(); ++i)
-      body(i, s);
-  });
-}
 
 PointCloud project(const PointCloud& input, const LopParams& p, RunContext& ctx, bool weighted,
                    std::string_view stage) {
@@ -39,7 +26,7 @@ PointCloud project(const PointCloud& input, const LopParams& p, RunContext& ctx,
   const Eigen::Index m = kernels::particle_count(p.particles, input.size(), stage);
 
   Eigen::Matrix3Xf q;
-  Eigen::Matrix3Xf next(3, m);
+  Eigen::Matrix3Xf next;
   Eigen::VectorXf inverse_density;  // empty for LOP
   std::optional<KdTree> point_tree;
   {
@@ -47,10 +34,7 @@ PointCloud project(const PointCloud& input, const LopParams& p, RunContext& ctx,
     point_tree.emplace(pts);
     // Copies (upsampling) are jittered by a small fraction of h so that they can separate.
     q = kernels::initial_particles(pts, m, ctx.stream_seed("particles"), 0.01f * h);
-    for_each_particle(m, [&](Eigen::Index i, kernels::Scratch& s) {
-      next.col(i) = kernels::l2_mean(q.col(i), pts, *point_tree, h, s);
-    });
-    q.swap(next);
+    q = kernels::l2_means(q, pts, *point_tree, h);
   }
   if (weighted && p.iterations > 1) {
     auto timer = ctx.phase("density");
@@ -61,18 +45,14 @@ PointCloud project(const PointCloud& input, const LopParams& p, RunContext& ctx,
     ctx.check_cancelled(stage);
     {
       auto timer = ctx.phase("attraction");
-      for_each_particle(m, [&](Eigen::Index i, kernels::Scratch& s) {
-        next.col(i) = kernels::attraction(q.col(i), pts, *point_tree, inverse_density, h, s);
-      });
+      next = kernels::attractions(q, pts, *point_tree, inverse_density, h);
     }
     {
       auto timer = ctx.phase("repulsion");
       const KdTree particle_tree(q);
       Eigen::VectorXf w;  // empty for LOP
       if (weighted) w = kernels::density_weights(q, particle_tree, h);
-      for_each_particle(m, [&](Eigen::Index i, kernels::Scratch& s) {
-        next.col(i) += mu * kernels::repulsion(i, q, particle_tree, w, h, h, s);
-      });
+      next += mu * kernels::repulsions(q, particle_tree, w, h, h);
     }
     q.swap(next);
   }

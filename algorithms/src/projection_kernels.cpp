@@ -55,6 +55,125 @@ void alpha_in_place(Eigen::Index n, float h, Scratch& s) {
   r2 = (k * r2).exp() / s.b.head(n);
 }
 
+// Queries grouped into cubic cells (sorted by cell key, then index).
+struct Cells {
+  std::vector<Eigen::Index> order;  // query indices, cell by cell
+  std::vector<Eigen::Index> begin;  // cell c holds order[begin[c] .. begin[c + 1])
+  std::vector<Eigen::Vector3f> centre;
+};
+
+Cells make_cells(const Eigen::Matrix3Xf& q, float cell) {
+  Cells c;
+  const Eigen::Index n = q.cols();
+  if (n == 0) {
+    c.begin.push_back(0);
+    return c;
+  }
+  const Eigen::Vector3f lo = q.rowwise().minCoeff();
+  std::vector<std::pair<std::uint64_t, Eigen::Index>> keys(static_cast<std::size_t>(n));
+  for (Eigen::Index i = 0; i < n; ++i) {
+    std::uint64_t key = 0;
+    for (int d = 0; d < 3; ++d) {
+      const auto k = static_cast<std::uint64_t>(std::floor((q(d, i) - lo[d]) / cell));
+      key = (key << 21) | std::min<std::uint64_t>(k, (1u << 21) - 1);
+    }
+    keys[static_cast<std::size_t>(i)] = {key, i};
+  }
+  std::sort(keys.begin(), keys.end());
+  c.order.reserve(static_cast<std::size_t>(n));
+  for (std::size_t k = 0; k < keys.size(); ++k) {
+    if (k == 0 || keys[k].first != keys[k - 1].first) {
+      c.begin.push_back(static_cast<Eigen::Index>(k));
+      const std::uint64_t key = keys[k].first;
+      const Eigen::Vector3f ijk(static_cast<float>((key >> 42) & 0x1fffff),
+                                static_cast<float>((key >> 21) & 0x1fffff),
+                                static_cast<float>(key & 0x1fffff));
+      c.centre.push_back(lo + (ijk.array() + 0.5f).matrix() * cell);
+    }
+    c.order.push_back(keys[k].second);
+  }
+  c.begin.push_back(n);
+  return c;
+}
+
+// The candidates of one cell: absolute coordinates, indices and one gathered weight each.
+struct Candidates {
+  std::vector<std::pair<Eigen::Index, float>> hits;
+  Eigen::ArrayXf x, y, z, weight;
+  Eigen::Array<Eigen::Index, Eigen::Dynamic, 1> index;
+  // Per-query work arrays.
+  Eigen::ArrayXf dx, dy, dz, r2, k;
+  Eigen::Index n = 0;
+};
+
+// Runs f(query index, candidates) for every query; candidates hold every point of `pts` within
+// `radius` of the query's cell (a superset of the query's own ball). `weight_of(j)` fills the
+// per-candidate weight (1 when not needed).
+template <class WeightOf, class F>
+void for_each_query(const Eigen::Matrix3Xf& queries, const Eigen::Matrix3Xf& pts,
+                    const KdTree& tree, float radius, WeightOf weight_of, F f) {
+  const float cell = radius / 3.0f;
+  const Cells cells = make_cells(queries, cell);
+  const float reach = radius + 0.5f * std::sqrt(3.0f) * cell;
+  const auto ncells = static_cast<Eigen::Index>(cells.centre.size());
+  tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, ncells, 1), [&](const auto& range) {
+    Candidates c;
+    for (Eigen::Index cc = range.begin(); cc != range.end(); ++cc) {
+      tree.radius(cells.centre[static_cast<std::size_t>(cc)], reach, c.hits, false);
+      const auto n = static_cast<Eigen::Index>(c.hits.size());
+      c.n = n;
+      if (c.x.size() < n) {
+        const Eigen::Index cap = std::max<Eigen::Index>(n, 2 * c.x.size());
+        for (auto* a : {&c.x, &c.y, &c.z, &c.weight, &c.dx, &c.dy, &c.dz, &c.r2, &c.k})
+          a->resize(cap);
+        c.index.resize(cap);
+      }
+      for (Eigen::Index t = 0; t < n; ++t) {
+        const Eigen::Index j = c.hits[static_cast<std::size_t>(t)].first;
+        c.x[t] = pts(0, j);
+        c.y[t] = pts(1, j);
+        c.z[t] = pts(2, j);
+        c.index[t] = j;
+        c.weight[t] = weight_of(j);
+      }
+      for (auto k = cells.begin[static_cast<std::size_t>(cc)];
+           k < cells.begin[static_cast<std::size_t>(cc) + 1]; ++k) {
+        f(cells.order[static_cast<std::size_t>(k)], c);
+      }
+    }
+  });
+}
+
+// Offsets and squared distances of the candidates from q; sets c.k to the support mask
+// (1 inside radius and not `skip`, else 0).
+void offsets(const Eigen::Vector3f& q, float radius, Eigen::Index skip, Candidates& c) {
+  const Eigen::Index n = c.n;
+  c.dx.head(n) = c.x.head(n) - q.x();
+  c.dy.head(n) = c.y.head(n) - q.y();
+  c.dz.head(n) = c.z.head(n) - q.z();
+  c.r2.head(n) = c.dx.head(n).square() + c.dy.head(n).square() + c.dz.head(n).square();
+  c.k.head(n) = (c.r2.head(n) <= radius * radius && c.index.head(n) != skip).cast<float>();
+}
+
+// Weighted mean offset sum_t k_t d_t / sum_t k_t of the candidates (k = c.k), or zero.
+Eigen::Vector3f weighted_offset(Candidates& c) {
+  const Eigen::Index n = c.n;
+  const float sum = c.k.head(n).sum();
+  if (!(sum > 0.0f)) return Eigen::Vector3f::Zero();
+  return Eigen::Vector3f((c.k.head(n) * c.dx.head(n)).sum(), (c.k.head(n) * c.dy.head(n)).sum(),
+                         (c.k.head(n) * c.dz.head(n)).sum()) /
+         sum;
+}
+
+// c.k *= alpha(r) (clamped at eps h) on the masked candidates.
+void times_alpha(float h, Candidates& c) {
+  const Eigen::Index n = c.n;
+  const float floor2 = kClampRatio * kClampRatio * h * h;
+  const float kk = -kThetaFactor / (h * h);
+  auto r2 = c.r2.head(n).max(floor2);
+  c.k.head(n) *= (kk * r2).exp() / r2.sqrt();
+}
+
 }  // namespace
 
 float theta(float r, float h) {
@@ -67,17 +186,60 @@ float alpha(float r, float h) {
 }
 
 Eigen::VectorXf density_weights(const Eigen::Matrix3Xf& points, const KdTree& tree, float h) {
-  const Eigen::Index n = points.cols();
-  Eigen::VectorXf v(n);
-  const float k = -kThetaFactor / (h * h);
-  tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, n, 256), [&](const auto& range) {
-    Scratch s;
-    for (Eigen::Index j = range.begin(); j != range.end(); ++j) {
-      const Eigen::Index m = gather(points.col(j), points, tree, h, s, j);
-      v[j] = 1.0f + (k * s.a.head(m)).exp().sum();
-    }
-  });
+  Eigen::VectorXf v(points.cols());
+  const float kk = -kThetaFactor / (h * h);
+  for_each_query(
+      points, points, tree, h, [](Eigen::Index) { return 1.0f; },
+      [&](Eigen::Index j, Candidates& c) {
+        offsets(points.col(j), h, j, c);
+        v[j] = 1.0f + (c.k.head(c.n) * (kk * c.r2.head(c.n)).exp()).sum();
+      });
   return v;
+}
+
+Eigen::Matrix3Xf l2_means(const Eigen::Matrix3Xf& q, const Eigen::Matrix3Xf& points,
+                          const KdTree& tree, float h) {
+  Eigen::Matrix3Xf out(3, q.cols());
+  const float kk = -kThetaFactor / (h * h);
+  for_each_query(
+      q, points, tree, h, [](Eigen::Index) { return 1.0f; },
+      [&](Eigen::Index i, Candidates& c) {
+        offsets(q.col(i), h, -1, c);
+        c.k.head(c.n) *= (kk * c.r2.head(c.n)).exp();
+        out.col(i) = q.col(i) + weighted_offset(c);
+      });
+  return out;
+}
+
+Eigen::Matrix3Xf attractions(const Eigen::Matrix3Xf& q, const Eigen::Matrix3Xf& points,
+                             const KdTree& tree, const Eigen::VectorXf& inverse_density, float h) {
+  Eigen::Matrix3Xf out(3, q.cols());
+  const bool weighted = inverse_density.size() > 0;
+  for_each_query(
+      q, points, tree, h, [&](Eigen::Index j) { return weighted ? inverse_density[j] : 1.0f; },
+      [&](Eigen::Index i, Candidates& c) {
+        offsets(q.col(i), h, -1, c);
+        times_alpha(h, c);
+        if (weighted) c.k.head(c.n) *= c.weight.head(c.n);
+        out.col(i) = q.col(i) + weighted_offset(c);
+      });
+  return out;
+}
+
+Eigen::Matrix3Xf repulsions(const Eigen::Matrix3Xf& particles, const KdTree& tree,
+                            const Eigen::VectorXf& particle_weights, float h, float cutoff) {
+  Eigen::Matrix3Xf out(3, particles.cols());
+  const bool weighted = particle_weights.size() > 0;
+  for_each_query(
+      particles, particles, tree, cutoff,
+      [&](Eigen::Index j) { return weighted ? particle_weights[j] : 1.0f; },
+      [&](Eigen::Index i, Candidates& c) {
+        offsets(particles.col(i), cutoff, i, c);
+        times_alpha(h, c);
+        if (weighted) c.k.head(c.n) *= c.weight.head(c.n);
+        out.col(i) = -weighted_offset(c);  // offsets are q_i' - q_i; F2 sums q_i - q_i'
+      });
+  return out;
 }
 
 Eigen::Vector3f l2_mean(const Eigen::Vector3f& q, const Eigen::Matrix3Xf& points,

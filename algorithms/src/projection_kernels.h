@@ -45,7 +45,8 @@ struct Scratch {
 
 /// Density weights 1 + sum_{j' != j} theta(|p_j - p_j'|) over the points within h of p_j
 /// (WLOP's v_j for input points, computed once; w_i for particles, every iteration; CLOP eq. 25).
-/// `tree` indexes `points`. TBB-parallel; each weight is computed independently (deterministic).
+/// `tree` indexes `points`. TBB-parallel and batched by cells like l2_means() below; each weight
+/// is computed independently (deterministic).
 Eigen::VectorXf density_weights(const Eigen::Matrix3Xf& points, const KdTree& tree, float h);
 
 /// The L2 first iteration of LOP (CLOP eq. 2) for one particle q:
@@ -71,6 +72,24 @@ Eigen::Vector3f attraction(const Eigen::Vector3f& q, const Eigen::Matrix3Xf& poi
 Eigen::Vector3f repulsion(Eigen::Index i, const Eigen::Matrix3Xf& particles, const KdTree& tree,
                           const Eigen::VectorXf& particle_weights, float h, float cutoff,
                           Scratch& s);
+
+/// Batched forms of the kernels above for every query at once (TBB-parallel). Queries are grouped
+/// into cubic cells of side radius/3; one KdTree radius query per cell (radius + half the cell
+/// diagonal, about 1.3 x radius) collects the candidates that every query of the cell then filters
+/// to its exact support with vectorised distance tests. Each query's sums run over its candidates
+/// in a fixed order, so results do not depend on the thread count; they equal the per-query
+/// functions up to float summation order. This is what makes the discrete operators fast: the
+/// tree is walked once per cell instead of once per particle.
+///
+/// l2_mean() of every column of q.
+Eigen::Matrix3Xf l2_means(const Eigen::Matrix3Xf& q, const Eigen::Matrix3Xf& points,
+                          const KdTree& tree, float h);
+/// attraction() of every column of q.
+Eigen::Matrix3Xf attractions(const Eigen::Matrix3Xf& q, const Eigen::Matrix3Xf& points,
+                             const KdTree& tree, const Eigen::VectorXf& inverse_density, float h);
+/// repulsion() of every particle (tree indexes `particles`).
+Eigen::Matrix3Xf repulsions(const Eigen::Matrix3Xf& particles, const KdTree& tree,
+                            const Eigen::VectorXf& particle_weights, float h, float cutoff);
 
 /// The number of particles for the `particles` parameter of the projection operators: a value
 /// in (0, 1] is a share of the n input points (rounded to nearest, at least 1); a value > 1 is a

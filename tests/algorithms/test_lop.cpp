@@ -169,6 +169,26 @@ TEST_F(KernelOracle, RepulsionMatchesBruteForceWithCutoff) {
   }
 }
 
+// The cell-batched kernels equal the per-particle kernels up to float summation order.
+TEST_F(KernelOracle, BatchedKernelsEqualPerParticleKernels) {
+  const auto& p = cloud_.positions;
+  const KdTree tree(p);
+  const KdTree qtree(particles_);
+  const Eigen::VectorXf inv_v = kernels::density_weights(p, tree, h_).cwiseInverse();
+  const Eigen::VectorXf w = kernels::density_weights(particles_, qtree, h_);
+  const Eigen::Matrix3Xf l2 = kernels::l2_means(particles_, p, tree, h_);
+  const Eigen::Matrix3Xf f1 = kernels::attractions(particles_, p, tree, inv_v, h_);
+  const Eigen::Matrix3Xf f2 = kernels::repulsions(particles_, qtree, w, h_, 0.5f * h_);
+  kernels::Scratch s;
+  for (Eigen::Index i = 0; i < particles_.cols(); ++i) {
+    const Eigen::Vector3f q = particles_.col(i);
+    EXPECT_LT((l2.col(i) - kernels::l2_mean(q, p, tree, h_, s)).norm(), 1e-6f);
+    EXPECT_LT((f1.col(i) - kernels::attraction(q, p, tree, inv_v, h_, s)).norm(), 1e-6f);
+    EXPECT_LT((f2.col(i) - kernels::repulsion(i, particles_, qtree, w, h_, 0.5f * h_, s)).norm(),
+              1e-6f);
+  }
+}
+
 TEST(ProjectionKernels, ParticleCount) {
   EXPECT_EQ(kernels::particle_count(0.5, 1000, "x"), 500);
   EXPECT_EQ(kernels::particle_count(1.0, 1000, "x"), 1000);
