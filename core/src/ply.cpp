@@ -339,10 +339,12 @@ void read_body(Input& in, File& f, const std::string& name) {
   std::array<char, 8> bytes{};
   for (Element& e : f.elements) {
     if (e.properties.empty()) continue;  // nothing stored per row
+    // The declared count is not trusted for allocation (a short file may claim billions of
+    // rows): vectors grow with the data actually read.
     for (Property& p : e.properties) {
-      p.values.reserve(std::min<std::size_t>(e.count, std::size_t{1} << 20));
+      p.values.reserve(std::min<std::size_t>(e.count, 4096));
       if (p.is_list) {
-        p.offsets.reserve(std::min<std::size_t>(e.count + 1, std::size_t{1} << 20));
+        p.offsets.reserve(std::min<std::size_t>(e.count + 1, 4096));
         p.offsets.push_back(0);
       }
     }
