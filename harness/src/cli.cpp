@@ -21,6 +21,7 @@ int run_cli(int argc, char** argv) {
   add_scan_command(cli);
   add_algo_command(cli);
   add_bench_command(cli);
+  add_eval_command(cli);
 
   try {
     cli.app.parse(argc, argv);

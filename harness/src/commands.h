@@ -26,4 +26,7 @@ void add_algo_command(Cli& cli);
 /// benchmark adds itself in cmd_bench.cpp; the command is hidden while none exists.
 void add_bench_command(Cli& cli);
 
+/// `scanbench eval`: metrics of one output against a ground truth (metrics module).
+void add_eval_command(Cli& cli);
+
 }  // namespace scanbench::harness
