@@ -119,16 +119,17 @@ class Input {
     }
   }
 
-  bool bytes(char* dst, std::size_t n) {
-    while (n > 0) {
-      if (pos_ == end_ && !fill()) return false;
-      const std::size_t k = std::min(n, end_ - pos_);
-      std::memcpy(dst, buf_.data() + pos_, k);
+  // Copies up to n bytes; returns how many were available (n unless the data ends).
+  std::size_t bytes(char* dst, std::size_t n) {
+    std::size_t done = 0;
+    while (done < n) {
+      if (pos_ == end_ && !fill()) break;
+      const std::size_t k = std::min(n - done, end_ - pos_);
+      std::memcpy(dst + done, buf_.data() + pos_, k);
       pos_ += k;
-      dst += k;
-      n -= k;
+      done += k;
     }
-    return true;
+    return done;
   }
 
   // True when everything left is whitespace.
@@ -348,6 +349,34 @@ void read_body(Input& in, File& f, const std::string& name) {
         p.offsets.push_back(0);
       }
     }
+    // Binary rows of scalars have a fixed size: read each row in one go (the common case of
+    // large point clouds), decoding at fixed offsets.
+    const bool fixed = !ascii && std::none_of(e.properties.begin(), e.properties.end(),
+                                              [](const Property& p) { return p.is_list; });
+    if (fixed) {
+      std::vector<std::size_t> offset;
+      std::size_t row_size = 0;
+      for (const Property& p : e.properties) {
+        offset.push_back(row_size);
+        row_size += info(p.type).size;
+      }
+      std::vector<char> row_bytes(row_size);
+      for (std::size_t row = 0; row < e.count; ++row) {
+        const std::size_t got = in.bytes(row_bytes.data(), row_size);
+        if (got != row_size) {
+          std::size_t k = 0;
+          while (offset[k] + info(e.properties[k].type).size <= got)
+            ++k;
+          throw IoError(fmt::format("{}: element {}, row {}, property {}: unexpected end of file",
+                                    name, e.name, row, e.properties[k].name));
+        }
+        for (std::size_t k = 0; k < e.properties.size(); ++k) {
+          Property& p = e.properties[k];
+          p.values.push_back(decode(row_bytes.data() + offset[k], p.type, swap));
+        }
+      }
+      continue;
+    }
     for (std::size_t row = 0; row < e.count; ++row) {
       for (Property& p : e.properties) {
         auto fail = [&](const std::string& what) {
@@ -363,7 +392,9 @@ void read_body(Input& in, File& f, const std::string& name) {
             }
             return v;
           }
-          if (!in.bytes(bytes.data(), info(t).size)) fail("unexpected end of file");
+          if (in.bytes(bytes.data(), info(t).size) != info(t).size) {
+            fail("unexpected end of file");
+          }
           return decode(bytes.data(), t, swap);
         };
         if (!p.is_list) {
