@@ -22,6 +22,12 @@ int run_cli(int argc, char** argv) {
   add_algo_command(cli);
   add_bench_command(cli);
   add_eval_command(cli);
+  add_run_command(cli);
+  add_job_command(cli);
+  add_table_command(cli);
+  add_compare_command(cli);
+  add_report_command(cli);
+  add_nightly_command(cli);
 
   try {
     cli.app.parse(argc, argv);

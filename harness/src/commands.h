@@ -29,4 +29,12 @@ void add_bench_command(Cli& cli);
 /// `scanbench eval`: metrics of one output against a ground truth (metrics module).
 void add_eval_command(Cli& cli);
 
+/// Experiments (helper "harness"): run, the hidden job child, table, compare, report, nightly.
+void add_run_command(Cli& cli);
+void add_job_command(Cli& cli);
+void add_table_command(Cli& cli);
+void add_compare_command(Cli& cli);
+void add_report_command(Cli& cli);
+void add_nightly_command(Cli& cli);
+
 }  // namespace scanbench::harness

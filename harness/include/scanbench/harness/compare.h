@@ -1,0 +1,77 @@
+#pragma once
+// Comparing two result sets (`scanbench compare BASE NEW`, `scanbench nightly`).
+//
+// Jobs are matched by their readable key (dataset|scanner|variant|point|seed).
+//  - Status: a job ok in BASE that failed in NEW, or is missing from NEW, is a regression.
+//  - Accuracy: every numeric metric present on both sides. Direction: higher is better for
+//    keys containing fscore, precision, recall, share or within; neutral (informational) for
+//    counts and context (keys starting with "n_" or "gt_", or containing count, points, samples,
+//    threshold, scan_noise, fallback); lower is better otherwise. A change
+//    is significant when |new - base| > abs + rel * |base|; significant and worse = regression,
+//    significant and better = improvement.
+//  - Timing: for "time.total" and every phase, the repeat samples are compared with a two-sided
+//    Mann-Whitney U test (as Google Benchmark's compare.py and asv do): a change is flagged only
+//    when p < alpha AND the relative change of the medians exceeds time_threshold AND the
+//    medians differ by more than min_time_s. Slower = regression, faster = improvement. With
+//    fewer than 2 samples on a side the timing verdict is "too few repeats" and never a
+//    regression.
+// Tolerances come from the "compare" object of NEW's config.json (when present), overridden by
+// command-line options:
+//   {"alpha": 0.05, "time_threshold": 0.1, "min_time_s": 0.001, "timing": true,
+//    "default": {"rel": 0.05, "abs": 1e-9},
+//    "metrics": {"<metric key>": {"rel": r, "abs": a, "better": "lower"|"higher"|"none"}},
+//    "ignore": ["<metric key>", ...]}
+#include <map>
+#include <string>
+#include <vector>
+
+#include "scanbench/core/params.h"
+
+namespace scanbench::harness {
+
+struct Tolerance {
+  double rel = 0.05;
+  double abs = 1e-9;
+  int better = -1;  ///< -1 lower is better, +1 higher is better, 0 neutral
+};
+
+struct CompareOptions {
+  double alpha = 0.05;
+  double time_threshold = 0.10;
+  double min_time_s = 0.001;
+  bool timing = true;
+  Tolerance default_tolerance;
+  std::map<std::string, Tolerance> metric_tolerances;  ///< explicit per metric key
+  std::vector<std::string> ignore;
+
+  /// Options from a "compare" JSON object (see above); throws ParamError naming `where`.
+  static CompareOptions from_json(const Json& j, const std::string& where);
+  /// The tolerance of a metric key (explicit, else default with the direction rule above).
+  Tolerance tolerance(const std::string& metric) const;
+};
+
+struct Verdict {
+  std::string key;       ///< job key
+  std::string quantity;  ///< "status", a metric key, or "time.<phase>"
+  std::string kind;      ///< "status" | "accuracy" | "time"
+  double base = 0, now = 0;
+  double change = 0;    ///< relative change (now - base) / |base| (0 when base is 0)
+  double p = 1;         ///< Mann-Whitney p (time only)
+  std::string verdict;  ///< "regression" | "improvement" | "same" | "changed" | "new" | "n/a"
+  std::string note;
+  Json to_json() const;
+};
+
+struct CompareResult {
+  std::vector<Verdict> verdicts;  ///< every comparison made
+  int regressions = 0, improvements = 0, unchanged = 0;
+  bool regressed() const { return regressions > 0; }
+  Json to_json() const;
+  /// Markdown table of the regressions and improvements (and a one-line summary).
+  std::string table(bool all = false) const;
+};
+
+CompareResult compare_records(const std::vector<Json>& base, const std::vector<Json>& now,
+                              const CompareOptions& options);
+
+}  // namespace scanbench::harness

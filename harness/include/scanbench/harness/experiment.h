@@ -1,0 +1,125 @@
+#pragma once
+// Experiment configs (JSON, version 1) and their expansion into jobs.
+//
+// A config names datasets (registered names or mesh paths), scanner presets with overrides,
+// algorithm variants (one registered algorithm or a chain, each step with parameters), metrics,
+// sweeps over any declared parameter (scanner and dataset parameters included), seeds, timing
+// repeats, threads and per-job limits. Every value is validated when the config is loaded:
+// unknown keys, wrong types and out-of-range values throw ParamError with the file, the JSON
+// path and what was expected ("sweep.json: /variants/0/sweep/resample.clop.alpha/2: expected a
+// number in [1, 10], got 11"). The schemas come from the registries (declared parameters), so
+// nothing here can drift from the algorithms. The format is documented in README ("Experiments").
+//
+// Expansion: datasets x scanners x variants x sweep points x seeds, in that (stable) order. A
+// sweep is an object {"<target>.<param>": values, ...} whose keys form a Cartesian product;
+// "sweep" may also be an array of such objects (their union). <target> is "scanner", "dataset",
+// or a chain step (its algorithm name or its "label"). values: a JSON array, or a range
+// {"from": a, "to": b, "step": s} (b included when reached within 1e-9 relative), or
+// {"from": a, "to": b, "count": n} (n evenly spaced values, ends included).
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "scanbench/core/params.h"
+
+namespace scanbench::harness {
+
+/// Current config format version (key "scanbench_experiment").
+inline constexpr int kExperimentVersion = 1;
+
+struct ScannerSpec {
+  std::string label;   ///< shown in tables; defaults to the preset name
+  std::string preset;  ///< a registered scanner preset
+  Json overrides = Json::object();
+};
+
+struct DatasetSpec {
+  std::string label;  ///< shown in tables; defaults to the name (or the file stem)
+  std::string name;   ///< registered dataset name or mesh path
+  Json params = Json::object();
+  bool optional = false;  ///< a missing mesh file is skipped with a note instead of an error
+  std::vector<ScannerSpec> scanners;
+};
+
+struct StepSpec {
+  std::string algorithm;  ///< registered algorithm name
+  std::string label;      ///< optional name used by sweep keys (defaults to the algorithm)
+  Json params = Json::object();
+};
+
+/// One sweep: key -> list of values (already expanded from ranges), keys in config order.
+using Sweep = std::vector<std::pair<std::string, std::vector<Json>>>;
+
+struct VariantSpec {
+  std::string label;
+  std::vector<StepSpec> chain;
+  std::vector<Sweep> sweeps;  ///< union of Cartesian products; empty = one point
+};
+
+struct Experiment {
+  std::filesystem::path file;  ///< where it was loaded from (for messages)
+  std::string name;
+  std::string description;
+  std::vector<std::uint64_t> seeds{1};
+  int repeats = 1;
+  int threads = 1;
+  double timeout_s = 600.0;
+  double memory_limit_mb = 4096.0;
+  bool save_outputs = true;
+  std::vector<DatasetSpec> datasets;
+  std::vector<VariantSpec> variants;
+  std::vector<Sweep> sweeps;            ///< global sweeps (keys "scanner.*" / "dataset.*" only)
+  std::vector<std::string> metrics;     ///< empty = every registered metric
+  Json metric_params = Json::object();  ///< metric name -> effective params
+  Json compare = Json::object();        ///< tolerances for `scanbench compare` (see compare.h)
+  Json report = Json::object();         ///< plot hints for `scanbench report`
+  Json raw;                             ///< the config as read
+};
+
+/// Reads and validates a config file. Throws IoError (unreadable, not JSON) or ParamError.
+Experiment load_experiment(const std::filesystem::path& file);
+/// Validates a parsed config; `where` prefixes messages (usually the file name).
+Experiment parse_experiment(const Json& config, const std::string& where);
+
+/// One job: everything a child process needs, with every parameter effective (defaults filled).
+struct Job {
+  std::string id;   ///< 16 hex digits: hash of the canonical description below
+  std::string key;  ///< readable and stable: dataset|scanner|variant|point|seed
+  std::string experiment;
+  std::string dataset_label, dataset;  ///< dataset: registered name or mesh path
+  Json dataset_params = Json::object();
+  std::string scanner_label, scanner_preset;
+  Json scanner_params = Json::object();  ///< complete effective scanner parameters
+  std::string variant;
+  Json chain = Json::array();   ///< [{"algorithm", "label", "params"}], params effective
+  Json point = Json::object();  ///< the sweep assignments of this job ("key": value)
+  std::string point_label;      ///< "alpha=2 levels=4" (empty without sweeps)
+  std::uint64_t seed = 1;
+  int repeats = 1;
+  int threads = 1;
+  double timeout_s = 600.0;
+  double memory_limit_mb = 4096.0;
+  bool save_outputs = true;
+  std::vector<std::string> metrics;
+  Json metric_params = Json::object();
+
+  Json to_json() const;
+  static Job from_json(const Json& j);
+  /// Flat effective parameters: "dataset.x", "scanner.x", "<step>.x".
+  Json flat_params() const;
+};
+
+struct Plan {
+  std::vector<Job> jobs;
+  std::vector<std::string> notes;  ///< e.g. skipped datasets whose files are absent
+};
+
+/// Expands the config into jobs (see the top of this file). Throws ParamError for sweep values
+/// that the parameter's declaration rejects, and for duplicate job keys.
+Plan expand(const Experiment& e);
+
+/// 16 hex digits of a 64-bit content hash (FNV-1a, then mixed) of `bytes`.
+std::string content_hash(std::string_view bytes);
+
+}  // namespace scanbench::harness

@@ -1,0 +1,62 @@
+#pragma once
+// Job records and the results folder.
+//
+// Layout of a results folder DIR (written by `scanbench run`):
+//   DIR/config.json        the experiment config as given (plus its source path)
+//   DIR/plan.json          every expanded job, in expansion order
+//   DIR/jobs/<id>.json     one record per finished job, written atomically (temp file + rename)
+//   DIR/scans/<hash>.ply   scan cache (+ .ply.json sidecar), keyed by mesh, scanner params, seed
+//   DIR/outputs/<id>*.ply  algorithm outputs (points; .mixture.ply; .mesh.ply)
+//   DIR/runs.jsonl         all records merged, one per line, in plan order
+//   DIR/runs.csv           the same, flattened (params.*, metrics.*, time.* medians)
+//
+// A record: {"id","key","experiment","status","error","dataset":{label,name,params},
+// "scanner":{label,preset,params},"variant":{label,chain:[{algorithm,label,params}]},"point",
+// "point_label","seed","repeats","params" (flat effective parameters),"metrics" (flat numbers),
+// "histograms","timing":{"total_s":[...],"cpu_s":[...],"phases":{name:[...]},"scan_s",
+// "scan_cached","metrics_s","job_wall_s"},"peak_rss_mb","sizes","artifacts","context"}.
+// status: "ok", "error" (a typed exception: bad input or parameters), "crash" (killed by a
+// signal), "timeout" (killed after timeout_s), "memory" (allocation failed under
+// memory_limit_mb).
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "scanbench/core/params.h"
+
+namespace scanbench::harness {
+
+/// Where and with what the run happened: commit, compiler, library versions, host, CPU model,
+/// hardware threads, date (UTC, ISO 8601).
+Json run_context_json();
+
+/// Writes `text` to `path` atomically: a temp file in the same folder, fsync, rename. Throws
+/// IoError.
+void write_file_atomic(const std::filesystem::path& path, const std::string& text);
+/// Reads a whole file; throws IoError.
+std::string read_file(const std::filesystem::path& path);
+/// Reads a JSON file; throws IoError naming the file for unreadable or invalid JSON.
+Json read_json_file(const std::filesystem::path& path);
+
+/// The records of a results folder: runs.jsonl when present and at least as new as every file
+/// in jobs/, else jobs/*.json (in plan.json order when present, then by id). Throws IoError when
+/// DIR holds neither.
+std::vector<Json> load_records(const std::filesystem::path& dir);
+/// Records in jobs/ only, ordered by plan.json when present.
+std::vector<Json> load_job_records(const std::filesystem::path& dir);
+
+/// Writes DIR/runs.jsonl and DIR/runs.csv from the records (atomically).
+void write_merged(const std::filesystem::path& dir, const std::vector<Json>& records);
+/// The CSV text of the records (header + one line per record).
+std::string records_csv(const std::vector<Json>& records);
+
+/// Median of the values (NaN when empty).
+double median(std::vector<double> v);
+
+/// Reads a numeric quantity of a record: "time.total" (median of total_s), "time.cpu",
+/// "time.<phase>", "peak_rss_mb", "sizes.<key>", or a metric key. NaN when absent.
+double record_value(const Json& record, const std::string& quantity);
+/// The samples behind a quantity: timing samples for time.*, else the one value.
+std::vector<double> record_samples(const Json& record, const std::string& quantity);
+
+}  // namespace scanbench::harness

@@ -1,0 +1,188 @@
+// The child side of a job: dataset -> (cached) scan -> algorithm chain (repeated for timing) ->
+// metrics -> outputs. Runs inside `scanbench job`; the parent turns the result into a record.
+#include <fmt/format.h>
+#include <sys/resource.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstring>
+#include <map>
+
+#include "scanbench/algorithms/registry.h"
+#include "scanbench/core/datasets.h"
+#include "scanbench/core/errors.h"
+#include "scanbench/core/io.h"
+#include "scanbench/harness/records.h"
+#include "scanbench/harness/runner.h"
+#include "scanbench/harness/test_algorithms.h"
+#include "scanbench/metrics/evaluate.h"
+#include "scanbench/metrics/ground_truth.h"
+#include "scanbench/scanner/scanner.h"
+
+namespace scanbench::harness {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+double seconds_since(Clock::time_point t) {
+  return std::chrono::duration<double>(Clock::now() - t).count();
+}
+
+double cpu_seconds() {
+  struct rusage ru {};
+  getrusage(RUSAGE_SELF, &ru);
+  return static_cast<double>(ru.ru_utime.tv_sec + ru.ru_stime.tv_sec) +
+         1e-6 * static_cast<double>(ru.ru_utime.tv_usec + ru.ru_stime.tv_usec);
+}
+
+std::string mesh_hash(const TriangleMesh& m) {
+  std::string bytes;
+  bytes.append(reinterpret_cast<const char*>(m.vertices.data()),
+               sizeof(float) * static_cast<std::size_t>(m.vertices.size()));
+  bytes.append(reinterpret_cast<const char*>(m.faces.data()),
+               sizeof(int) * static_cast<std::size_t>(m.faces.size()));
+  return content_hash(bytes);
+}
+
+bool same_points(const PointCloud& a, const PointCloud& b) {
+  if (a.positions.cols() != b.positions.cols()) return false;
+  return std::memcmp(a.positions.data(), b.positions.data(),
+                     sizeof(float) * static_cast<std::size_t>(a.positions.size())) == 0;
+}
+
+}  // namespace
+
+Json execute_job(const Job& job, const fs::path& out) {
+  Json res = Json::object();
+  Json timing = Json::object();
+  Json artifacts = Json::object();
+  Json sizes = Json::object();
+  RunContext ctx(job.seed, job.threads);
+
+  const TriangleMesh mesh = load_dataset(job.dataset, job.dataset_params);
+
+  // Scan, cached by content: the mesh bytes, the effective scanner parameters and the seed.
+  const Json scan_key = {
+      {"mesh", mesh_hash(mesh)}, {"scanner", job.scanner_params}, {"seed", job.seed}};
+  const std::string scan_hash = content_hash(scan_key.dump());
+  const fs::path ply = out / "scans" / (scan_hash + ".ply");
+  const auto t_scan = Clock::now();
+  const bool cached = fs::exists(ply) && fs::exists(scanner::sidecar_path(ply));
+  if (!cached) {
+    const auto p = params_from_json<scanner::ScannerParams>(job.scanner_params,
+                                                            "scanner " + job.scanner_label);
+    const scanner::Scan s = scanner::scan(mesh, p, ctx);
+    // Write under a private name, then rename (sidecar first: the PLY marks completion).
+    const fs::path tmp = out / "scans" / fmt::format(".{}.{}.ply", scan_hash, getpid());
+    scanner::write_scan(s, tmp);
+    fs::rename(scanner::sidecar_path(tmp), scanner::sidecar_path(ply));
+    fs::rename(tmp, ply);
+  }
+  // Every job reads the scan back from the cache, so a cached and a fresh scan give the same
+  // input bit for bit.
+  const PointCloud cloud = read_point_cloud(ply);
+  timing["scan_s"] = seconds_since(t_scan);
+  timing["scan_cached"] = cached;
+  artifacts["scan"] = "scans/" + scan_hash + ".ply";
+  artifacts["scan_record"] = "scans/" + scan_hash + ".ply.json";
+  sizes["scan_points"] = cloud.size();
+  if (cloud.has_property("outlier")) {
+    sizes["scan_outliers"] = cloud.properties.at("outlier").sum();
+  }
+
+  // The chain, `repeats` times; every sample of every phase is kept.
+  std::map<std::string, std::vector<double>> phases;
+  std::vector<double> total, cpu;
+  algorithms::AlgorithmOutput final_out;
+  bool identical = true;
+  for (int rep = 0; rep < job.repeats; ++rep) {
+    algorithms::AlgorithmOutput cur;
+    cur.points = cloud;
+    std::map<std::string, double> rep_phases;
+    double rep_total = 0;
+    const double cpu0 = cpu_seconds();
+    for (const auto& step : job.chain) {
+      const std::string algo = step.at("algorithm").get<std::string>();
+      const std::string label = step.at("label").get<std::string>();
+      const auto& entry = algorithm_entry(algo);
+      ctx.clear_phases();
+      const auto t0 = Clock::now();
+      algorithms::AlgorithmOutput next = entry.fn(cur.points, step.at("params"), ctx);
+      const double dt = seconds_since(t0);
+      rep_total += dt;
+      rep_phases[label] += dt;
+      for (const auto& [name, s] : ctx.phase_seconds())
+        rep_phases[label + ":" + name] += s;
+      // A step that yields no mixture or mesh keeps the previous one (e.g. normals after HEM).
+      if (!next.mixture) next.mixture = std::move(cur.mixture);
+      if (!next.mesh) next.mesh = std::move(cur.mesh);
+      cur = std::move(next);
+    }
+    cpu.push_back(cpu_seconds() - cpu0);
+    total.push_back(rep_total);
+    for (const auto& [k, v] : rep_phases)
+      phases[k].push_back(v);
+    if (rep == 0) {
+      final_out = std::move(cur);
+    } else {
+      identical = identical && same_points(final_out.points, cur.points);
+    }
+  }
+  timing["total_s"] = total;
+  timing["cpu_s"] = cpu;
+  Json ph = Json::object();
+  for (const auto& [k, v] : phases)
+    ph[k] = v;
+  timing["phases"] = ph;
+  res["repeat_outputs_identical"] = identical;
+  sizes["output_points"] = final_out.points.size();
+  if (final_out.mixture) sizes["mixture_components"] = final_out.mixture->size();
+  if (final_out.mesh) sizes["mesh_faces"] = final_out.mesh->num_faces();
+
+  // Metrics.
+  ctx.clear_phases();
+  const auto t_metrics = Clock::now();
+  const metrics::GroundTruth gt(mesh, ctx.stream_seed("ground_truth"));
+  Json m =
+      final_out.mesh
+          ? metrics::evaluate_mesh(gt, *final_out.mesh, &cloud, job.metrics, job.metric_params, ctx)
+          : metrics::evaluate(gt, final_out.points, &cloud, job.metrics, job.metric_params, ctx);
+  timing["metrics_s"] = seconds_since(t_metrics);
+  Json metric_phases = Json::object();
+  for (const auto& [k, v] : ctx.phase_seconds())
+    metric_phases[k] = v;
+  timing["metric_phases"] = metric_phases;
+  for (const char* k : {"histograms", "metric_params", "skipped"}) {
+    if (m.contains(k)) {
+      res[k] = m[k];
+      m.erase(k);
+    }
+  }
+  Json flat = Json::object();
+  for (const auto& [k, v] : m.items()) {
+    if (v.is_number() || v.is_boolean()) flat[k] = v;
+  }
+  res["metrics"] = flat;
+
+  if (job.save_outputs) {
+    const fs::path base = out / "outputs" / job.id;
+    write_point_cloud(final_out.points, base.string() + ".ply");
+    artifacts["output"] = "outputs/" + job.id + ".ply";
+    if (final_out.mixture) {
+      write_mixture(*final_out.mixture, base.string() + ".mixture.ply");
+      artifacts["mixture"] = "outputs/" + job.id + ".mixture.ply";
+    }
+    if (final_out.mesh) {
+      write_mesh(*final_out.mesh, base.string() + ".mesh.ply");
+      artifacts["mesh"] = "outputs/" + job.id + ".mesh.ply";
+    }
+  }
+  res["timing"] = timing;
+  res["sizes"] = sizes;
+  res["artifacts"] = artifacts;
+  return res;
+}
+
+}  // namespace scanbench::harness

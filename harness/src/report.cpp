@@ -1,0 +1,700 @@
+#include "scanbench/harness/report.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <set>
+
+#include "scanbench/core/errors.h"
+#include "scanbench/harness/records.h"
+#include "scanbench/harness/table.h"
+
+namespace scanbench::harness {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string esc(const std::string& s) {
+  std::string o;
+  for (char c : s) {
+    switch (c) {
+      case '<':
+        o += "&lt;";
+        break;
+      case '>':
+        o += "&gt;";
+        break;
+      case '&':
+        o += "&amp;";
+        break;
+      case '"':
+        o += "&quot;";
+        break;
+      default:
+        o += c;
+    }
+  }
+  return o;
+}
+
+const char* kPalette[] = {"#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd",
+                          "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf"};
+const char* color(std::size_t i) {
+  return kPalette[i % 10];
+}
+
+/// Viridis, 5 stops, linear in between.
+std::string viridis(double t) {
+  static const double stops[5][3] = {
+      {68, 1, 84}, {59, 82, 139}, {33, 145, 140}, {94, 201, 98}, {253, 231, 37}};
+  t = std::clamp(std::isfinite(t) ? t : 0.0, 0.0, 1.0) * 4.0;
+  const int i = std::min(3, static_cast<int>(t));
+  const double f = t - i;
+  int c[3];
+  for (int k = 0; k < 3; ++k)
+    c[k] = static_cast<int>(std::lround(stops[i][k] + f * (stops[i + 1][k] - stops[i][k])));
+  return fmt::format("#{:02x}{:02x}{:02x}", c[0], c[1], c[2]);
+}
+
+/// About 5 "nice" ticks covering [lo, hi].
+std::vector<double> nice_ticks(double lo, double hi) {
+  if (!(hi > lo)) {
+    const double pad = lo == 0 ? 1.0 : std::abs(lo) * 0.1;
+    lo -= pad;
+    hi += pad;
+  }
+  const double raw = (hi - lo) / 5.0;
+  const double mag = std::pow(10.0, std::floor(std::log10(raw)));
+  double step = mag;
+  for (double m : {1.0, 2.0, 2.5, 5.0, 10.0}) {
+    step = m * mag;
+    if (raw <= step) break;
+  }
+  std::vector<double> t;
+  for (double v = std::ceil(lo / step) * step; v <= hi + step * 1e-9; v += step)
+    t.push_back(std::abs(v) < step * 1e-9 ? 0.0 : v);
+  return t;
+}
+
+struct Series {
+  std::string name;
+  std::vector<std::pair<double, double>> pts;
+};
+
+constexpr int kW = 460, kH = 300, kL = 70, kR = 130, kT = 30, kB = 45;
+
+std::string svg_open(const std::string& title, int w = kW, int h = kH) {
+  return fmt::format(
+      "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{0}\" height=\"{1}\" viewBox=\"0 0 {0} "
+      "{1}\" font-family=\"sans-serif\" font-size=\"11\"><title>{2}</title>"
+      "<text x=\"{3}\" y=\"16\" text-anchor=\"middle\" font-size=\"12\" "
+      "font-weight=\"bold\">{2}</text>",
+      w, h, esc(title), w / 2);
+}
+
+/// Axes with ticks; returns the SVG and the mapping functions through the out parameters.
+struct Axes {
+  double x0, x1, y0, y1;
+  double px(double x) const { return kL + (x - x0) / (x1 - x0) * (kW - kL - kR); }
+  double py(double y) const { return kH - kB - (y - y0) / (y1 - y0) * (kH - kT - kB); }
+};
+
+std::string draw_axes(Axes& a, double xlo, double xhi, double ylo, double yhi,
+                      const std::string& xlabel, const std::string& ylabel) {
+  const auto xt = nice_ticks(xlo, xhi), yt = nice_ticks(ylo, yhi);
+  a.x0 = std::min(xlo, xt.front());
+  a.x1 = std::max(xhi, xt.back());
+  a.y0 = std::min(ylo, yt.front());
+  a.y1 = std::max(yhi, yt.back());
+  if (!(a.x1 > a.x0)) a.x1 = a.x0 + 1;
+  if (!(a.y1 > a.y0)) a.y1 = a.y0 + 1;
+  std::string s;
+  s += fmt::format(
+      "<rect x=\"{}\" y=\"{}\" width=\"{}\" height=\"{}\" fill=\"none\" stroke=\"#444\"/>", kL, kT,
+      kW - kL - kR, kH - kT - kB);
+  for (double v : xt) {
+    const double x = a.px(v);
+    s += fmt::format(
+        "<line x1=\"{0:.1f}\" x2=\"{0:.1f}\" y1=\"{1}\" y2=\"{2}\" stroke=\"#ddd\"/>"
+        "<text x=\"{0:.1f}\" y=\"{3}\" text-anchor=\"middle\">{4}</text>",
+        x, kT, kH - kB, kH - kB + 14, esc(format_number(v)));
+  }
+  for (double v : yt) {
+    const double y = a.py(v);
+    s += fmt::format(
+        "<line x1=\"{0}\" x2=\"{1}\" y1=\"{2:.1f}\" y2=\"{2:.1f}\" stroke=\"#ddd\"/>"
+        "<text x=\"{3}\" y=\"{4:.1f}\" text-anchor=\"end\">{5}</text>",
+        kL, kW - kR, y, kL - 4, y + 4, esc(format_number(v)));
+  }
+  s += fmt::format("<text x=\"{}\" y=\"{}\" text-anchor=\"middle\">{}</text>", (kL + kW - kR) / 2,
+                   kH - 8, esc(xlabel));
+  s += fmt::format(
+      "<text x=\"14\" y=\"{0}\" text-anchor=\"middle\" transform=\"rotate(-90 14 {0})\">{1}</text>",
+      (kT + kH - kB) / 2, esc(ylabel));
+  return s;
+}
+
+std::string legend(const std::vector<std::string>& names) {
+  std::string s;
+  for (std::size_t i = 0; i < names.size() && i < 16; ++i) {
+    const int y = kT + 8 + static_cast<int>(i) * 15;
+    s += fmt::format(
+        "<rect x=\"{}\" y=\"{}\" width=\"10\" height=\"10\" fill=\"{}\"/>"
+        "<text x=\"{}\" y=\"{}\">{}</text>",
+        kW - kR + 8, y - 8, color(i), kW - kR + 22, y + 1, esc(names[i]));
+  }
+  return s;
+}
+
+std::string line_plot(const std::string& title, const std::string& xlabel,
+                      const std::string& ylabel, const std::vector<Series>& series) {
+  double xlo = INFINITY, xhi = -INFINITY, ylo = INFINITY, yhi = -INFINITY;
+  for (const auto& s : series) {
+    for (const auto& [x, y] : s.pts) {
+      if (!std::isfinite(x) || !std::isfinite(y)) continue;
+      xlo = std::min(xlo, x);
+      xhi = std::max(xhi, x);
+      ylo = std::min(ylo, y);
+      yhi = std::max(yhi, y);
+    }
+  }
+  if (!std::isfinite(xlo)) return "";
+  std::string svg = svg_open(title);
+  Axes a{};
+  svg += draw_axes(a, xlo, xhi, ylo, yhi, xlabel, ylabel);
+  std::vector<std::string> names;
+  for (std::size_t i = 0; i < series.size(); ++i) {
+    std::string path;
+    for (const auto& [x, y] : series[i].pts) {
+      if (!std::isfinite(x) || !std::isfinite(y)) continue;
+      path += fmt::format("{}{:.1f},{:.1f}", path.empty() ? "" : " ", a.px(x), a.py(y));
+      svg += fmt::format("<circle cx=\"{:.1f}\" cy=\"{:.1f}\" r=\"2.5\" fill=\"{}\"/>", a.px(x),
+                         a.py(y), color(i));
+    }
+    svg += fmt::format("<polyline points=\"{}\" fill=\"none\" stroke=\"{}\" stroke-width=\"1.5\"/>",
+                       path, color(i));
+    names.push_back(series[i].name);
+  }
+  svg += legend(names) + "</svg>";
+  return svg;
+}
+
+std::string heatmap(const std::string& title, const std::string& xlabel, const std::string& ylabel,
+                    const std::vector<std::string>& xs, const std::vector<std::string>& ys,
+                    const std::vector<std::vector<double>>& v) {
+  double lo = INFINITY, hi = -INFINITY;
+  for (const auto& row : v)
+    for (double x : row)
+      if (std::isfinite(x)) {
+        lo = std::min(lo, x);
+        hi = std::max(hi, x);
+      }
+  const int cw = std::max(28, 360 / std::max<int>(1, static_cast<int>(xs.size())));
+  const int ch = 22;
+  const int w = kL + cw * static_cast<int>(xs.size()) + 20;
+  const int h = kT + ch * static_cast<int>(ys.size()) + 60;
+  std::string svg = svg_open(title, std::max(w, 300), h);
+  for (std::size_t r = 0; r < ys.size(); ++r) {
+    const int y = kT + static_cast<int>(r) * ch;
+    svg += fmt::format("<text x=\"{}\" y=\"{}\" text-anchor=\"end\">{}</text>", kL - 4, y + 15,
+                       esc(ys[r]));
+    for (std::size_t c = 0; c < xs.size(); ++c) {
+      const double val = v[r][c];
+      const double t = hi > lo ? (val - lo) / (hi - lo) : 0.5;
+      const int x = kL + static_cast<int>(c) * cw;
+      svg += fmt::format(
+          "<rect x=\"{}\" y=\"{}\" width=\"{}\" height=\"{}\" fill=\"{}\" stroke=\"#fff\">"
+          "<title>{}</title></rect>",
+          x, y, cw, ch, std::isfinite(val) ? viridis(t) : "#eee", esc(format_number(val)));
+      if (std::isfinite(val) && cw >= 40) {
+        svg += fmt::format(
+            "<text x=\"{}\" y=\"{}\" text-anchor=\"middle\" font-size=\"9\" "
+            "fill=\"{}\">{}</text>",
+            x + cw / 2, y + 15, t > 0.6 ? "#000" : "#fff", esc(format_number(val)));
+      }
+    }
+  }
+  const int yb = kT + static_cast<int>(ys.size()) * ch;
+  for (std::size_t c = 0; c < xs.size(); ++c) {
+    svg += fmt::format("<text x=\"{}\" y=\"{}\" text-anchor=\"middle\">{}</text>",
+                       kL + static_cast<int>(c) * cw + cw / 2, yb + 14, esc(xs[c]));
+  }
+  svg += fmt::format("<text x=\"{}\" y=\"{}\" text-anchor=\"middle\">{}</text>",
+                     kL + cw * static_cast<int>(xs.size()) / 2, yb + 30, esc(xlabel));
+  svg += fmt::format("<text x=\"4\" y=\"{}\">{}</text>", kT - 4, esc(ylabel));
+  svg += fmt::format("<text x=\"{}\" y=\"{}\">min {} (dark) .. max {} (yellow)</text>", kL, yb + 46,
+                     esc(format_number(lo)), esc(format_number(hi)));
+  return svg + "</svg>";
+}
+
+std::string stacked_bars(const std::string& title, const std::vector<std::string>& labels,
+                         const std::vector<std::string>& parts,
+                         const std::vector<std::vector<double>>& values) {
+  const int bh = 16, left = 260, width = 300;
+  double mx = 0;
+  for (const auto& row : values) {
+    double s = 0;
+    for (double v : row)
+      s += std::max(0.0, v);
+    mx = std::max(mx, s);
+  }
+  if (mx <= 0) mx = 1;
+  const int h = kT + static_cast<int>(labels.size()) * (bh + 4) + 40 +
+                15 * static_cast<int>(std::min<std::size_t>(parts.size(), 12));
+  const int w = left + width + 80;
+  std::string svg = svg_open(title, w, h);
+  for (std::size_t r = 0; r < labels.size(); ++r) {
+    const int y = kT + static_cast<int>(r) * (bh + 4);
+    std::string lab = labels[r];
+    if (lab.size() > 42) lab = lab.substr(0, 40) + "..";
+    svg += fmt::format("<text x=\"{}\" y=\"{}\" text-anchor=\"end\">{}</text>", left - 4, y + 12,
+                       esc(lab));
+    double x = left, total = 0;
+    for (std::size_t p = 0; p < parts.size(); ++p) {
+      const double v = std::max(0.0, values[r][p]);
+      const double bw = v / mx * width;
+      total += v;
+      if (bw > 0) {
+        svg += fmt::format(
+            "<rect x=\"{:.1f}\" y=\"{}\" width=\"{:.1f}\" height=\"{}\" fill=\"{}\">"
+            "<title>{}: {} s</title></rect>",
+            x, y, bw, bh, color(p), esc(parts[p]), esc(format_number(v)));
+      }
+      x += bw;
+    }
+    svg += fmt::format("<text x=\"{:.1f}\" y=\"{}\">{} s</text>", x + 4, y + 12,
+                       esc(format_number(total)));
+  }
+  int y = kT + static_cast<int>(labels.size()) * (bh + 4) + 14;
+  for (std::size_t p = 0; p < parts.size() && p < 12; ++p, y += 15) {
+    svg += fmt::format(
+        "<rect x=\"{}\" y=\"{}\" width=\"10\" height=\"10\" fill=\"{}\"/>"
+        "<text x=\"{}\" y=\"{}\">{}</text>",
+        left, y - 9, color(p), left + 14, y, esc(parts[p]));
+  }
+  return svg + "</svg>";
+}
+
+bool is_ok(const Json& r) {
+  return r.value("status", std::string()) == "ok";
+}
+
+std::string group_of(const Json& r) {
+  return field_value(r, "dataset") + " / " + field_value(r, "scanner");
+}
+
+/// Numeric sweep keys of a record set, in the order of the first record's point.
+std::vector<std::string> numeric_point_keys(const std::vector<const Json*>& rs) {
+  std::vector<std::string> keys;
+  if (rs.empty()) return keys;
+  for (const auto& [k, v] : (*rs.front())["point"].items()) {
+    bool numeric = true;
+    std::set<double> distinct;
+    for (const Json* r : rs) {
+      const Json p = r->value("point", Json::object());
+      if (!p.contains(k) || !p[k].is_number()) {
+        numeric = false;
+        break;
+      }
+      distinct.insert(p[k].get<double>());
+    }
+    if (numeric && distinct.size() > 1) keys.push_back(k);
+  }
+  return keys;
+}
+
+std::string short_key(const std::string& k) {
+  const auto dot = k.rfind('.');
+  return dot == std::string::npos ? k : k.substr(dot + 1);
+}
+
+double point_num(const Json& r, const std::string& k) {
+  const Json p = r.value("point", Json::object());
+  return p.contains(k) && p[k].is_number() ? p[k].get<double>() : NAN;
+}
+
+std::string series_label(const Json& r, const std::vector<std::string>& keys) {
+  std::string s;
+  const Json p = r.value("point", Json::object());
+  for (const auto& k : keys) {
+    if (!p.contains(k)) continue;
+    const Json& v = p[k];
+    s += (s.empty() ? "" : " ") + short_key(k) + "=" +
+         (v.is_number_float() ? fmt::format("{:g}", v.get<double>()) : v.dump());
+  }
+  return s.empty() ? "all" : s;
+}
+
+/// Median over records (e.g. seeds) sharing (series, x).
+std::vector<Series> build_series(const std::vector<const Json*>& rs, const std::string& xkey,
+                                 const std::vector<std::string>& skeys, const std::string& metric,
+                                 bool x_is_compression) {
+  std::map<std::string, std::map<double, std::vector<double>>> acc;
+  std::vector<std::string> order;
+  for (const Json* r : rs) {
+    double x;
+    if (x_is_compression) {
+      const double n = record_value(*r, "sizes.scan_points");
+      const double k = record_value(*r, "sizes.mixture_components");
+      x = k > 0 ? n / k : NAN;
+    } else {
+      x = point_num(*r, xkey);
+    }
+    const double y = record_value(*r, metric);
+    if (!std::isfinite(x) || !std::isfinite(y)) continue;
+    const std::string s = series_label(*r, skeys);
+    if (!acc.count(s)) order.push_back(s);
+    acc[s][x].push_back(y);
+  }
+  std::vector<Series> out;
+  for (const auto& s : order) {
+    Series ser{s, {}};
+    for (const auto& [x, ys] : acc[s])
+      ser.pts.push_back({x, median(ys)});
+    out.push_back(std::move(ser));
+  }
+  return out;
+}
+
+std::string link(const fs::path& dir, const std::string& rel, const std::string& text) {
+  if (rel.empty() || !fs::exists(dir / rel)) return "";
+  return fmt::format("<a href=\"{}\">{}</a>", esc(rel), esc(text));
+}
+
+}  // namespace
+
+fs::path write_report(const fs::path& dir, const fs::path& out_arg) {
+  const std::vector<Json> records = load_records(dir);
+  const fs::path out = out_arg.empty() ? dir / "index.html" : out_arg;
+  Json config = Json::object();
+  if (fs::exists(dir / "config.json")) config = read_json_file(dir / "config.json");
+  const Json cfg = config.value("config", Json::object());
+  const Json report_cfg = cfg.value("report", Json::object());
+  const std::string name = cfg.value("name", dir.filename().string());
+
+  std::vector<const Json*> ok;
+  std::map<std::string, int> status_counts;
+  for (const auto& r : records) {
+    ++status_counts[r.value("status", std::string("?"))];
+    if (is_ok(r)) ok.push_back(&r);
+  }
+  // Quantities to show: configured, else the main ones present.
+  std::vector<std::string> metrics;
+  if (report_cfg.contains("metrics") && report_cfg["metrics"].is_array()) {
+    for (const auto& m : report_cfg["metrics"])
+      if (m.is_string()) metrics.push_back(m.get<std::string>());
+  } else {
+    for (const char* m : {"p2plane_mean_rel", "nn_dist_cv", "chamfer_rel", "fscore",
+                          "normal_angle_mean_deg", "outlier_residue"}) {
+      for (const Json* r : ok) {
+        if (!std::isnan(record_value(*r, m))) {
+          metrics.push_back(m);
+          break;
+        }
+      }
+    }
+    if (metrics.empty() && !records.empty()) {
+      const std::string d = default_metric(records);
+      if (d != "time.total") metrics.push_back(d);
+    }
+  }
+
+  std::string h;
+  h += "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>scanbench: " +
+       esc(name) +
+       "</title>\n<style>\n"
+       "body{font-family:sans-serif;margin:1.5em;max-width:1400px;color:#222}"
+       "table{border-collapse:collapse;margin:0.6em 0}td,th{border:1px solid #ccc;padding:2px 6px;"
+       "font-size:13px}td{text-align:right}caption{text-align:left;font-size:13px;padding:3px}"
+       "td.best{background:#e6f4e6}td.fail{background:#fbe3e3;color:#900}"
+       ".plots{display:flex;flex-wrap:wrap;gap:10px}.plots svg{border:1px solid #eee}"
+       "h2{border-bottom:1px solid #ccc;margin-top:1.5em}code{font-size:12px}"
+       ".regression{color:#b00;font-weight:bold}\n</style></head><body>\n";
+  h += "<h1>scanbench report: " + esc(name) + "</h1>\n";
+  if (cfg.contains("description")) {
+    h += "<p>" + esc(cfg["description"].get<std::string>()) + "</p>\n";
+  }
+  if (!records.empty() && records.front().contains("context")) {
+    const Json& c = records.front()["context"];
+    h += fmt::format(
+        "<p id=\"context\">commit <code>{}</code>, {}, {} build; host {} ({}, {} hardware "
+        "threads); {} threads per job; first job {}</p>\n",
+        esc(c.value("commit", "")), esc(c.value("compiler", "")), esc(c.value("build", "")),
+        esc(c.value("host", "")), esc(c.value("cpu", "")), c.value("hardware_threads", 0),
+        c.value("threads", 0), esc(c.value("date", "")));
+  }
+  std::string counts;
+  for (const auto& [s, n] : status_counts)
+    counts += fmt::format("{}{} {}", counts.empty() ? "" : ", ", n, s);
+  h += fmt::format(
+      "<p id=\"summary\">{} jobs: {}. Records: <a href=\"runs.jsonl\">runs.jsonl</a>, "
+      "<a href=\"runs.csv\">runs.csv</a>, <a href=\"config.json\">config.json</a>.</p>\n",
+      records.size(), esc(counts));
+
+  // Nightly verdicts.
+  if (fs::exists(dir / "compare.json")) {
+    const Json cmp = read_json_file(dir / "compare.json");
+    h += fmt::format("<h2>Comparison with the baseline: <span class=\"{}\">{}</span></h2>\n",
+                     cmp.value("regressions", 0) > 0 ? "regression" : "",
+                     esc(cmp.value("verdict", std::string("?"))));
+    h += "<table id=\"verdicts\"><tr><th>job</th><th>quantity</th><th>base</th><th>new</th>"
+         "<th>change</th><th>p</th><th>verdict</th></tr>\n";
+    for (const auto& v : cmp.value("comparisons", Json::array())) {
+      const std::string verdict = v.value("verdict", std::string());
+      if (verdict != "regression" && verdict != "improvement") continue;
+      auto num = [&](const char* k) {
+        return v.contains(k) && v[k].is_number() ? format_number(v[k].get<double>()) : "";
+      };
+      h += fmt::format(
+          "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>"
+          "<td class=\"{}\">{}</td></tr>\n",
+          esc(v.value("key", "")), esc(v.value("quantity", "")), num("base"), num("new"),
+          num("change"), num("p"), verdict == "regression" ? "regression" : "", esc(verdict));
+    }
+    h += "</table>\n";
+  }
+
+  // Failures.
+  bool any_failed = false;
+  for (const auto& r : records) {
+    if (is_ok(r)) continue;
+    if (!any_failed) {
+      h += "<h2>Failed jobs</h2>\n<table id=\"failures\"><tr><th>job</th><th>status</th>"
+           "<th>reason</th><th>log</th></tr>\n";
+      any_failed = true;
+    }
+    const Json art = r.value("artifacts", Json::object());
+    h += fmt::format(
+        "<tr class=\"failed\"><td>{}</td><td>{}</td><td style=\"text-align:left\">{}"
+        "</td><td>{}</td></tr>\n",
+        esc(r.value("key", "")), esc(r.value("status", "")), esc(r.value("error", "")),
+        link(dir, art.value("log", ""), "log"));
+  }
+  if (any_failed) h += "</table>\n";
+
+  // Tables.
+  h += "<h2>Tables</h2>\n";
+  std::vector<std::string> table_quantities = metrics;
+  table_quantities.push_back("time.total");
+  table_quantities.push_back("peak_rss_mb");
+  for (const auto& q : table_quantities) {
+    TableSpec spec;
+    spec.metric = q;
+    h += render_table(build_table(records, spec), "html");
+  }
+
+  // Sweep plots, compression plots and heatmaps, per variant and dataset/scanner group.
+  std::map<std::string, std::map<std::string, std::vector<const Json*>>> by_variant;
+  std::vector<std::string> variant_order;
+  for (const Json* r : ok) {
+    const std::string v = field_value(*r, "variant");
+    if (!by_variant.count(v)) variant_order.push_back(v);
+    by_variant[v][group_of(*r)].push_back(r);
+  }
+  std::string sweep_html, heat_html, comp_html;
+  for (const auto& v : variant_order) {
+    for (const auto& [group, rs] : by_variant[v]) {
+      std::vector<std::string> keys = numeric_point_keys(rs);
+      if (report_cfg.contains("x") && report_cfg["x"].is_string()) {
+        const std::string x = report_cfg["x"].get<std::string>();
+        auto it = std::find(keys.begin(), keys.end(), x);
+        if (it != keys.end()) std::rotate(keys.begin(), it, it + 1);
+      }
+      std::vector<std::string> plot_metrics = metrics;
+      plot_metrics.push_back("time.total");
+      if (!keys.empty()) {
+        const std::string xkey = keys.front();
+        std::vector<std::string> skeys;
+        for (const auto& [k, val] : (*rs.front())["point"].items())
+          if (k != xkey) skeys.push_back(k);
+        for (const auto& m : plot_metrics) {
+          const auto series = build_series(rs, xkey, skeys, m, false);
+          const std::string svg = line_plot(
+              fmt::format("{}: {} vs {} ({})", v, m, short_key(xkey), group), xkey, m, series);
+          if (!svg.empty()) sweep_html += svg + "\n";
+        }
+        if (keys.size() == 2 && !metrics.empty()) {
+          // Heatmap of the first metric over the two swept parameters (median over seeds).
+          std::set<double> xs_set, ys_set;
+          for (const Json* r : rs) {
+            xs_set.insert(point_num(*r, keys[0]));
+            ys_set.insert(point_num(*r, keys[1]));
+          }
+          const std::vector<double> xs(xs_set.begin(), xs_set.end()),
+              ys(ys_set.begin(), ys_set.end());
+          for (const auto& m : metrics) {
+            std::vector<std::vector<std::vector<double>>> acc(
+                ys.size(), std::vector<std::vector<double>>(xs.size()));
+            for (const Json* r : rs) {
+              const auto xi =
+                  std::lower_bound(xs.begin(), xs.end(), point_num(*r, keys[0])) - xs.begin();
+              const auto yi =
+                  std::lower_bound(ys.begin(), ys.end(), point_num(*r, keys[1])) - ys.begin();
+              acc[yi][xi].push_back(record_value(*r, m));
+            }
+            std::vector<std::vector<double>> vals(ys.size(), std::vector<double>(xs.size(), NAN));
+            for (std::size_t a = 0; a < ys.size(); ++a)
+              for (std::size_t b = 0; b < xs.size(); ++b)
+                vals[a][b] = median(acc[a][b]);
+            std::vector<std::string> xl, yl;
+            for (double x : xs)
+              xl.push_back(format_number(x));
+            for (double y : ys)
+              yl.push_back(format_number(y));
+            heat_html += heatmap(fmt::format("{}: {} over {} x {} ({})", v, m, short_key(keys[0]),
+                                             short_key(keys[1]), group),
+                                 keys[0], keys[1], xl, yl, vals) +
+                         "\n";
+          }
+        }
+      }
+      // Error against compression (CLOP paper Fig. 13) for mixture producers.
+      bool has_mixture = false;
+      for (const Json* r : rs)
+        has_mixture = has_mixture || !std::isnan(record_value(*r, "sizes.mixture_components"));
+      if (has_mixture && !metrics.empty()) {
+        std::vector<std::string> skeys;
+        if (keys.size() > 1) skeys.assign(keys.begin() + 1, keys.end());
+        const auto series = build_series(rs, "", skeys, metrics.front(), true);
+        const std::string svg =
+            line_plot(fmt::format("{}: {} vs compression ({})", v, metrics.front(), group),
+                      "compression = scan points / Gaussians", metrics.front(), series);
+        if (!svg.empty()) comp_html += svg + "\n";
+      }
+    }
+  }
+  if (!sweep_html.empty()) {
+    h += "<h2>Sweeps</h2>\n<div class=\"plots\" id=\"sweeps\">\n" + sweep_html + "</div>\n";
+  }
+  if (!comp_html.empty()) {
+    h += "<h2>Error against compression</h2>\n<div class=\"plots\">\n" + comp_html + "</div>\n";
+  }
+  if (!heat_html.empty()) {
+    h += "<h2>Heatmaps</h2>\n<div class=\"plots\" id=\"heatmaps\">\n" + heat_html + "</div>\n";
+  }
+
+  // Time per phase: medians of the repeat samples, sub-phases of each step stacked.
+  {
+    std::vector<std::string> labels, parts;
+    std::map<std::string, std::size_t> part_index;
+    std::vector<std::map<std::string, double>> rows;
+    for (const Json* r : ok) {
+      if (rows.size() >= 60) break;
+      const Json phases = (*r)["timing"].value("phases", Json::object());
+      std::map<std::string, double> row;
+      for (const auto& step : (*r)["variant"]["chain"]) {
+        const std::string label = step.value("label", std::string());
+        double sub = 0;
+        for (const auto& [k, v] : phases.items()) {
+          if (k.rfind(label + ":", 0) != 0) continue;
+          const double m = record_value(*r, "time." + k);
+          row[k] += m;
+          sub += m;
+        }
+        const double total = record_value(*r, "time." + label);
+        if (std::isfinite(total) && total - sub > 0.02 * total)
+          row[label + ":other"] += total - sub;
+      }
+      for (const auto& [k, v] : row)
+        if (!part_index.count(k)) {
+          part_index[k] = parts.size();
+          parts.push_back(k);
+        }
+      labels.push_back(field_value(*r, "dataset") + " " + field_value(*r, "variant") + " " +
+                       field_value(*r, "point"));
+      rows.push_back(std::move(row));
+    }
+    if (!rows.empty()) {
+      std::vector<std::vector<double>> vals(rows.size(), std::vector<double>(parts.size(), 0.0));
+      for (std::size_t i = 0; i < rows.size(); ++i)
+        for (const auto& [k, v] : rows[i])
+          vals[i][part_index[k]] = v;
+      h += "<h2>Time per phase</h2>\n<div class=\"plots\" id=\"phases\">\n" +
+           stacked_bars("median wall seconds per phase", labels, parts, vals) + "\n</div>\n";
+    }
+  }
+
+  // Error histograms: per dataset/scanner group, one line per variant (first sweep point, first
+  // seed), normalised to fractions of the points.
+  {
+    std::string hist_html;
+    std::map<std::string, std::map<std::string, std::map<std::string, const Json*>>> firsts;
+    std::vector<std::string> hist_names;
+    for (const Json* r : ok) {
+      const Json hists = r->value("histograms", Json::object());
+      for (const auto& [hn, hv] : hists.items()) {
+        if (std::find(hist_names.begin(), hist_names.end(), hn) == hist_names.end()) {
+          hist_names.push_back(hn);
+        }
+        auto& slot = firsts[hn][group_of(*r)];
+        const std::string v = field_value(*r, "variant");
+        if (!slot.count(v)) slot[v] = r;
+      }
+    }
+    for (const auto& hn : hist_names) {
+      for (const auto& [group, by_v] : firsts[hn]) {
+        std::vector<Series> series;
+        std::string unit;
+        for (const auto& [v, r] : by_v) {
+          const Json& hj = (*r)["histograms"][hn];
+          if (!hj.contains("counts") || !hj["counts"].is_array()) continue;
+          const double lo = hj.value("min", 0.0), hi = hj.value("max", 1.0);
+          const auto& counts = hj["counts"];
+          const double n = std::max(1.0, hj.value("count", 1.0));
+          unit = hj.value("unit", std::string());
+          Series s{v, {}};
+          const double w = (hi - lo) / std::max<std::size_t>(1, counts.size());
+          for (std::size_t b = 0; b < counts.size(); ++b)
+            s.pts.push_back({lo + (b + 0.5) * w, counts[b].get<double>() / n});
+          series.push_back(std::move(s));
+        }
+        const std::string svg =
+            line_plot(fmt::format("{} histogram ({})", hn, group),
+                      hn + (unit.empty() ? "" : " [" + unit + "]"), "fraction of points", series);
+        if (!svg.empty()) hist_html += svg + "\n";
+      }
+    }
+    if (!hist_html.empty()) {
+      h += "<h2>Error histograms</h2>\n<div class=\"plots\" id=\"histograms\">\n" + hist_html +
+           "</div>\n";
+    }
+  }
+
+  // Files.
+  h += "<h2>Jobs and files</h2>\n<table id=\"jobs\"><tr><th>job</th><th>status</th>"
+       "<th>points in/out</th><th>files</th></tr>\n";
+  for (const auto& r : records) {
+    const Json art = r.value("artifacts", Json::object());
+    std::string files;
+    for (const auto& [k, v] : art.items()) {
+      if (!v.is_string()) continue;
+      const std::string l = link(dir, v.get<std::string>(), k);
+      if (!l.empty()) files += l + " ";
+    }
+    // Any other artifact of this job (distance fields, images) next to its outputs.
+    const std::string id = r.value("id", std::string());
+    if (fs::is_directory(dir / "outputs")) {
+      for (const auto& e : fs::directory_iterator(dir / "outputs")) {
+        const std::string fn = e.path().filename().string();
+        const std::string ext = e.path().extension().string();
+        if (fn.rfind(id, 0) == 0 && (ext == ".vdb" || ext == ".png" || ext == ".exr")) {
+          files += link(dir, "outputs/" + fn, fn) + " ";
+        }
+      }
+    }
+    h += fmt::format(
+        "<tr><td style=\"text-align:left\">{}</td><td>{}</td><td>{} / {}</td>"
+        "<td style=\"text-align:left\">{}</td></tr>\n",
+        esc(r.value("key", "")), esc(r.value("status", "")),
+        format_number(record_value(r, "sizes.scan_points")),
+        format_number(record_value(r, "sizes.output_points")), files);
+  }
+  h += "</table>\n<p>Generated by <code>scanbench report</code>.</p>\n</body></html>\n";
+  write_file_atomic(out, h);
+  return out;
+}
+
+}  // namespace scanbench::harness

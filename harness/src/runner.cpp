@@ -1,0 +1,381 @@
+#include "scanbench/harness/runner.h"
+
+#include <fcntl.h>
+#include <fmt/format.h>
+#include <signal.h>
+#include <sys/prctl.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <deque>
+#include <regex>
+#include <set>
+#include <thread>
+
+#include "scanbench/core/errors.h"
+#include "scanbench/harness/records.h"
+
+namespace scanbench::harness {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+std::string duration_text(double s) {
+  if (!std::isfinite(s) || s < 0) return "?";
+  const int t = static_cast<int>(std::lround(s));
+  if (t >= 3600) return fmt::format("{}h{:02d}m", t / 3600, t / 60 % 60);
+  if (t >= 60) return fmt::format("{}m{:02d}s", t / 60, t % 60);
+  return fmt::format("{}s", t);
+}
+
+/// A progress bar with ETA on a terminal; one plain line per finished job otherwise.
+class Progress {
+ public:
+  Progress(int total, int concurrency, bool quiet)
+      : total_(total), concurrency_(concurrency), quiet_(quiet), tty_(isatty(STDERR_FILENO) != 0) {
+    start_ = Clock::now();
+  }
+  void finished(const std::string& key, const std::string& status, double seconds) {
+    ++done_;
+    if (status != "ok") ++failed_;
+    sum_s_ += seconds;
+    if (quiet_) return;
+    const double eta = sum_s_ / done_ * (total_ - done_) / concurrency_;
+    if (tty_) {
+      const int width = 30;
+      const int filled = total_ ? width * done_ / total_ : width;
+      std::string bar(filled, '#');
+      bar += std::string(width - filled, '.');
+      if (status != "ok") std::fprintf(stderr, "\r\033[K%s: %s\n", status.c_str(), key.c_str());
+      std::fprintf(stderr, "\r\033[K[%s] %d/%d  failed %d  elapsed %s  ETA %s", bar.c_str(), done_,
+                   total_, failed_, duration_text(elapsed()).c_str(), duration_text(eta).c_str());
+      if (done_ == total_) std::fprintf(stderr, "\n");
+    } else {
+      std::fprintf(stderr, "[%d/%d] %-7s %7.2fs  %s  (ETA %s)\n", done_, total_, status.c_str(),
+                   seconds, key.c_str(), duration_text(eta).c_str());
+    }
+    std::fflush(stderr);
+  }
+  double elapsed() const { return std::chrono::duration<double>(Clock::now() - start_).count(); }
+
+ private:
+  int total_, concurrency_;
+  bool quiet_, tty_;
+  int done_ = 0, failed_ = 0;
+  double sum_s_ = 0;
+  Clock::time_point start_;
+};
+
+struct Child {
+  pid_t pid = -1;
+  const Job* job = nullptr;
+  Clock::time_point start;
+  std::string date;
+  fs::path spec, result, log;
+  bool timed_out = false;
+};
+
+std::string utc_now() {
+  const std::time_t now = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&now, &tm);
+  char date[32];
+  std::strftime(date, sizeof(date), "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return date;
+}
+
+pid_t spawn(const fs::path& exe, const Child& c, double memory_limit_mb) {
+  // Everything the child needs is prepared before fork (no allocation after it).
+  const std::string exe_s = exe.string(), spec_s = c.spec.string(), result_s = c.result.string(),
+                    log_s = c.log.string();
+  const char* argv[] = {exe_s.c_str(), "job", spec_s.c_str(), result_s.c_str(), nullptr};
+  const rlim_t limit = static_cast<rlim_t>(memory_limit_mb * 1024.0 * 1024.0);
+  const pid_t parent = getpid();
+  const pid_t pid = fork();
+  if (pid < 0) throw Error(fmt::format("run: fork failed: {}", std::strerror(errno)));
+  if (pid == 0) {
+    prctl(PR_SET_PDEATHSIG, SIGKILL);
+    if (getppid() != parent) _exit(125);
+    const int fd = open(log_s.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    if (fd >= 0) {
+      dup2(fd, STDOUT_FILENO);
+      dup2(fd, STDERR_FILENO);
+      close(fd);
+    }
+    struct rlimit rl {
+      limit, limit
+    };
+    setrlimit(RLIMIT_AS, &rl);
+    execv(argv[0], const_cast<char* const*>(argv));
+    _exit(127);
+  }
+  return pid;
+}
+
+std::string last_lines(const fs::path& log, std::size_t max_chars = 300) {
+  std::string text;
+  try {
+    text = read_file(log);
+  } catch (const Error&) {
+    return "";
+  }
+  while (!text.empty() && (text.back() == '\n' || text.back() == ' '))
+    text.pop_back();
+  if (text.size() > max_chars) text = "..." + text.substr(text.size() - max_chars);
+  for (char& ch : text)
+    if (ch == '\n') ch = ' ';
+  return text;
+}
+
+Json base_record(const Job& job) {
+  Json r = Json::object();
+  r["id"] = job.id;
+  r["key"] = job.key;
+  r["experiment"] = job.experiment;
+  r["status"] = "ok";
+  r["error"] = "";
+  r["dataset"] = {
+      {"label", job.dataset_label}, {"name", job.dataset}, {"params", job.dataset_params}};
+  r["scanner"] = {
+      {"label", job.scanner_label}, {"preset", job.scanner_preset}, {"params", job.scanner_params}};
+  r["variant"] = {{"label", job.variant}, {"chain", job.chain}};
+  r["point"] = job.point;
+  r["point_label"] = job.point_label;
+  r["seed"] = job.seed;
+  r["repeats"] = job.repeats;
+  r["params"] = job.flat_params();
+  return r;
+}
+
+Json finish_record(const Child& c, int wstatus, const struct rusage& ru, const Json& context) {
+  const Job& job = *c.job;
+  Json r = base_record(job);
+  Json result;
+  if (fs::exists(c.result)) {
+    try {
+      result = read_json_file(c.result);
+    } catch (const Error&) {
+      result = Json();
+    }
+  }
+  std::string status, error;
+  const std::string log_tail = last_lines(c.log);
+  if (c.timed_out) {
+    status = "timeout";
+    error = fmt::format("killed after the per-job timeout of {} s", job.timeout_s);
+  } else if (WIFSIGNALED(wstatus)) {
+    const int sig = WTERMSIG(wstatus);
+    const bool alloc = log_tail.find("bad_alloc") != std::string::npos;
+    status = alloc ? "memory" : "crash";
+    error = fmt::format(
+        "killed by signal {} ({}){}", sig, sigdescr_np(sig) ? sigdescr_np(sig) : "",
+        alloc ? fmt::format(" after failing to allocate under the {} MB limit", job.memory_limit_mb)
+              : "");
+    if (!log_tail.empty()) error += ": " + log_tail;
+  } else if (result.is_object() && result.contains("status")) {
+    status = result.value("status", std::string("error"));
+    error = result.value("error", std::string());
+  } else {
+    status = "crash";
+    error = fmt::format("exited with code {} without a result", WEXITSTATUS(wstatus));
+    if (!log_tail.empty()) error += ": " + log_tail;
+  }
+  r["status"] = status;
+  r["error"] = error;
+  Json timing = Json::object();
+  if (result.is_object()) {
+    for (const char* k : {"metrics", "histograms", "metric_params", "skipped", "sizes", "artifacts",
+                          "repeat_outputs_identical"}) {
+      if (result.contains(k)) r[k] = result[k];
+    }
+    if (result.contains("timing")) timing = result["timing"];
+  }
+  if (!r.contains("metrics")) r["metrics"] = Json::object();
+  timing["job_wall_s"] = std::chrono::duration<double>(Clock::now() - c.start).count();
+  r["timing"] = timing;
+  r["peak_rss_mb"] = static_cast<double>(ru.ru_maxrss) / 1024.0;
+  r["limits"] = {{"timeout_s", job.timeout_s}, {"memory_limit_mb", job.memory_limit_mb}};
+  if (!r.contains("artifacts")) r["artifacts"] = Json::object();
+  r["artifacts"]["log"] = fs::relative(c.log, c.log.parent_path().parent_path()).string();
+  Json ctx = context;
+  ctx["threads"] = job.threads;
+  ctx["date"] = c.date;
+  r["context"] = ctx;
+  return r;
+}
+
+}  // namespace
+
+RunSummary run_experiment(const Experiment& e, const RunOptions& opts) {
+  const Plan plan = expand(e);
+  std::optional<std::regex> filter;
+  if (!opts.filter.empty()) {
+    try {
+      filter.emplace(opts.filter, std::regex::ECMAScript);
+    } catch (const std::regex_error& ex) {
+      throw ParamError(fmt::format("--filter '{}': not a valid regex: {}", opts.filter, ex.what()));
+    }
+  }
+  const fs::path out = opts.out;
+  for (const char* sub : {"jobs", "scans", "outputs", "logs", "tmp"})
+    fs::create_directories(out / sub);
+
+  std::set<std::string> recorded;
+  for (const auto& entry : fs::directory_iterator(out / "jobs")) {
+    const std::string name = entry.path().filename().string();
+    if (entry.path().extension() == ".json" && name.front() != '.') {
+      recorded.insert(entry.path().stem().string());
+    }
+  }
+  std::set<std::string> plan_ids;
+  for (const auto& j : plan.jobs)
+    plan_ids.insert(j.id);
+  if (!opts.resume) {
+    for (const auto& id : recorded) {
+      if (plan_ids.count(id)) {
+        throw ParamError(fmt::format(
+            "{}: holds records of an earlier run; pass --resume to continue it, or choose another "
+            "folder with -o",
+            out.string()));
+      }
+    }
+  }
+  // Leftovers of a killed run.
+  for (const auto& entry : fs::directory_iterator(out / "tmp"))
+    fs::remove(entry.path());
+
+  Json config = Json::object();
+  config["source"] = e.file.empty() ? Json(nullptr) : Json(fs::absolute(e.file).string());
+  config["config"] = e.raw;
+  write_file_atomic(out / "config.json", config.dump(2) + "\n");
+  Json plan_json = Json::object();
+  plan_json["experiment"] = e.name;
+  plan_json["notes"] = plan.notes;
+  Json jobs_json = Json::array();
+  for (const auto& j : plan.jobs)
+    jobs_json.push_back(j.to_json());
+  plan_json["jobs"] = std::move(jobs_json);
+  write_file_atomic(out / "plan.json", plan_json.dump(1) + "\n");
+
+  if (!opts.quiet) {
+    for (const auto& n : plan.notes)
+      std::fprintf(stderr, "note: %s\n", n.c_str());
+  }
+
+  RunSummary summary;
+  std::deque<const Job*> todo;
+  for (const auto& job : plan.jobs) {
+    if (filter && !std::regex_search(job.key, *filter)) continue;
+    ++summary.planned;
+    if (opts.resume && recorded.count(job.id)) {
+      bool skip = true;
+      if (opts.retry_failed) {
+        const Json r = read_json_file(out / "jobs" / (job.id + ".json"));
+        skip = r.value("status", std::string()) == "ok";
+      }
+      if (skip) {
+        ++summary.skipped;
+        continue;
+      }
+    }
+    todo.push_back(&job);
+  }
+  if (!opts.quiet) {
+    std::fprintf(stderr,
+                 "%s: %zu jobs planned, %d selected, %d already done, %zu to run (%d at a "
+                 "time) -> %s\n",
+                 e.name.c_str(), plan.jobs.size(), summary.planned, summary.skipped, todo.size(),
+                 opts.jobs, out.string().c_str());
+  }
+
+  const fs::path exe = opts.exe.empty() ? fs::read_symlink("/proc/self/exe") : opts.exe;
+  const Json context = run_context_json();
+  Progress progress(static_cast<int>(todo.size()), std::max(1, opts.jobs), opts.quiet);
+  std::vector<Child> running;
+  while (!todo.empty() || !running.empty()) {
+    while (!todo.empty() && static_cast<int>(running.size()) < std::max(1, opts.jobs)) {
+      Child c;
+      c.job = todo.front();
+      todo.pop_front();
+      c.spec = out / "tmp" / (c.job->id + ".spec.json");
+      c.result = out / "tmp" / (c.job->id + ".result.json");
+      c.log = out / "logs" / (c.job->id + ".log");
+      Json spec = {{"job", c.job->to_json()}, {"out", fs::absolute(out).string()}};
+      write_file_atomic(c.spec, spec.dump());
+      fs::remove(c.result);
+      c.date = utc_now();
+      c.start = Clock::now();
+      c.pid = spawn(exe, c, c.job->memory_limit_mb);
+      running.push_back(std::move(c));
+    }
+    bool reaped = false;
+    for (auto it = running.begin(); it != running.end();) {
+      int wstatus = 0;
+      struct rusage ru {};
+      const pid_t r = wait4(it->pid, &wstatus, WNOHANG, &ru);
+      if (r == it->pid) {
+        const Json record = finish_record(*it, wstatus, ru, context);
+        write_file_atomic(out / "jobs" / (it->job->id + ".json"), record.dump(1) + "\n");
+        const std::string status = record["status"].get<std::string>();
+        ++summary.ran;
+        ++summary.by_status[status];
+        progress.finished(
+            it->job->key, status,
+            progress.elapsed() > 0 ? record["timing"]["job_wall_s"].get<double>() : 0.0);
+        fs::remove(it->spec);
+        fs::remove(it->result);
+        it = running.erase(it);
+        reaped = true;
+        continue;
+      }
+      if (!it->timed_out &&
+          std::chrono::duration<double>(Clock::now() - it->start).count() > it->job->timeout_s) {
+        kill(it->pid, SIGKILL);
+        it->timed_out = true;
+      }
+      ++it;
+    }
+    if (!reaped) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+
+  // Merge: the plan's jobs with records, in plan order.
+  std::vector<Json> records;
+  for (const auto& job : plan.jobs) {
+    const fs::path p = out / "jobs" / (job.id + ".json");
+    if (fs::exists(p)) records.push_back(read_json_file(p));
+  }
+  write_merged(out, records);
+  return summary;
+}
+
+int run_job_file(const fs::path& spec_path, const fs::path& result_path) {
+  Json result = Json::object();
+  try {
+    const Json spec = read_json_file(spec_path);
+    const Job job = Job::from_json(spec.at("job"));
+    result = execute_job(job, spec.at("out").get<std::string>());
+    result["status"] = "ok";
+  } catch (const std::bad_alloc&) {
+    result = Json::object();
+    result["status"] = "memory";
+    result["error"] = "out of memory: allocation failed under the per-job memory limit";
+  } catch (const Error& ex) {
+    result = Json::object();
+    result["status"] = "error";
+    result["error"] = ex.what();
+  } catch (const std::exception& ex) {
+    result = Json::object();
+    result["status"] = "error";
+    result["error"] = fmt::format("internal error: {}", ex.what());
+  }
+  write_file_atomic(result_path, result.dump());
+  return 0;
+}
+
+}  // namespace scanbench::harness

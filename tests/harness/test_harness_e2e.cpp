@@ -1,0 +1,291 @@
+// End-to-end tests of `scanbench run/table/compare/report` through the real binary:
+// job isolation (crash, hang, memory blow-up), kill -9 then --resume, a small real pipeline with
+// the report loaded in headless Chromium.
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+#include <thread>
+
+#include "scanbench/core/params.h"
+
+namespace fs = std::filesystem;
+using scanbench::Json;
+
+namespace {
+
+const char* kBinary = SCANBENCH_BINARY;
+
+fs::path make_temp_dir(const std::string& tag) {
+  std::string tmpl = (fs::temp_directory_path() / ("scanbench-" + tag + "-XXXXXX")).string();
+  if (!mkdtemp(tmpl.data())) throw std::runtime_error("mkdtemp failed");
+  return tmpl;
+}
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+void write(const fs::path& p, const std::string& text) {
+  std::ofstream out(p);
+  out << text;
+}
+
+struct Result {
+  int code;
+  std::string out;
+};
+
+/// Runs a shell command; returns its exit code and stdout+stderr.
+Result sh(const std::string& cmd) {
+  const std::string full = "SCANBENCH_TEST_ALGORITHMS=1 " + cmd + " 2>&1";
+  FILE* p = popen(full.c_str(), "r");
+  std::string out;
+  char buf[4096];
+  while (p && fgets(buf, sizeof(buf), p))
+    out += buf;
+  const int status = p ? pclose(p) : -1;
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+}
+
+std::string sb() {
+  return std::string(kBinary);
+}
+
+std::vector<Json> read_jsonl(const fs::path& p) {
+  std::vector<Json> out;
+  std::istringstream in(slurp(p));
+  for (std::string line; std::getline(in, line);)
+    if (!line.empty()) out.push_back(Json::parse(line));
+  return out;
+}
+
+std::map<std::string, Json> by_variant(const std::vector<Json>& rs) {
+  std::map<std::string, Json> m;
+  for (const auto& r : rs)
+    m[r["variant"]["label"].get<std::string>()] = r;
+  return m;
+}
+
+}  // namespace
+
+TEST(HarnessE2E, CrashHangAndMemoryBlowUpFailOnlyTheirJobs) {
+  const fs::path dir = make_temp_dir("iso");
+  write(dir / "iso.json", R"({
+    "scanbench_experiment": 1, "name": "iso", "seed": 5, "timeout_s": 10,
+    "memory_limit_mb": 1024,
+    "datasets": [{"name": "sphere"}],
+    "scanners": [{"preset": "clean", "params": {"views": 2, "resolution": 40}}],
+    "variants": [
+      {"label": "sub2", "algorithm": "test.subsample", "params": {"stride": 2}},
+      {"label": "crash", "algorithm": "test.crash"},
+      {"label": "hang", "algorithm": "test.hang"},
+      {"label": "oom", "algorithm": "test.oom", "params": {"chunk_mb": 32}},
+      {"label": "sub3", "algorithm": "test.subsample", "params": {"stride": 3}}
+    ],
+    "metrics": ["accuracy.p2plane"]
+  })");
+  const auto r = sh(sb() + " run " + (dir / "iso.json").string() + " -o " + (dir / "out").string() +
+                    " --jobs 2");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto recs = read_jsonl(dir / "out" / "runs.jsonl");
+  ASSERT_EQ(recs.size(), 5u) << r.out;
+  auto m = by_variant(recs);
+  EXPECT_EQ(m["sub2"]["status"], "ok") << m["sub2"].dump();
+  EXPECT_EQ(m["sub3"]["status"], "ok") << m["sub3"].dump();
+  EXPECT_EQ(m["crash"]["status"], "crash");
+  EXPECT_NE(m["crash"]["error"].get<std::string>().find("signal 11"), std::string::npos)
+      << m["crash"]["error"];
+  EXPECT_EQ(m["hang"]["status"], "timeout");
+  EXPECT_NE(m["hang"]["error"].get<std::string>().find("timeout"), std::string::npos);
+  EXPECT_EQ(m["oom"]["status"], "memory") << m["oom"]["error"];
+  // The ok jobs have metrics, every timing sample, peak memory and context.
+  for (const char* v : {"sub2", "sub3"}) {
+    const Json& rec = m[v];
+    for (const char* k : {"dataset", "variant", "params", "metrics", "timing", "status", "context",
+                          "peak_rss_mb", "seed"})
+      EXPECT_TRUE(rec.contains(k)) << v << " lacks " << k;
+    EXPECT_TRUE(rec["metrics"].contains("p2plane_mean_rel")) << rec["metrics"].dump();
+    EXPECT_EQ(rec["timing"]["total_s"].size(), 1u);
+    EXPECT_GT(rec["peak_rss_mb"].get<double>(), 1.0);
+    EXPECT_FALSE(rec["context"]["commit"].get<std::string>().empty());
+  }
+  // One scan for all five jobs (same mesh, scanner parameters and seed).
+  int scans = 0;
+  for (const auto& e : fs::directory_iterator(dir / "out" / "scans"))
+    scans += e.path().extension() == ".ply";
+  EXPECT_EQ(scans, 1);
+  EXPECT_EQ(m["sub2"]["artifacts"]["scan"], m["sub3"]["artifacts"]["scan"]);
+  // Without the environment variable the test algorithms do not exist.
+  const auto hidden = sh("env -u SCANBENCH_TEST_ALGORITHMS " + sb() + " list algorithms");
+  EXPECT_EQ(hidden.out.find("test."), std::string::npos);
+  fs::remove_all(dir);
+}
+
+TEST(HarnessE2E, KillDashNineThenResumeEqualsUninterruptedRun) {
+  const fs::path dir = make_temp_dir("resume");
+  write(dir / "sweep.json", R"({
+    "scanbench_experiment": 1, "name": "sweep", "seed": 2,
+    "datasets": [{"name": "sphere"}],
+    "scanners": [{"preset": "clean", "params": {"views": 2, "resolution": 40}}],
+    "variants": [{"label": "sub", "algorithm": "test.subsample", "params": {"work_ms": 250},
+                  "sweep": {"test.subsample.stride": {"from": 1, "to": 6, "step": 1}}}],
+    "metrics": ["accuracy.p2plane", "regularity.nn_dist"]
+  })");
+  const fs::path a = dir / "a";
+  // Start a run and kill it (SIGKILL) once two records exist.
+  const pid_t pid = fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    setenv("SCANBENCH_TEST_ALGORITHMS", "1", 1);
+    const std::string cfg = (dir / "sweep.json").string(), out = a.string();
+    execl(kBinary, kBinary, "run", cfg.c_str(), "-o", out.c_str(), "-q", nullptr);
+    _exit(127);
+  }
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(40);
+  auto count_records = [&] {
+    int n = 0;
+    if (fs::is_directory(a / "jobs"))
+      for (const auto& e : fs::directory_iterator(a / "jobs"))
+        n += e.path().extension() == ".json" && e.path().filename().string()[0] != '.';
+    return n;
+  };
+  while (count_records() < 2 && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  kill(pid, SIGKILL);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  const int done_before = count_records();
+  ASSERT_GE(done_before, 2);
+  ASSERT_LT(done_before, 6) << "the run finished before it could be killed";
+
+  // Without --resume the folder is refused; with it the rest runs.
+  EXPECT_EQ(sh(sb() + " run " + (dir / "sweep.json").string() + " -o " + a.string() + " -q").code,
+            2);
+  const auto resumed =
+      sh(sb() + " run " + (dir / "sweep.json").string() + " -o " + a.string() + " --resume");
+  ASSERT_EQ(resumed.code, 0) << resumed.out;
+  EXPECT_NE(resumed.out.find(std::to_string(done_before) + " already done"), std::string::npos)
+      << resumed.out;
+  const auto b =
+      sh(sb() + " run " + (dir / "sweep.json").string() + " -o " + (dir / "b").string() + " -q");
+  ASSERT_EQ(b.code, 0) << b.out;
+
+  const auto ra = read_jsonl(a / "runs.jsonl"), rb = read_jsonl(dir / "b" / "runs.jsonl");
+  ASSERT_EQ(ra.size(), 6u);
+  ASSERT_EQ(rb.size(), 6u);
+  std::set<std::string> ids;
+  for (std::size_t i = 0; i < ra.size(); ++i) {
+    ids.insert(ra[i]["id"].get<std::string>());
+    EXPECT_EQ(ra[i]["id"], rb[i]["id"]);
+    EXPECT_EQ(ra[i]["metrics"], rb[i]["metrics"]);  // bit for bit
+  }
+  EXPECT_EQ(ids.size(), 6u);
+  for (const char* metric : {"p2plane_mean_rel", "nn_dist_cv"}) {
+    const std::string q = std::string(" --format csv --rows point --metric ") + metric;
+    const auto ta = sh(sb() + " table " + a.string() + q);
+    const auto tb = sh(sb() + " table " + (dir / "b").string() + q);
+    ASSERT_EQ(ta.code, 0) << ta.out;
+    EXPECT_EQ(ta.out, tb.out);
+    EXPECT_EQ(std::count(ta.out.begin(), ta.out.end(), '\n'), 7) << ta.out;
+  }
+  fs::remove_all(dir);
+}
+
+TEST(HarnessE2E, PipelineTableReportCompare) {
+  const fs::path dir = make_temp_dir("e2e");
+  write(dir / "e2e.json", R"({
+    "scanbench_experiment": 1, "name": "e2e", "seed": 1, "repeats": 2,
+    "datasets": [{"name": "sphere"}, {"name": "torus"}],
+    "scanners": [{"preset": "moderate", "params": {"views": 3, "resolution": 48}}],
+    "variants": [
+      {"label": "wlop", "algorithm": "resample.wlop", "params": {"iterations": 3},
+       "sweep": {"resample.wlop.h": [0.05, 0.08]}},
+      {"label": "pca", "algorithm": "normals.pca"}
+    ],
+    "metrics": ["accuracy.p2plane", "regularity.nn_dist"]
+  })");
+  const fs::path out = dir / "out";
+  const auto r = sh(sb() + " run " + (dir / "e2e.json").string() + " -o " + out.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto recs = read_jsonl(out / "runs.jsonl");
+  ASSERT_EQ(recs.size(), 6u);
+  for (const auto& rec : recs) {
+    EXPECT_EQ(rec["status"], "ok") << rec.dump();
+    EXPECT_EQ(rec["timing"]["total_s"].size(), 2u);
+    EXPECT_TRUE(rec["repeat_outputs_identical"].get<bool>()) << rec["key"];
+  }
+  EXPECT_TRUE(fs::exists(out / "runs.csv"));
+
+  const auto t = sh(sb() + " table " + out.string() + " --format csv");
+  ASSERT_EQ(t.code, 0) << t.out;
+  EXPECT_NE(t.out.find("sphere / moderate / h=0.05,wlop,p2plane_mean_rel"), std::string::npos)
+      << t.out;
+  EXPECT_EQ(sh(sb() + " table " + out.string() + " --format md --metric time.total").code, 0);
+
+  const auto rep = sh(sb() + " report " + out.string());
+  ASSERT_EQ(rep.code, 0) << rep.out;
+  const std::string html = slurp(out / "index.html");
+  EXPECT_NE(html.find("<svg"), std::string::npos);
+  EXPECT_EQ(html.find("<script"), std::string::npos);  // static and offline
+  EXPECT_EQ(html.find("http://"), html.find("http://www.w3.org/2000/svg"));
+
+  // Identical results: exit 0. A doctored copy with 20% worse accuracy: exit 1.
+  const auto same = sh(sb() + " compare " + out.string() + " " + out.string());
+  EXPECT_EQ(same.code, 0) << same.out;
+  const fs::path worse = dir / "worse";
+  fs::create_directories(worse);
+  std::string doctored;
+  for (auto rec : recs) {
+    rec["metrics"]["p2plane_mean_rel"] = rec["metrics"]["p2plane_mean_rel"].get<double>() * 1.2;
+    doctored += rec.dump() + "\n";
+  }
+  write(worse / "runs.jsonl", doctored);
+  const auto bad = sh(sb() + " compare " + out.string() + " " + worse.string() + " --json " +
+                      (dir / "cmp.json").string());
+  EXPECT_EQ(bad.code, 1) << bad.out;
+  EXPECT_NE(bad.out.find("REGRESSION"), std::string::npos);
+  EXPECT_EQ(Json::parse(slurp(dir / "cmp.json"))["verdict"], "regression");
+
+  // The page renders in a real browser: table rows and SVG plots are in the DOM.
+  if (!fs::exists("/usr/bin/chromium")) GTEST_SKIP() << "chromium not installed";
+  const fs::path profile = make_temp_dir("chromium");
+  const auto dom =
+      sh("timeout 60 /usr/bin/chromium --headless --no-sandbox --disable-gpu --disable-quic "
+         "--no-first-run --disable-background-networking --disable-component-update --disable-sync "
+         "--user-data-dir=" +
+         profile.string() + " --dump-dom file://" + fs::absolute(out / "index.html").string() +
+         " 2>/dev/null");
+  EXPECT_NE(dom.out.find("<svg"), std::string::npos) << dom.out.substr(0, 500);
+  EXPECT_NE(dom.out.find("<table class=\"cmp\">"), std::string::npos);
+  EXPECT_NE(dom.out.find("<td class=\"best\">"), std::string::npos);
+  EXPECT_NE(dom.out.find("id=\"sweeps\""), std::string::npos);
+  fs::remove_all(profile);
+  fs::remove_all(dir);
+}
+
+TEST(HarnessE2E, BadConfigExitsTwoNamingFileAndPath) {
+  const fs::path dir = make_temp_dir("bad");
+  write(dir / "bad.json", R"({"scanbench_experiment": 1, "datasets": [{"name": "sphere"}],
+    "scanners": ["clean"], "variants": [{"algorithm": "resample.lop", "params": {"h": -1}}]})");
+  const auto r = sh(sb() + " run " + (dir / "bad.json").string() + " -o " + (dir / "o").string());
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.out.find("bad.json: /variants/0/params.h: expected a number"), std::string::npos)
+      << r.out;
+  write(dir / "broken.json", "{\"scanbench_experiment\": 1,");
+  const auto b = sh(sb() + " run " + (dir / "broken.json").string());
+  EXPECT_EQ(b.code, 2);
+  EXPECT_NE(b.out.find("broken.json: not valid JSON"), std::string::npos) << b.out;
+  fs::remove_all(dir);
+}
