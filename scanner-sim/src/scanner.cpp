@@ -6,7 +6,9 @@
 #include <tbb/parallel_for.h>
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <fstream>
 #include <limits>
@@ -102,8 +104,9 @@ Json vec_json(const Eigen::Vector3d& v) {
   return Json::array({v.x(), v.y(), v.z()});
 }
 
-constexpr double kGoldenAngle = 2.399963229728653;  // pi (3 - sqrt 5)
-constexpr int kTile = 8;                            // tiles of 8 x 8 pixels
+constexpr double kGoldenAngle = 2.399963229728653;          // pi (3 - sqrt 5)
+constexpr int kTile = 8;                                    // tiles of 8 x 8 pixels
+constexpr std::size_t kGroupPixels = std::size_t{1} << 21;  // pixels of the views done together
 
 /// What pass A learns about one pixel.
 enum class PixelStatus : std::uint8_t { Miss, Point, Grazing, OutOfRange };
@@ -233,27 +236,43 @@ ScannerEngine::Tile ScannerEngine::tile(int t) const {
 }
 
 Eigen::Vector3f ScannerEngine::pixel_dir(const Camera& cam, int u, int v, int sub) const {
+  // The same float operations as make_tile_rays, so both give bit-identical directions.
   const float inv = 2.0f / static_cast<float>(resolution_);
+  const float y = (1.0f - (static_cast<float>(v) + 0.5f) * inv) * cam.tan_half;
+  const float x = ((static_cast<float>(u) + 0.5f) * inv - 1.0f) * cam.tan_half;
   const Eigen::Vector2f& o = beam_offsets_[static_cast<std::size_t>(sub)];
-  const float x = ((static_cast<float>(u) + 0.5f) * inv - 1.0f) * cam.tan_half + o.x();
-  const float y = (1.0f - (static_cast<float>(v) + 0.5f) * inv) * cam.tan_half + o.y();
-  return (cam.forward + x * cam.right + y * cam.up).normalized();
+  const float xs = x + o.x(), ys = y + o.y();
+  const float dx = cam.forward.x() + xs * cam.right.x() + ys * cam.up.x();
+  const float dy = cam.forward.y() + xs * cam.right.y() + ys * cam.up.y();
+  const float dz = cam.forward.z() + xs * cam.right.z() + ys * cam.up.z();
+  const float s = 1.0f / std::sqrt(dx * dx + dy * dy + dz * dz);
+  return {dx * s, dy * s, dz * s};
 }
 
 void ScannerEngine::make_tile_rays(const Camera& cam, const Tile& t, RTCRayHit* out) const {
+  // pixel_dir() written out with the per-tile constants hoisted (this runs for every ray).
   const float tfar = static_cast<float>(p_.range_max) * diag_;
+  const float inv = 2.0f / static_cast<float>(resolution_);
+  const float ox = cam.origin.x(), oy = cam.origin.y(), oz = cam.origin.z();
   for (int v = t.v0; v < t.v1; ++v) {
+    const float y = (1.0f - (static_cast<float>(v) + 0.5f) * inv) * cam.tan_half;
     for (int u = t.u0; u < t.u1; ++u) {
+      const float x = ((static_cast<float>(u) + 0.5f) * inv - 1.0f) * cam.tan_half;
       for (int k = 0; k < sub_rays_; ++k) {
-        const Eigen::Vector3f d = pixel_dir(cam, u, v, k);
+        const Eigen::Vector2f& o = beam_offsets_[static_cast<std::size_t>(k)];
+        const float xs = x + o.x(), ys = y + o.y();
+        float dx = cam.forward.x() + xs * cam.right.x() + ys * cam.up.x();
+        float dy = cam.forward.y() + xs * cam.right.y() + ys * cam.up.y();
+        float dz = cam.forward.z() + xs * cam.right.z() + ys * cam.up.z();
+        const float s = 1.0f / std::sqrt(dx * dx + dy * dy + dz * dz);
         RTCRayHit& r = *out++;
-        r.ray.org_x = cam.origin.x();
-        r.ray.org_y = cam.origin.y();
-        r.ray.org_z = cam.origin.z();
+        r.ray.org_x = ox;
+        r.ray.org_y = oy;
+        r.ray.org_z = oz;
         r.ray.tnear = 0.0f;
-        r.ray.dir_x = d.x();
-        r.ray.dir_y = d.y();
-        r.ray.dir_z = d.z();
+        r.ray.dir_x = dx * s;
+        r.ray.dir_y = dy * s;
+        r.ray.dir_z = dz * s;
         r.ray.time = 0.0f;
         r.ray.tfar = tfar;
         r.ray.mask = 0xffffffffu;
@@ -299,6 +318,7 @@ void ScannerEngine::cast_all(std::vector<RTCRayHit>& rays) const {
 }
 
 Scan ScannerEngine::run(RunContext& ctx) const {
+  using Clock = std::chrono::steady_clock;
   const int R = resolution_;
   const std::size_t npix = static_cast<std::size_t>(R) * static_cast<std::size_t>(R);
   const int views = static_cast<int>(cameras_.size());
@@ -332,288 +352,329 @@ Scan ScannerEngine::run(RunContext& ctx) const {
     }
   }
 
-  std::vector<PixelHit> image(npix);
-  std::vector<PixelOut> outs(npix);
-  std::vector<std::int64_t> row_start(static_cast<std::size_t>(R) + 1);
+  // Views are processed in groups that share one fork-join per pass (few synchronisation points,
+  // bounded memory).
+  const int group = static_cast<int>(
+      std::clamp<std::size_t>(kGroupPixels / npix, 1, static_cast<std::size_t>(views)));
+  const std::size_t group_rows = static_cast<std::size_t>(group) * static_cast<std::size_t>(R);
+  std::vector<PixelHit> image(static_cast<std::size_t>(group) * npix);
+  std::vector<PixelOut> outs(image.size());
+  std::vector<std::int64_t> row_start(group_rows + 1);
+  std::vector<std::int64_t> row_surface(group_rows), row_outliers(group_rows);
+  std::vector<Eigen::Vector3d> row_sum(group_rows);
   tbb::enumerable_thread_specific<std::vector<RTCRayHit>> buffers(
       [&] { return std::vector<RTCRayHit>(static_cast<std::size_t>(kTile * kTile * sub_rays_)); });
   Counters counters;
 
-  // Output, appended view by view.
-  std::vector<float> pos, clean;
-  std::vector<float> flag;
-  std::vector<int> ids;
+  Scan s;
+  PointCloud& cloud = s.cloud;
+  cloud.resize(0);
+  Eigen::VectorXf cx, cy, cz, flag;
   Eigen::Matrix3Xf origins(3, views);
   Json scans = Json::array();
+  double t_rays = 0, t_artifacts = 0;
 
   auto phase = ctx.phase("scan");
-  for (int view = 0; view < views; ++view) {
+  for (int g0 = 0; g0 < views; g0 += group) {
     ctx.check_cancelled("scan");
-    const Camera& cam = cameras_[static_cast<std::size_t>(view)];
-    const std::uint64_t view_pixel_seed = derive_seed(pixel_seed, static_cast<std::uint64_t>(view));
-    const std::uint64_t view_outlier_seed =
-        derive_seed(outlier_seed, static_cast<std::uint64_t>(view));
+    const int gv = std::min(group, views - g0);
+    const int rows_g = gv * R;
 
     // Pass A: cast every beam, tile by tile, and evaluate the beam at each pixel.
-    tbb::parallel_for(tbb::blocked_range<int>(0, tiles_, 1), [&](const tbb::blocked_range<int>& r) {
-      std::vector<RTCRayHit>& buf = buffers.local();
-      for (int t = r.begin(); t < r.end(); ++t) {
-        const Tile tl = tile(t);
-        make_tile_rays(cam, tl, buf.data());
-        caster.intersect(buf.data(), static_cast<unsigned>(tile_ray_count(tl)));
-        const RTCRayHit* rh = buf.data();
-        for (int v = tl.v0; v < tl.v1; ++v) {
-          for (int u = tl.u0; u < tl.u1; ++u, rh += sub_rays_) {
-            PixelHit& px = image[static_cast<std::size_t>(v) * R + u];
-            int hits = 0;
-            int first = -1;
-            double sum = 0.0;
-            float lo = std::numeric_limits<float>::infinity();
-            float hi = -lo;
-            for (int k = 0; k < sub_rays_; ++k) {
-              if (rh[k].hit.geomID == RTC_INVALID_GEOMETRY_ID) continue;
-              ++hits;
-              if (first < 0) first = k;
-              sum += rh[k].ray.tfar;
-              lo = std::min(lo, rh[k].ray.tfar);
-              hi = std::max(hi, rh[k].ray.tfar);
-            }
-            px.mixed = hits > 0 && (hits < sub_rays_ || hi - lo > jump);
-            if (hits < need) {
-              px.status = PixelStatus::Miss;
-              px.raw_range = std::numeric_limits<float>::infinity();
-              continue;
-            }
-            const RTCRayHit& h = rh[first];
-            const Eigen::Vector3f d(h.ray.dir_x, h.ray.dir_y, h.ray.dir_z);
-            px.raw_range = hits == 1 ? h.ray.tfar : static_cast<float>(sum / hits);
-            px.clean = cam.origin + h.ray.tfar * d;
-            const Eigen::Vector3f ng(h.hit.Ng_x, h.hit.Ng_y, h.hit.Ng_z);
-            const float len = ng.norm();
-            px.cos_incidence = len > 0.0f ? std::min(1.0f, std::abs(ng.dot(d)) / len) : 0.0f;
-            if (px.cos_incidence < cos_max) {
-              px.status = PixelStatus::Grazing;
-            } else if (px.raw_range < range_lo || px.raw_range > range_hi) {
-              px.status = PixelStatus::OutOfRange;
-            } else {
-              px.status = PixelStatus::Point;
+    const auto t0 = Clock::now();
+    tbb::parallel_for(
+        tbb::blocked_range<int>(0, gv * tiles_, 1), [&](const tbb::blocked_range<int>& r) {
+          std::vector<RTCRayHit>& buf = buffers.local();
+          for (int gt = r.begin(); gt < r.end(); ++gt) {
+            const int lv = gt / tiles_;
+            const Camera& cam = cameras_[static_cast<std::size_t>(g0 + lv)];
+            PixelHit* img = image.data() + static_cast<std::size_t>(lv) * npix;
+            const Tile tl = tile(gt % tiles_);
+            make_tile_rays(cam, tl, buf.data());
+            caster.intersect(buf.data(), static_cast<unsigned>(tile_ray_count(tl)));
+            const RTCRayHit* rh = buf.data();
+            for (int v = tl.v0; v < tl.v1; ++v) {
+              for (int u = tl.u0; u < tl.u1; ++u, rh += sub_rays_) {
+                PixelHit& px = img[static_cast<std::size_t>(v) * R + u];
+                int hits = 0;
+                int first = -1;
+                double sum = 0.0;
+                float lo = std::numeric_limits<float>::infinity();
+                float hi = -lo;
+                for (int k = 0; k < sub_rays_; ++k) {
+                  if (rh[k].hit.geomID == RTC_INVALID_GEOMETRY_ID) continue;
+                  ++hits;
+                  if (first < 0) first = k;
+                  sum += rh[k].ray.tfar;
+                  lo = std::min(lo, rh[k].ray.tfar);
+                  hi = std::max(hi, rh[k].ray.tfar);
+                }
+                px.mixed = hits > 0 && (hits < sub_rays_ || hi - lo > jump);
+                if (hits < need) {
+                  px.status = PixelStatus::Miss;
+                  px.raw_range = std::numeric_limits<float>::infinity();
+                  continue;
+                }
+                const RTCRayHit& h = rh[first];
+                const Eigen::Vector3f d(h.ray.dir_x, h.ray.dir_y, h.ray.dir_z);
+                px.raw_range = hits == 1 ? h.ray.tfar : static_cast<float>(sum / hits);
+                px.clean = cam.origin + h.ray.tfar * d;
+                const Eigen::Vector3f ng(h.hit.Ng_x, h.hit.Ng_y, h.hit.Ng_z);
+                const float len = ng.norm();
+                px.cos_incidence = len > 0.0f ? std::min(1.0f, std::abs(ng.dot(d)) / len) : 0.0f;
+                if (px.cos_incidence < cos_max) {
+                  px.status = PixelStatus::Grazing;
+                } else if (px.raw_range < range_lo || px.raw_range > range_hi) {
+                  px.status = PixelStatus::OutOfRange;
+                } else {
+                  px.status = PixelStatus::Point;
+                }
+              }
             }
           }
-        }
-      }
-    });
+        });
+    const auto t1 = Clock::now();
+    t_rays += std::chrono::duration<double>(t1 - t0).count();
 
-    // Pass B: flying pixels, range noise and the number of uniform outliers, row by row.
-    tbb::parallel_for(tbb::blocked_range<int>(0, R, 1), [&](const tbb::blocked_range<int>& rows) {
-      std::int64_t c_miss = 0, c_grazing = 0, c_range = 0, c_mixed = 0, c_flying = 0, c_uniform = 0,
-                   c_returned = 0;
-      for (int v = rows.begin(); v < rows.end(); ++v) {
-        std::int64_t count = 0;
-        for (int u = 0; u < R; ++u) {
-          const std::size_t i = static_cast<std::size_t>(v) * R + u;
-          const PixelHit& px = image[i];
-          PixelOut& out = outs[i];
-          out.kind = PointKind::None;
-          out.outliers = 0;
-          c_mixed += px.mixed ? 1 : 0;
-          if (px.status != PixelStatus::Point) {
-            c_miss += px.status == PixelStatus::Miss;
-            c_grazing += px.status == PixelStatus::Grazing;
-            c_range += px.status == PixelStatus::OutOfRange;
-            continue;
-          }
-          ++c_returned;
-          Rng rng(derive_seed(view_pixel_seed, i));
-          float range = px.raw_range;
-          out.kind = PointKind::Surface;
-          if (p_.flying_pixel_prob > 0.0) {
-            // The 4-neighbour with the largest range difference; behind a silhouette (no hit)
-            // the far end is range + flying_spread.
-            float target = range;
-            float best = 0.0f;
-            bool edge = false;
-            auto look = [&](int nu, int nv) {
-              if (nu < 0 || nv < 0 || nu >= R || nv >= R) return;
-              const float nr = image[static_cast<std::size_t>(nv) * R + nu].raw_range;
-              float cand;
-              if (!std::isfinite(nr)) {
-                cand = range + spread;
-              } else if (std::abs(nr - range) > jump) {
-                cand = nr;
+    // Pass B: flying pixels, range noise and the number of uniform outliers, row by row; per-row
+    // counts and sums of surface points (reduced below in fixed order).
+    tbb::parallel_for(
+        tbb::blocked_range<int>(0, rows_g, 1), [&](const tbb::blocked_range<int>& rows) {
+          std::int64_t c_miss = 0, c_grazing = 0, c_range = 0, c_mixed = 0, c_flying = 0,
+                       c_uniform = 0, c_returned = 0;
+          for (int gr = rows.begin(); gr < rows.end(); ++gr) {
+            const int lv = gr / R;
+            const int v = gr % R;
+            const int view = g0 + lv;
+            const Camera& cam = cameras_[static_cast<std::size_t>(view)];
+            const PixelHit* img = image.data() + static_cast<std::size_t>(lv) * npix;
+            PixelOut* out_row = outs.data() + static_cast<std::size_t>(lv) * npix;
+            const std::uint64_t view_pixel_seed =
+                derive_seed(pixel_seed, static_cast<std::uint64_t>(view));
+            const std::uint64_t view_outlier_seed =
+                derive_seed(outlier_seed, static_cast<std::uint64_t>(view));
+            std::int64_t count = 0, surface = 0, outliers = 0;
+            Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+            for (int u = 0; u < R; ++u) {
+              const std::size_t i = static_cast<std::size_t>(v) * R + u;
+              const PixelHit& px = img[i];
+              PixelOut& out = out_row[i];
+              out.kind = PointKind::None;
+              out.outliers = 0;
+              c_mixed += px.mixed ? 1 : 0;
+              if (px.status != PixelStatus::Point) {
+                c_miss += px.status == PixelStatus::Miss;
+                c_grazing += px.status == PixelStatus::Grazing;
+                c_range += px.status == PixelStatus::OutOfRange;
+                continue;
+              }
+              ++c_returned;
+              Rng rng(derive_seed(view_pixel_seed, i));
+              float range = px.raw_range;
+              out.kind = PointKind::Surface;
+              if (p_.flying_pixel_prob > 0.0) {
+                // The 4-neighbour with the largest range difference; behind a silhouette (no hit)
+                // the far end is range + flying_spread.
+                float target = range;
+                float best = 0.0f;
+                bool edge = false;
+                auto look = [&](int nu, int nv) {
+                  if (nu < 0 || nv < 0 || nu >= R || nv >= R) return;
+                  const float nr = img[static_cast<std::size_t>(nv) * R + nu].raw_range;
+                  float cand;
+                  if (!std::isfinite(nr)) {
+                    cand = range + spread;
+                  } else if (std::abs(nr - range) > jump) {
+                    cand = nr;
+                  } else {
+                    return;
+                  }
+                  edge = true;
+                  if (std::abs(cand - range) > best) {
+                    best = std::abs(cand - range);
+                    target = cand;
+                  }
+                };
+                look(u - 1, v);
+                look(u + 1, v);
+                look(u, v - 1);
+                look(u, v + 1);
+                if (edge && rng.uniform() < p_.flying_pixel_prob) {
+                  range += static_cast<float>(rng.uniform()) * (target - range);
+                  out.kind = PointKind::Flying;
+                  ++c_flying;
+                }
+              }
+              if (out.kind == PointKind::Surface) {
+                const double r_diag = static_cast<double>(range) / diag_;
+                const double sigma =
+                    diag_ *
+                    (p_.noise_sigma + p_.noise_range_slope * r_diag +
+                     p_.noise_incidence_slope *
+                         (1.0 / std::max(static_cast<double>(px.cos_incidence), 0.01) - 1.0));
+                if (sigma > 0.0) range += static_cast<float>(sigma * rng.normal());
+              }
+              out.position = cam.origin + range * pixel_dir(cam, u, v, 0);
+              if (out.kind == PointKind::Surface) {
+                sum += out.position.cast<double>();
+                ++surface;
               } else {
-                return;
+                ++outliers;
               }
-              edge = true;
-              if (std::abs(cand - range) > best) {
-                best = std::abs(cand - range);
-                target = cand;
+              if (f_out > 0.0) {
+                Rng orng(derive_seed(view_outlier_seed, i));
+                while (orng.uniform() < f_out)
+                  ++out.outliers;
+                c_uniform += out.outliers;
+                outliers += out.outliers;
               }
-            };
-            look(u - 1, v);
-            look(u + 1, v);
-            look(u, v - 1);
-            look(u, v + 1);
-            if (edge && rng.uniform() < p_.flying_pixel_prob) {
-              range += static_cast<float>(rng.uniform()) * (target - range);
-              out.kind = PointKind::Flying;
-              ++c_flying;
+              count += 1 + out.outliers;
             }
+            row_start[static_cast<std::size_t>(gr) + 1] = count;
+            row_surface[static_cast<std::size_t>(gr)] = surface;
+            row_outliers[static_cast<std::size_t>(gr)] = outliers;
+            row_sum[static_cast<std::size_t>(gr)] = sum;
           }
-          if (out.kind == PointKind::Surface) {
-            const double r_diag = static_cast<double>(range) / diag_;
-            const double sigma =
-                diag_ * (p_.noise_sigma + p_.noise_range_slope * r_diag +
-                         p_.noise_incidence_slope *
-                             (1.0 / std::max(static_cast<double>(px.cos_incidence), 0.01) - 1.0));
-            if (sigma > 0.0) range += static_cast<float>(sigma * rng.normal());
-          }
-          out.position = cam.origin + range * pixel_dir(cam, u, v, 0);
-          if (f_out > 0.0) {
-            Rng orng(derive_seed(view_outlier_seed, i));
-            while (orng.uniform() < f_out)
-              ++out.outliers;
-            c_uniform += out.outliers;
-          }
-          count += 1 + out.outliers;
-        }
-        row_start[static_cast<std::size_t>(v) + 1] = count;
-      }
-      counters.misses += c_miss;
-      counters.grazing += c_grazing;
-      counters.out_of_range += c_range;
-      counters.mixed += c_mixed;
-      counters.flying += c_flying;
-      counters.uniform += c_uniform;
-      counters.returned += c_returned;
-    });
+          counters.misses += c_miss;
+          counters.grazing += c_grazing;
+          counters.out_of_range += c_range;
+          counters.mixed += c_mixed;
+          counters.flying += c_flying;
+          counters.uniform += c_uniform;
+          counters.returned += c_returned;
+        });
+
+    // Serial, fixed order: output offsets, per-scan centres of mass and misalignments.
+    const Eigen::Index base = cloud.size();
     row_start[0] = 0;
-    for (int v = 0; v < R; ++v)
-      row_start[static_cast<std::size_t>(v) + 1] += row_start[static_cast<std::size_t>(v)];
-    const std::size_t base = ids.size();
-    const std::size_t n_view = static_cast<std::size_t>(row_start[static_cast<std::size_t>(R)]);
-    pos.resize(3 * (base + n_view));
-    clean.resize(3 * (base + n_view));
-    flag.resize(base + n_view);
-    ids.resize(base + n_view, view);
-    std::vector<PointKind> kinds(n_view);
-
-    // Pass C: write the view's points in pixel order; uniform outliers after their pixel.
-    tbb::parallel_for(tbb::blocked_range<int>(0, R, 1), [&](const tbb::blocked_range<int>& rows) {
-      for (int v = rows.begin(); v < rows.end(); ++v) {
-        std::size_t j = static_cast<std::size_t>(row_start[static_cast<std::size_t>(v)]);
-        for (int u = 0; u < R; ++u) {
-          const std::size_t i = static_cast<std::size_t>(v) * R + u;
-          const PixelOut& out = outs[i];
-          if (out.kind == PointKind::None) continue;
-          float* p = &pos[3 * (base + j)];
-          float* c = &clean[3 * (base + j)];
-          for (int k = 0; k < 3; ++k) {
-            p[k] = out.position[k];
-            c[k] = image[i].clean[k];
-          }
-          flag[base + j] = out.kind == PointKind::Flying ? 1.0f : 0.0f;
-          kinds[j] = out.kind;
-          ++j;
-          if (out.outliers == 0) continue;
-          Rng orng(derive_seed(view_outlier_seed, i));
-          for (int k = 0; k <= out.outliers; ++k)
-            orng.uniform();  // replay the count draws of pass B
-          for (int o = 0; o < out.outliers; ++o, ++j) {
-            float* q = &pos[3 * (base + j)];
-            float* qc = &clean[3 * (base + j)];
-            for (int k = 0; k < 3; ++k) {
-              q[k] = static_cast<float>(orng.uniform(obox.min[k], obox.max[k]));
-              qc[k] = q[k];
-            }
-            flag[base + j] = 1.0f;
-            kinds[j] = PointKind::Uniform;
-          }
-        }
-      }
-    });
-
-    // Misalignment of the whole scan (registration error).
-    Json scan_rec = Json::object();
-    scan_rec["id"] = view;
-    scan_rec["sensor_origin"] = vec_json(cam.origin);
-    Eigen::Matrix3d rot = Eigen::Matrix3d::Identity();
-    Eigen::Vector3d trans = Eigen::Vector3d::Zero();
-    Json mis = Json(nullptr);
-    if (misaligned[static_cast<std::size_t>(view)]) {
-      Rng rng(derive_seed(misalign_seed, static_cast<std::uint64_t>(view)));
-      auto random_unit = [&rng] {
-        while (true) {
-          const Eigen::Vector3d a(rng.normal(), rng.normal(), rng.normal());
-          const double n = a.norm();
-          if (n > 1e-6) return Eigen::Vector3d(a / n);
-        }
-      };
-      const Eigen::Vector3d axis = random_unit();
-      const Eigen::Vector3d shift = random_unit() * (p_.misalign_shift * diag_);
+    for (int gr = 0; gr < rows_g; ++gr)
+      row_start[static_cast<std::size_t>(gr) + 1] += row_start[static_cast<std::size_t>(gr)];
+    const Eigen::Index n_group = row_start[static_cast<std::size_t>(rows_g)];
+    std::vector<Eigen::Matrix3d> rots(static_cast<std::size_t>(gv), Eigen::Matrix3d::Identity());
+    std::vector<Eigen::Vector3d> transl(static_cast<std::size_t>(gv), Eigen::Vector3d::Zero());
+    for (int lv = 0; lv < gv; ++lv) {
+      const int view = g0 + lv;
+      const Camera& cam = cameras_[static_cast<std::size_t>(view)];
+      Eigen::Matrix3d& rot = rots[static_cast<std::size_t>(lv)];
+      Eigen::Vector3d& trans = transl[static_cast<std::size_t>(lv)];
+      std::int64_t n_surface = 0, n_outliers = 0;
       Eigen::Vector3d centre = Eigen::Vector3d::Zero();
-      std::int64_t n_surface = 0;
-      for (std::size_t j = 0; j < n_view; ++j) {
-        if (kinds[j] != PointKind::Surface) continue;
-        const float* p = &pos[3 * (base + j)];
-        centre += Eigen::Vector3d(p[0], p[1], p[2]);
-        ++n_surface;
+      for (int v = 0; v < R; ++v) {
+        const std::size_t gr = static_cast<std::size_t>(lv) * R + v;
+        n_surface += row_surface[gr];
+        n_outliers += row_outliers[gr];
+        centre += row_sum[gr];
       }
       if (n_surface > 0) centre /= static_cast<double>(n_surface);
-      const double angle = p_.misalign_deg * M_PI / 180.0;
-      rot = Eigen::AngleAxisd(angle, axis).toRotationMatrix();
-      trans = centre - rot * centre + shift;
-      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n_view, 4096),
-                        [&](const tbb::blocked_range<std::size_t>& r) {
-                          for (std::size_t j = r.begin(); j < r.end(); ++j) {
-                            if (kinds[j] == PointKind::Uniform) continue;
-                            float* p = &pos[3 * (base + j)];
-                            const Eigen::Vector3d q =
-                                rot * Eigen::Vector3d(p[0], p[1], p[2]) + trans;
-                            for (int k = 0; k < 3; ++k)
-                              p[k] = static_cast<float>(q[k]);
-                          }
-                        });
-      mis = Json::object();
-      mis["center"] = vec_json(centre);
-      mis["axis"] = vec_json(axis);
-      mis["angle_deg"] = p_.misalign_deg;
-      mis["shift"] = vec_json(shift);
+      Json scan_rec = Json::object();
+      scan_rec["id"] = view;
+      scan_rec["sensor_origin"] = vec_json(cam.origin);
+      Json mis = Json(nullptr);
+      if (misaligned[static_cast<std::size_t>(view)]) {
+        Rng rng(derive_seed(misalign_seed, static_cast<std::uint64_t>(view)));
+        auto random_unit = [&rng] {
+          while (true) {
+            const Eigen::Vector3d a(rng.normal(), rng.normal(), rng.normal());
+            const double n = a.norm();
+            if (n > 1e-6) return Eigen::Vector3d(a / n);
+          }
+        };
+        const Eigen::Vector3d axis = random_unit();
+        const Eigen::Vector3d shift = random_unit() * (p_.misalign_shift * diag_);
+        rot = Eigen::AngleAxisd(p_.misalign_deg * M_PI / 180.0, axis).toRotationMatrix();
+        trans = centre - rot * centre + shift;
+        mis = Json::object();
+        mis["center"] = vec_json(centre);
+        mis["axis"] = vec_json(axis);
+        mis["angle_deg"] = p_.misalign_deg;
+        mis["shift"] = vec_json(shift);
+        Json rows = Json::array();
+        for (int a = 0; a < 3; ++a)
+          rows.push_back(Json::array({rot(a, 0), rot(a, 1), rot(a, 2)}));
+        mis["rotation"] = rows;
+        mis["translation"] = vec_json(trans);
+      }
+      const Eigen::Vector3d reg_origin = rot * cam.origin.cast<double>() + trans;
+      origins.col(view) = reg_origin.cast<float>();
+      scan_rec["registered_origin"] = vec_json(reg_origin);
+      scan_rec["forward"] = vec_json(cam.forward);
+      scan_rec["up"] = vec_json(cam.up);
+      scan_rec["fov_deg"] = static_cast<double>(cam.fov_deg);
+      scan_rec["resolution"] = R;
+      scan_rec["points"] = row_start[static_cast<std::size_t>(lv + 1) * R] -
+                           row_start[static_cast<std::size_t>(lv) * R];
+      scan_rec["outliers"] = n_outliers;
+      scan_rec["misaligned"] = misaligned[static_cast<std::size_t>(view)] != 0;
+      scan_rec["misalignment"] = mis;
+      scans.push_back(std::move(scan_rec));
     }
-    const Eigen::Vector3d reg_origin = rot * cam.origin.cast<double>() + trans;
-    origins.col(view) = reg_origin.cast<float>();
-    scan_rec["registered_origin"] = vec_json(reg_origin);
-    scan_rec["forward"] = vec_json(cam.forward);
-    scan_rec["up"] = vec_json(cam.up);
-    scan_rec["fov_deg"] = static_cast<double>(cam.fov_deg);
-    scan_rec["resolution"] = R;
-    std::int64_t n_out = 0;
-    for (std::size_t j = 0; j < n_view; ++j)
-      n_out += kinds[j] == PointKind::Flying || kinds[j] == PointKind::Uniform;
-    scan_rec["points"] = static_cast<std::int64_t>(n_view);
-    scan_rec["outliers"] = n_out;
-    scan_rec["misaligned"] = misaligned[static_cast<std::size_t>(view)] != 0;
-    if (!mis.is_null()) {
-      Json rows = Json::array();
-      for (int a = 0; a < 3; ++a)
-        rows.push_back(Json::array({rot(a, 0), rot(a, 1), rot(a, 2)}));
-      mis["rotation"] = rows;
-      mis["translation"] = vec_json(trans);
-    }
-    scan_rec["misalignment"] = mis;
-    scans.push_back(std::move(scan_rec));
-  }
 
-  Scan s;
-  const auto n = static_cast<Eigen::Index>(ids.size());
-  PointCloud& cloud = s.cloud;
-  cloud.positions = Eigen::Map<const Eigen::Matrix3Xf>(pos.data(), 3, n);
-  cloud.scan_ids = Eigen::Map<const Eigen::VectorXi>(ids.data(), n);
+    // Pass C: write the group's points in pixel order (misaligned in the same step); uniform
+    // outliers after their pixel.
+    const Eigen::Index total = base + n_group;
+    cloud.positions.conservativeResize(3, total);
+    cloud.scan_ids.conservativeResize(total);
+    cx.conservativeResize(total);
+    cy.conservativeResize(total);
+    cz.conservativeResize(total);
+    flag.conservativeResize(total);
+    tbb::parallel_for(
+        tbb::blocked_range<int>(0, rows_g, 1), [&](const tbb::blocked_range<int>& rows) {
+          for (int gr = rows.begin(); gr < rows.end(); ++gr) {
+            const int lv = gr / R;
+            const int v = gr % R;
+            const int view = g0 + lv;
+            const PixelHit* img = image.data() + static_cast<std::size_t>(lv) * npix;
+            const PixelOut* out_row = outs.data() + static_cast<std::size_t>(lv) * npix;
+            const std::uint64_t view_outlier_seed =
+                derive_seed(outlier_seed, static_cast<std::uint64_t>(view));
+            const bool moved = misaligned[static_cast<std::size_t>(view)] != 0;
+            const Eigen::Matrix3d& rot = rots[static_cast<std::size_t>(lv)];
+            const Eigen::Vector3d& trans = transl[static_cast<std::size_t>(lv)];
+            Eigen::Index j = base + row_start[static_cast<std::size_t>(gr)];
+            for (int u = 0; u < R; ++u) {
+              const std::size_t i = static_cast<std::size_t>(v) * R + u;
+              const PixelOut& out = out_row[i];
+              if (out.kind == PointKind::None) continue;
+              if (moved) {
+                cloud.positions.col(j) = (rot * out.position.cast<double>() + trans).cast<float>();
+              } else {
+                cloud.positions.col(j) = out.position;
+              }
+              cx[j] = img[i].clean.x();
+              cy[j] = img[i].clean.y();
+              cz[j] = img[i].clean.z();
+              flag[j] = out.kind == PointKind::Flying ? 1.0f : 0.0f;
+              cloud.scan_ids[j] = view;
+              ++j;
+              if (out.outliers == 0) continue;
+              Rng orng(derive_seed(view_outlier_seed, i));
+              for (int k = 0; k <= out.outliers; ++k)
+                orng.uniform();  // replay the count draws of pass B
+              for (int o = 0; o < out.outliers; ++o, ++j) {
+                for (int k = 0; k < 3; ++k)
+                  cloud.positions(k, j) =
+                      static_cast<float>(orng.uniform(obox.min[k], obox.max[k]));
+                cx[j] = cloud.positions(0, j);
+                cy[j] = cloud.positions(1, j);
+                cz[j] = cloud.positions(2, j);
+                flag[j] = 1.0f;
+                cloud.scan_ids[j] = view;
+              }
+            }
+          }
+        });
+    t_artifacts += std::chrono::duration<double>(Clock::now() - t1).count();
+  }
+  ctx.add_phase_time("scan.rays", t_rays);
+  ctx.add_phase_time("scan.artifacts", t_artifacts);
+
+  const Eigen::Index n = cloud.size();
   cloud.sensor_origins = origins;
-  cloud.properties["outlier"] = Eigen::Map<const Eigen::VectorXf>(flag.data(), n);
-  Eigen::Map<const Eigen::Matrix<float, 3, Eigen::Dynamic>> cm(clean.data(), 3, n);
-  cloud.properties["clean_x"] = cm.row(0).transpose();
-  cloud.properties["clean_y"] = cm.row(1).transpose();
-  cloud.properties["clean_z"] = cm.row(2).transpose();
+  cloud.properties["outlier"] = std::move(flag);
+  cloud.properties["clean_x"] = std::move(cx);
+  cloud.properties["clean_y"] = std::move(cy);
+  cloud.properties["clean_z"] = std::move(cz);
 
   Json& rec = s.record;
   rec = Json::object();
