@@ -29,7 +29,14 @@ constexpr Index kGrain = 64;
 // inverse of Lambda as (xx, xy, xz, yy, yz, zz) and the dimensionless weight prefactor.
 struct Precomputed {
   float inv[4][6];
-  float coef[4];
+  float log_coef[4];
+};
+
+// Per-thread scratch of one particle's step.
+struct StepScratch {
+  std::vector<std::pair<Index, float>> hits;
+  Eigen::ArrayXf arg, w;
+  std::vector<float> t;
 };
 
 class PreparedMixture {
@@ -59,7 +66,7 @@ class PreparedMixture {
           // eq. 19 times h^3 (dimensionless; the common h^3 cancels in eq. 22) and eq. 24 times
           // the constant (h^2/32)^(3/2) (2 pi)^(3/2) / c_theta that cancels in eq. 23.
           const double scale = j < 3 ? kClopFitWeights[j] * std::pow(var, 1.5) : std::pow(var, 1.5);
-          p.coef[j] = static_cast<float>(m.weights(s) * scale / std::sqrt(det));
+          p.log_coef[j] = static_cast<float>(std::log(m.weights(s) * scale / std::sqrt(det)));
         }
       }
     });
@@ -68,31 +75,51 @@ class PreparedMixture {
   }
 
   // eq. 24 (j = 3) or eq. 22 (j = 0..2): q + sum_j s2_j w_j Lambda_j^-1 (mu - q) / sum_j w_j.
+  // A component is skipped when the exponent of its widest kernel is below -16 (the narrower
+  // ones are then below too: Lambda_j^-1 >= Lambda_0^-1). The exponentials of one particle are
+  // evaluated as one vectorised array expression.
   template <bool kInitial>
-  Eigen::Vector3f step(const Eigen::Vector3f& q, std::vector<std::pair<Index, float>>& hits) const {
-    float nx = 0.0f, ny = 0.0f, nz = 0.0f, den = 0.0f;
-    index_.for_each_near(q, kInitial ? r_initial_ : r_attraction_, hits, [&](Index s) {
+  Eigen::Vector3f step(const Eigen::Vector3f& q, StepScratch& sc) const {
+    constexpr int j0 = kInitial ? 3 : 0;
+    constexpr int nk = kInitial ? 1 : 3;
+    Index n = 0;
+    index_.for_each_near(q, kInitial ? r_initial_ : r_attraction_, sc.hits, [&](Index s) {
       const Precomputed& p = pre_[static_cast<std::size_t>(s)];
       const float dx = means_(0, s) - q.x();
       const float dy = means_(1, s) - q.y();
       const float dz = means_(2, s) - q.z();
-      constexpr int j0 = kInitial ? 3 : 0;
-      constexpr int j1 = kInitial ? 4 : 3;
-      for (int j = j0; j < j1; ++j) {
-        const float* a = p.inv[j];
+      if (sc.arg.size() < (n + 1) * nk) {
+        sc.arg.conservativeResize(2 * (n + 1) * nk);
+        sc.t.resize(static_cast<std::size_t>(2 * (n + 1) * nk * 3));
+      }
+      for (int jj = 0; jj < nk; ++jj) {
+        const float* a = p.inv[j0 + jj];
         const float tx = a[0] * dx + a[1] * dy + a[2] * dz;
         const float ty = a[1] * dx + a[3] * dy + a[4] * dz;
         const float tz = a[2] * dx + a[4] * dy + a[5] * dz;
         const float e = dx * tx + dy * ty + dz * tz;
-        const float w = p.coef[j] * std::exp(-0.5f * e);
-        const float ws = w * s2_[j];
-        nx += ws * tx;
-        ny += ws * ty;
-        nz += ws * tz;
-        den += w;
+        if (jj == 0 && e > 32.0f) return;  // exponent below -16 for every kernel
+        const Index slot = n * nk + jj;
+        sc.arg[slot] = p.log_coef[j0 + jj] - 0.5f * e;
+        float* t = &sc.t[static_cast<std::size_t>(3 * slot)];
+        t[0] = tx * s2_[j0 + jj];
+        t[1] = ty * s2_[j0 + jj];
+        t[2] = tz * s2_[j0 + jj];
       }
+      ++n;
     });
-    if (!(den > 0.0f)) return q;  // no component within reach: the particle stays
+    const Index m = n * nk;
+    if (m == 0) return q;  // no component within reach: the particle stays
+    sc.w = sc.arg.head(m).exp();
+    float nx = 0.0f, ny = 0.0f, nz = 0.0f;
+    for (Index i = 0; i < m; ++i) {
+      const float* t = &sc.t[static_cast<std::size_t>(3 * i)];
+      nx += sc.w[i] * t[0];
+      ny += sc.w[i] * t[1];
+      nz += sc.w[i] * t[2];
+    }
+    const float den = sc.w.head(m).sum();
+    if (!(den > 0.0f)) return q;
     return q + Eigen::Vector3f(nx, ny, nz) / den;
   }
 
@@ -104,13 +131,35 @@ class PreparedMixture {
   std::vector<float> r_attraction_, r_initial_;
 };
 
+// WLOP particle density weights w_i = 1 + sum_{i' != i} theta(|q_i - q_i'|) with theta cut at
+// `cutoff` like the rest of the repulsion term (section 8; kernels::density_weights sums to h).
+Eigen::VectorXf cut_density_weights(const Eigen::Matrix3Xf& q, const KdTree& tree, float h,
+                                    float cutoff) {
+  const Index n = q.cols();
+  Eigen::VectorXf w(n);
+  const float k = -kernels::kThetaFactor / (h * h);
+  tbb::parallel_for(tbb::blocked_range<Index>(0, n, 256), [&](const auto& r) {
+    std::vector<std::pair<Index, float>> hits;
+    Eigen::ArrayXf d2;
+    for (Index i = r.begin(); i != r.end(); ++i) {
+      tree.radius(q.col(i), cutoff, hits);
+      d2.resize(static_cast<Index>(hits.size()));
+      Index m = 0;
+      for (const auto& hit : hits)
+        if (hit.first != i) d2[m++] = hit.second;
+      w[i] = 1.0f + (k * d2.head(m)).exp().sum();
+    }
+  });
+  return w;
+}
+
 template <class Body>
 void for_each_particle(Index m, Body body) {
   tbb::parallel_for(tbb::blocked_range<Index>(0, m, kGrain), [&](const auto& range) {
-    std::vector<std::pair<Index, float>> hits;
+    StepScratch sc;
     kernels::Scratch s;
     for (Index i = range.begin(); i != range.end(); ++i)
-      body(i, hits, s);
+      body(i, sc, s);
   });
 }
 
@@ -159,8 +208,8 @@ void clop_project(const GaussianMixture& m, Eigen::Matrix3Xf& q, const ClopParam
   Eigen::Matrix3Xf next(3, n);
   {
     auto timer = ctx.phase("attraction");
-    for_each_particle(n, [&](Index i, auto& hits, kernels::Scratch&) {
-      next.col(i) = pm->step<true>(q.col(i), hits);
+    for_each_particle(n, [&](Index i, StepScratch& sc, kernels::Scratch&) {
+      next.col(i) = pm->step<true>(q.col(i), sc);
     });
     q.swap(next);
   }
@@ -173,8 +222,8 @@ void clop_project(const GaussianMixture& m, Eigen::Matrix3Xf& q, const ClopParam
     ctx.check_cancelled("resample.clop");
     {
       auto timer = ctx.phase("attraction");
-      for_each_particle(n, [&](Index i, auto& hits, kernels::Scratch&) {
-        next.col(i) = pm->step<false>(q.col(i), hits);
+      for_each_particle(n, [&](Index i, StepScratch& sc, kernels::Scratch&) {
+        next.col(i) = pm->step<false>(q.col(i), sc);
       });
     }
     if (mu > 0.0f) {
@@ -183,7 +232,7 @@ void clop_project(const GaussianMixture& m, Eigen::Matrix3Xf& q, const ClopParam
         auto timer = ctx.phase("repulsion");
         const KdTree tree(q);
         Eigen::VectorXf w;  // empty: unweighted repulsion (LOP)
-        if (p.weighted) w = kernels::density_weights(q, tree, h);
+        if (p.weighted) w = cut_density_weights(q, tree, h, cutoff);
         for_each_particle(n, [&](Index i, auto&, kernels::Scratch& s) {
           rep.col(i) = kernels::repulsion(i, q, tree, w, h, cutoff, s);
         });

@@ -88,9 +88,10 @@ std::vector<Component> initial_mixture(const Eigen::Matrix3Xf& pts, const HemPar
 
   std::vector<Component> comps(static_cast<std::size_t>(n));
   std::vector<double> inv_v(static_cast<std::size_t>(n), 1.0);
-  const double inv_h2 = 1.0 / (h_abs * h_abs);
+  const float k_theta = static_cast<float>(-16.0 / (h_abs * h_abs));
   tbb::parallel_for(tbb::blocked_range<Index>(0, n, 128), [&](const tbb::blocked_range<Index>& rr) {
     std::vector<std::pair<Index, float>> nb;
+    Eigen::ArrayXf d2s;
     for (Index j = rr.begin(); j < rr.end(); ++j) {
       const auto uj = static_cast<std::size_t>(j);
       const double nnd = nn[uj] > 0.0 ? nn[uj] : median_nn;
@@ -101,10 +102,10 @@ std::vector<Component> initial_mixture(const Eigen::Matrix3Xf& pts, const HemPar
       Vector3d sum = Vector3d::Zero();
       Matrix3d sum2 = Matrix3d::Zero();
       double count = 0.0;
-      double density = 1.0;
       const double r2 = r * r;
+      d2s.resize(static_cast<Index>(nb.size()));
+      Index nd = 0;
       for (const auto& [i, d2f] : nb) {
-        const double d2 = static_cast<double>(d2f);
         const Vector3d dlt = pts.col(i).cast<double>() - pj;  // centred at p_j for precision
         const double dd = dlt.squaredNorm();
         if (dd <= r2) {
@@ -112,8 +113,10 @@ std::vector<Component> initial_mixture(const Eigen::Matrix3Xf& pts, const HemPar
           sum2 += dlt * dlt.transpose();
           count += 1.0;
         }
-        if (i != j) density += std::exp(-16.0 * d2 * inv_h2);
+        if (i != j) d2s[nd++] = d2f;
       }
+      const double density =
+          p.weighted ? 1.0 + static_cast<double>((k_theta * d2s.head(nd)).exp().sum()) : 1.0;
       Component& c = comps[uj];
       c.mu = pj;
       const double bias = p.cov_bias * r2;

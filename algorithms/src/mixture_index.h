@@ -2,7 +2,7 @@
 // Internal to the algorithms module (clop.cpp, csw.cpp): neighbour search over the components of
 // a Gaussian mixture for kernels of the form exp(-(mu_s - q)^T (Sigma_s + v I)^-1 (mu_s - q) / 2).
 //
-// Components are grouped in size classes (largest covariance eigenvalue within a factor 4 of each
+// Components are grouped in size classes (largest covariance eigenvalue within a factor 2 of each
 // other), each with its own kd-tree over the means. For a query with extra variance v, class c is
 // searched within sqrt(32 (lambda_c + v)), lambda_c its largest eigenvalue: beyond it the
 // exponent is below -16 for every component of the class (since x^T A^-1 x >= |x|^2 /
@@ -23,6 +23,9 @@ namespace scanbench::algorithms::detail {
 
 class MixtureIndex {
  public:
+  /// Largest-eigenvalue ratio spanned by one size class.
+  static constexpr double kClassRatio = 2.0;
+
   /// `base` (> 0) is the variance unit of the size classes (e.g. the smallest kernel variance).
   MixtureIndex(const GaussianMixture& m, double base) {
     const Eigen::Index k = m.size();
@@ -34,8 +37,9 @@ class MixtureIndex {
                                                         Eigen::EigenvaluesOnly);
       const double l = std::max(es.eigenvalues()(2), 0.0);
       lmax[static_cast<std::size_t>(s)] = l;
-      int c = l <= base ? 0 : static_cast<int>(std::ceil(std::log(l / base) / std::log(4.0)));
-      c = std::clamp(c, 0, 24);
+      int c =
+          l <= base ? 0 : static_cast<int>(std::ceil(std::log(l / base) / std::log(kClassRatio)));
+      c = std::clamp(c, 0, 48);
       cls[static_cast<std::size_t>(s)] = c;
       max_cls = std::max(max_cls, c);
     }

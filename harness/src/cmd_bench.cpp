@@ -6,6 +6,7 @@ namespace scanbench::harness {
 
 void add_bench_scanner(CLI::App* bench, Cli& cli);   // cmd_bench_scanner.cpp
 void add_bench_distance(CLI::App* bench, Cli& cli);  // cmd_bench_distance.cpp
+void add_bench_resample(CLI::App* bench, Cli& cli);  // cmd_bench_resample.cpp
 
 void add_bench_command(Cli& cli) {
   CLI::App* bench = cli.app.add_subcommand(
@@ -14,6 +15,7 @@ void add_bench_command(Cli& cli) {
   // One explicit list of benchmarks (each defined in its own cmd_bench_*.cpp).
   add_bench_scanner(bench, cli);
   add_bench_distance(bench, cli);
+  add_bench_resample(bench, cli);
 
   if (bench->get_subcommands({}).empty()) cli.app.remove_subcommand(bench);
 }

@@ -17,8 +17,9 @@
 //    exp(-(mu_s - q)^T Lambda_sk^-1 (mu_s - q) / 2), where alpha(r) = theta(r)/r is replaced by
 //    the three-Gaussian fit (w_k, sigma_k) below (eq. 16, Fig. 5b), and the WLOP repulsion F2
 //    (eq. 5, eta(r) = -r, particle density weights w_i' when `weighted`) cut at
-//    repulsion_cutoff * h (section 8: h/2) and, when `interleave`, recomputed only in every second
-//    iteration (the previous F2 vector is reused; the last iteration always recomputes).
+//    repulsion_cutoff * h (section 8: h/2; the density weights w_i' are summed within the same
+//    cutoff, the whole repulsion kernel being cut) and, when `interleave`, recomputed only in every
+//    second iteration (the previous F2 vector is reused; the last iteration always recomputes).
 //  - kernel theta(r) = exp(-16 r^2 / h^2), h a fraction of the input's bbox diagonal.
 //  - Components are gathered per particle through kd-trees over the component means, one per
 //    size class (largest covariance eigenvalue within a factor 4). A component is skipped when
@@ -80,7 +81,7 @@ struct ClopParams {
   bool interleave = true;
   // HEM (declared by declare_hem_params)
   double alpha = 2.0;
-  int levels = 5;
+  int levels = 8;
   double min_reduction = 0.025;
   double parent_probability = 1.0 / 3.0;
   double init_radius_factor = 2.5;

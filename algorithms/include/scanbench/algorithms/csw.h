@@ -45,7 +45,7 @@ struct CswParams {
   double repulsion_cutoff = 0.5;
   bool interleave = true;
   double alpha = 2.0;
-  int levels = 5;
+  int levels = 8;
   double min_reduction = 0.025;
   double parent_probability = 1.0 / 3.0;
   double init_radius_factor = 2.5;

@@ -73,7 +73,7 @@ void declare_hem_params(ParamDeclarer<T>& d) {
 struct HemParams {
   double h = 0.02;  ///< kernel width of the density weights v_j, fraction of the bbox diagonal
   double alpha = 2.0;
-  int levels = 5;
+  int levels = 8;
   double min_reduction = 0.025;
   double parent_probability = 1.0 / 3.0;
   double init_radius_factor = 2.5;

@@ -1,0 +1,320 @@
+// scanbench bench resample [--json FILE] [--quick] [--scaling] ...: the CLOP paper's Camel case
+// (Fig. 9): the camel mesh scanned to about 87K points (18 views, range noise 0.5% of the
+// diagonal, half the scans misregistered by 0.5 deg and 0.2% of the diagonal), about 72K
+// particles, 10 iterations and one kernel width h for every method. Weighted CLOP (alpha 2,
+// interleaved repulsion, HEM included in its time), our WLOP and CGAL's WLOP run in one process;
+// each reports the median wall time of its repeats, p2plane_mean and nn_dist_cv, and the ratios of
+// the medians. --scaling adds 1- vs 2-thread speedups, CLOP's time growth exponent over input
+// sizes and its peak memory per input point (Linux: peak RSS reset through /proc/self/clear_refs).
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "commands.h"
+#include "scanbench/algorithms/registry.h"
+#include "scanbench/core/datasets.h"
+#include "scanbench/core/errors.h"
+#include "scanbench/core/run_context.h"
+#include "scanbench/metrics/evaluate.h"
+#include "scanbench/metrics/ground_truth.h"
+#include "scanbench/scanner/scanner.h"
+
+namespace scanbench::harness {
+
+namespace {
+
+double median_of(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  const std::size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+double now_seconds() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+// kB value of a /proc/self/status field ("VmRSS", "VmHWM"), or -1 when unavailable.
+long status_kb(const std::string& field) {
+  std::ifstream f("/proc/self/status");
+  std::string line;
+  while (std::getline(f, line)) {
+    if (line.rfind(field + ":", 0) == 0) return std::stol(line.substr(field.size() + 1));
+  }
+  return -1;
+}
+
+// Resets the peak RSS (VmHWM) to the current RSS (Linux >= 4.0); false when not possible.
+bool reset_peak_rss() {
+  std::ofstream f("/proc/self/clear_refs");
+  f << "5";
+  f.flush();
+  return static_cast<bool>(f);
+}
+
+// The camel scan of the paper's case, its resolution calibrated so that it holds about
+// target_points points (one scan at resolution 128, then the resolution scaled by the square
+// root of the ratio). Deterministic for a seed.
+PointCloud camel_scan(const TriangleMesh& mesh, long target_points, std::uint64_t seed,
+                      Json* record) {
+  scanner::ScannerParams p;
+  p.views = 18;
+  p.resolution = 128;
+  p.noise_sigma = 0.005;
+  p.max_incidence_deg = 80.0;
+  p.misalign_fraction = 0.5;
+  p.misalign_deg = 0.5;
+  p.misalign_shift = 0.002;
+  RunContext ctx(seed);
+  const scanner::Scan probe = scanner::scan(mesh, p, ctx);
+  if (probe.cloud.empty()) throw InputError("bench resample: the probe scan hit nothing");
+  const double scale =
+      std::sqrt(static_cast<double>(target_points) / static_cast<double>(probe.cloud.size()));
+  p.resolution = std::max(8, static_cast<int>(std::lround(128.0 * scale)));
+  RunContext ctx2(seed);
+  scanner::Scan s = scanner::scan(mesh, p, ctx2);
+  if (record) *record = s.record;
+  return std::move(s.cloud);
+}
+
+struct CaseResult {
+  std::string name;
+  std::string algorithm;
+  Json params;
+  std::vector<double> seconds;
+  std::map<std::string, double> phases;  // of the last repeat
+  algorithms::AlgorithmOutput output;
+};
+
+CaseResult run_case(const std::string& name, const std::string& algorithm, const Json& given,
+                    const PointCloud& input, int repeats, int threads, std::uint64_t seed) {
+  const auto& entry = algorithms::registry().at(algorithm);
+  CaseResult r;
+  r.name = name;
+  r.algorithm = algorithm;
+  r.params = entry.params.validate(given, "bench resample " + name);
+  for (int i = 0; i < repeats; ++i) {
+    RunContext ctx(seed, threads);
+    const double t0 = now_seconds();
+    r.output = entry.fn(input, r.params, ctx);
+    r.seconds.push_back(now_seconds() - t0);
+    r.phases = ctx.phase_seconds();
+  }
+  return r;
+}
+
+}  // namespace
+
+void add_bench_resample(CLI::App* bench, Cli& cli) {
+  struct Opts {
+    std::string json;
+    bool quick = false;
+    bool scaling = false;
+    bool no_cgal = false;
+    int repeats = 3;
+    int threads = 0;
+    long points = 87000;
+    double particles = 72.0 / 87.0;
+    double h = 0.04;
+    int iterations = 10;
+    std::uint64_t seed = 1;
+    std::string dataset = "camel";
+    std::vector<long> sizes{10000, 100000, 1000000};
+  };
+  auto opts = std::make_shared<Opts>();
+  CLI::App* sub = bench->add_subcommand(
+      "resample",
+      "CLOP paper Camel case: weighted CLOP vs our WLOP vs CGAL's WLOP at one kernel width "
+      "(median times, p2plane_mean, nn_dist_cv, ratios; --scaling: threads, growth, memory)");
+  sub->add_option("--json", opts->json, "Write the results as JSON to this file");
+  sub->add_flag("--quick", opts->quick, "About 20K points and one repeat (a smoke run)");
+  sub->add_flag("--scaling", opts->scaling,
+                "Also 1 vs 2 threads, CLOP time over --sizes and peak memory per point");
+  sub->add_flag("--no-cgal", opts->no_cgal, "Skip CGAL's WLOP (slow)");
+  sub->add_option("--repeats", opts->repeats, "Timed repeats per method (medians are reported)")
+      ->check(CLI::Range(1, 100));
+  sub->add_option("--threads", opts->threads, "Worker threads (0 = all)")
+      ->check(CLI::NonNegativeNumber);
+  sub->add_option("--points", opts->points, "Target scan size")
+      ->check(CLI::Range(1000L, 50000000L));
+  sub->add_option("--particles", opts->particles, "Particles as a share of the scan")
+      ->check(CLI::Range(0.001, 1.0));
+  sub->add_option("--h", opts->h, "Kernel width h (fraction of the bbox diagonal, LOP kernel)")
+      ->check(CLI::Range(0.001, 0.5));
+  sub->add_option("--iterations", opts->iterations, "Iterations of every method")
+      ->check(CLI::Range(1, 1000));
+  sub->add_option("--seed", opts->seed, "Seed of the scan and the methods");
+  sub->add_option("--dataset", opts->dataset, "Dataset name or mesh file (default camel)");
+  sub->add_option("--sizes", opts->sizes, "Scan sizes of the --scaling growth run")
+      ->delimiter(',')
+      ->check(CLI::Range(1000L, 50000000L));
+  sub->callback([&cli, opts] {
+    cli.action = [opts] {
+      Opts o = *opts;
+      if (o.quick) {
+        o.points = std::min(o.points, 20000L);
+        o.repeats = 1;
+        o.sizes = {5000, 20000, 80000};
+      }
+      const TriangleMesh mesh = load_dataset(o.dataset);
+      Json scan_record;
+      const PointCloud input = camel_scan(mesh, o.points, o.seed, &scan_record);
+      const metrics::GroundTruth gt(mesh, o.seed);
+      fmt::print("{}: {} scan points, {} particles, h = {} diag, {} iterations, {} repeats\n",
+                 o.dataset, input.size(), std::lround(o.particles * input.size()), o.h,
+                 o.iterations, o.repeats);
+
+      const Json common = {{"h", o.h}, {"iterations", o.iterations}, {"particles", o.particles}};
+      Json clop_p = common;
+      clop_p["mu"] = 0.4;
+      clop_p["alpha"] = 2.0;
+      clop_p["interleave"] = true;
+      clop_p["weighted"] = true;
+      Json wlop_p = common;
+      wlop_p["mu"] = 0.4;
+      std::vector<CaseResult> results;
+      results.push_back(
+          run_case("clop", "resample.clop", clop_p, input, o.repeats, o.threads, o.seed));
+      results.push_back(
+          run_case("wlop", "resample.wlop", wlop_p, input, o.repeats, o.threads, o.seed));
+      if (!o.no_cgal) {
+        results.push_back(
+            run_case("cgal_wlop", "peer.cgal_wlop", common, input, o.repeats, o.threads, o.seed));
+      }
+
+      const std::vector<std::string> metric_names = {"accuracy.p2plane", "regularity.nn_dist"};
+      auto measure = [&](const PointCloud& pc) {
+        RunContext mctx(o.seed, o.threads);
+        return metrics::evaluate(gt, pc, &input, metric_names, Json::object(), mctx);
+      };
+      const Json input_metrics = measure(input);
+      Json cases = Json::array();
+      std::map<std::string, double> med;
+      fmt::print("{:>10} {:>10} {:>10} {:>14} {:>11}  phases\n", "method", "median_s", "particles",
+                 "p2plane_mean", "nn_dist_cv");
+      fmt::print("{:>10} {:>10} {:>10} {:>14.6f} {:>11.4f}\n", "input", "-", input.size(),
+                 input_metrics.value("p2plane_mean_rel", 0.0),
+                 input_metrics.value("nn_dist_cv", 0.0));
+      for (const CaseResult& r : results) {
+        const Json m = measure(r.output.points);
+        Json c = Json::object();
+        c["name"] = r.name;
+        c["algorithm"] = r.algorithm;
+        c["median_s"] = med[r.name] = median_of(r.seconds);
+        c["seconds"] = r.seconds;
+        c["p2plane_mean"] = m.value("p2plane_mean_rel", 0.0);
+        c["p2plane_mean_abs"] = m.value("p2plane_mean", 0.0);
+        c["p2plane_rms"] = m.value("p2plane_rms_rel", 0.0);
+        c["nn_dist_cv"] = m.value("nn_dist_cv", 0.0);
+        c["particles"] = r.output.points.size();
+        if (r.output.mixture) c["mixture_components"] = r.output.mixture->size();
+        Json ph = Json::object();
+        std::string phase_text;
+        for (const auto& [k, v] : r.phases) {
+          ph[k] = v;
+          phase_text += fmt::format("{}={:.3f} ", k, v);
+        }
+        c["phases"] = ph;
+        c["params"] = r.params;
+        fmt::print("{:>10} {:>10.3f} {:>10} {:>14.6f} {:>11.4f}  {}\n", r.name, med[r.name],
+                   r.output.points.size(), c["p2plane_mean"].get<double>(),
+                   c["nn_dist_cv"].get<double>(), phase_text);
+        cases.push_back(std::move(c));
+      }
+      Json ratios = Json::object();
+      ratios["wlop_over_clop"] = med["wlop"] / med["clop"];
+      fmt::print("wlop_over_clop      {:8.2f}  (target >= 6)\n", med["wlop"] / med["clop"]);
+      if (!o.no_cgal) {
+        ratios["cgal_wlop_over_clop"] = med["cgal_wlop"] / med["clop"];
+        ratios["cgal_wlop_over_wlop"] = med["cgal_wlop"] / med["wlop"];
+        fmt::print("cgal_wlop_over_clop {:8.2f}  (target >= 25)\n", med["cgal_wlop"] / med["clop"]);
+        fmt::print("cgal_wlop_over_wlop {:8.2f}  (target >= 3)\n", med["cgal_wlop"] / med["wlop"]);
+      }
+
+      Json scaling = Json::object();
+      if (o.scaling) {
+        for (const char* name : {"clop", "wlop"}) {
+          const bool is_clop = std::string(name) == "clop";
+          const Json& p = is_clop ? clop_p : wlop_p;
+          const std::string algo = is_clop ? "resample.clop" : "resample.wlop";
+          const double t1 = median_of(run_case(name, algo, p, input, o.repeats, 1, o.seed).seconds);
+          const double t2 = median_of(run_case(name, algo, p, input, o.repeats, 2, o.seed).seconds);
+          ratios[fmt::format("{}_threads_2_over_1", name)] = t1 / t2;
+          fmt::print("{} 1 thread {:.3f} s, 2 threads {:.3f} s: speedup {:.2f} (target >= 1.8)\n",
+                     name, t1, t2, t1 / t2);
+        }
+        Json growth = Json::array();
+        std::vector<double> ns, ts;
+        double mem_per_point = -1.0;
+        for (long size : o.sizes) {
+          const PointCloud big = camel_scan(mesh, size, o.seed, nullptr);
+          const bool mem_ok = reset_peak_rss();
+          const long rss0 = status_kb("VmRSS");
+          const CaseResult r =
+              run_case("clop", "resample.clop", clop_p, big, o.repeats, o.threads, o.seed);
+          const long hwm = status_kb("VmHWM");
+          const double t = median_of(r.seconds);
+          const double per_point =
+              mem_ok && rss0 >= 0 && hwm >= 0
+                  ? 1024.0 * static_cast<double>(hwm - rss0) / static_cast<double>(big.size())
+                  : -1.0;
+          mem_per_point = per_point;
+          ns.push_back(static_cast<double>(big.size()));
+          ts.push_back(t);
+          growth.push_back({{"points", big.size()},
+                            {"median_s", t},
+                            {"mixture_components", r.output.mixture ? r.output.mixture->size() : 0},
+                            {"peak_bytes_per_point", per_point}});
+          fmt::print("clop at {:>9} points: {:8.3f} s, peak memory {:.0f} B/point\n", big.size(), t,
+                     per_point);
+        }
+        if (ns.size() >= 2) {
+          const double exponent =
+              std::log(ts.back() / ts.front()) / std::log(ns.back() / ns.front());
+          ratios["clop_growth_exponent"] = exponent;
+          ratios["clop_peak_bytes_per_point_largest"] = mem_per_point;
+          fmt::print(
+              "clop growth exponent {:.3f} (target <= 1.1), peak {:.0f} B/point at {} "
+              "(target < 1024)\n",
+              exponent, mem_per_point, static_cast<long>(ns.back()));
+        }
+        scaling["growth"] = std::move(growth);
+      }
+
+      if (!o.json.empty()) {
+        Json out = Json::object();
+        out["benchmark"] = "resample";
+        out["dataset"] = o.dataset;
+        out["scan_points"] = input.size();
+        out["h"] = o.h;
+        out["iterations"] = o.iterations;
+        out["particles_share"] = o.particles;
+        out["repeats"] = o.repeats;
+        out["threads"] = o.threads;
+        out["seed"] = o.seed;
+        out["scan_params"] = scan_record.contains("params") ? scan_record["params"] : Json();
+        out["input"] = {{"p2plane_mean", input_metrics.value("p2plane_mean_rel", 0.0)},
+                        {"nn_dist_cv", input_metrics.value("nn_dist_cv", 0.0)}};
+        out["cases"] = std::move(cases);
+        out["ratios"] = std::move(ratios);
+        if (o.scaling) out["scaling"] = std::move(scaling);
+        out["targets"] = {{"wlop_over_clop", 6.0},       {"cgal_wlop_over_clop", 25.0},
+                          {"cgal_wlop_over_wlop", 3.0},  {"threads_2_over_1", 1.8},
+                          {"clop_growth_exponent", 1.1}, {"clop_peak_bytes_per_point", 1024.0}};
+        std::ofstream f(o.json, std::ios::binary | std::ios::trunc);
+        f << out.dump(2) << "\n";
+        f.flush();
+        if (!f) throw IoError(fmt::format("{}: cannot write", o.json));
+      }
+      return 0;
+    };
+  });
+}
+
+}  // namespace scanbench::harness
