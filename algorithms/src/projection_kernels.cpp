@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 #include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -123,9 +124,12 @@ void for_each_query(const Eigen::Matrix3Xf& queries, const Eigen::Matrix3Xf& pts
   const Cells cells = make_cells(queries, cell);
   const float reach = radius + 0.5f * std::sqrt(3.0f) * cell;
   const auto ncells = static_cast<Eigen::Index>(cells.centre.size());
+  // Per thread: slot[j] = position of point j among the current cell's candidates (-1 else).
+  tbb::enumerable_thread_specific<std::vector<Eigen::Index>> slots(
+      [&] { return std::vector<Eigen::Index>(find_self ? pts.cols() : 0, -1); });
   tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, ncells, 1), [&](const auto& range) {
     Candidates c;
-    std::vector<Eigen::Index> self;
+    std::vector<Eigen::Index>& slot = slots.local();
     for (Eigen::Index cc = range.begin(); cc != range.end(); ++cc) {
       const auto b = static_cast<std::size_t>(cells.begin[static_cast<std::size_t>(cc)]);
       const auto e = static_cast<std::size_t>(cells.begin[static_cast<std::size_t>(cc) + 1]);
@@ -138,7 +142,6 @@ void for_each_query(const Eigen::Matrix3Xf& queries, const Eigen::Matrix3Xf& pts
       c.z.assign(np, 1e30f);
       c.weight.assign(np, 0.0f);
       c.index.assign(np, -1);
-      self.assign(e - b, -1);
       for (std::size_t t = 0; t < c.hits.size(); ++t) {
         const Eigen::Index j = c.hits[t].first;
         c.x[t] = pts(0, j);
@@ -146,16 +149,17 @@ void for_each_query(const Eigen::Matrix3Xf& queries, const Eigen::Matrix3Xf& pts
         c.z[t] = pts(2, j);
         c.index[t] = j;
         c.weight[t] = weight_of(j);
-        if (find_self) {
-          // The cell's queries are sorted by index: binary search for j among them.
-          const auto first = cells.order.begin() + static_cast<std::ptrdiff_t>(b);
-          const auto last = cells.order.begin() + static_cast<std::ptrdiff_t>(e);
-          const auto it = std::lower_bound(first, last, j);
-          if (it != last && *it == j) self[static_cast<std::size_t>(it - first)] = t;
-        }
+        if (find_self) slot[static_cast<std::size_t>(j)] = static_cast<Eigen::Index>(t);
       }
-      for (std::size_t k = b; k < e; ++k)
-        f(cells.order[k], c, self[k - b]);
+      // A query lies in its cell, hence within reach of the centre: it is among the candidates.
+      for (std::size_t k = b; k < e; ++k) {
+        const Eigen::Index i = cells.order[k];
+        f(i, c, find_self ? slot[static_cast<std::size_t>(i)] : Eigen::Index{-1});
+      }
+      if (find_self) {
+        for (std::size_t t = 0; t < c.hits.size(); ++t)
+          slot[static_cast<std::size_t>(c.hits[t].first)] = -1;
+      }
     }
   });
 }
