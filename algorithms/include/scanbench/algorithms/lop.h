@@ -14,8 +14,12 @@
 //
 // Kernel: theta(r) = exp(-16 r^2 / h^2) (the LOP/CLOP convention; CGAL's WLOP uses exp(-4 r^2/h^2),
 // i.e. h_CGAL = h/2 for the same kernel), h a fraction of the input's bounding-box diagonal.
-// Neighbour searches use the support radius h (theta(h) = exp(-16) ~ 1e-7) through core's KdTree;
-// distances are clamped below at 0.01 h inside alpha and beta.
+// Every sum runs over the support radius h (theta(h) = exp(-16) ~ 1e-7; nothing beyond h counts,
+// so a particle with no other particle within h feels no repulsion). Neighbours come from core's
+// KdTree, queried once per cell of side h/2 of particles and filtered per particle to the exact
+// ball with vectorised float kernels; distances are clamped below at 0.01 h inside alpha and beta.
+// Particles move simultaneously and each particle's sums run in a fixed order, so the output is
+// bit-identical for any thread count.
 #include "scanbench/core/params.h"
 #include "scanbench/core/point_cloud.h"
 #include "scanbench/core/run_context.h"
@@ -53,7 +57,8 @@ struct LopParams {
 PointCloud lop(const PointCloud& input, const LopParams& p, RunContext& ctx);
 
 /// WLOP (density weights v_j of the input once and w_i of the particles every iteration).
-/// Same output, timers ("init", "density", "attraction", "repulsion") and errors as lop().
+/// Same output and errors as lop(); timers "init", "density" (the v_j), "attraction" and
+/// "repulsion" (the particle weights w_i and F2).
 PointCloud wlop(const PointCloud& input, const LopParams& p, RunContext& ctx);
 
 }  // namespace scanbench::algorithms
