@@ -32,17 +32,21 @@ struct Precomputed {
   float log_coef[4];
 };
 
-// Per-thread scratch of one particle's step.
-struct StepScratch {
+// Per-thread scratch of one cell of particles.
+struct CellScratch {
   std::vector<std::pair<Index, float>> hits;
-  Eigen::ArrayXf arg, w;
-  std::vector<float> t;
+  std::vector<Index> ids;
+  Eigen::Matrix<float, Eigen::Dynamic, 9> soa;  // per candidate: mean, widest-kernel Lambda^-1
+  Eigen::ArrayXf dx, dy, dz, e, arg, w;
+  Eigen::Matrix3Xf t;
 };
 
 class PreparedMixture {
  public:
   PreparedMixture(const GaussianMixture& m, double h)
-      : means_(m.means), index_(m, kClopFitSigmas[0] * kClopFitSigmas[0] * h * h) {
+      : means_(m.means),
+        cell_(static_cast<float>(h / 4.0)),
+        index_(m, kClopFitSigmas[0] * kClopFitSigmas[0] * h * h) {
     const Index k = m.size();
     for (int j = 0; j < 3; ++j)
       s2_[j] = static_cast<float>(kClopFitSigmas[j] * kClopFitSigmas[j] * h * h);
@@ -74,57 +78,118 @@ class PreparedMixture {
     r_initial_ = index_.radii(s2_[3]);
   }
 
-  // eq. 24 (j = 3) or eq. 22 (j = 0..2): q + sum_j s2_j w_j Lambda_j^-1 (mu - q) / sum_j w_j.
-  // A component is skipped when the exponent of its widest kernel is below -16 (the narrower
-  // ones are then below too: Lambda_j^-1 >= Lambda_0^-1). The exponentials of one particle are
-  // evaluated as one vectorised array expression.
+  // One projection of every particle: eq. 24 (kInitial, j = 3) or eq. 22 (j = 0..2),
+  // q' = q + sum_j s2_j w_j Lambda_j^-1 (mu - q) / sum_j w_j. Particles are batched by cells of
+  // width h/4: the components near a cell are gathered once (radius + the cell's half diagonal)
+  // into contiguous arrays, then each particle of the cell evaluates them. A component is skipped
+  // when the exponent of its widest kernel is below -16 (the narrower ones are then below too:
+  // Lambda_j^-1 >= Lambda_0^-1): exactly the truncation of the gather radius, applied per
+  // component. Each particle's result depends only on its cell's candidate list, never on the
+  // thread count.
   template <bool kInitial>
-  Eigen::Vector3f step(const Eigen::Vector3f& q, StepScratch& sc) const {
+  void project_all(const Eigen::Matrix3Xf& q, Eigen::Matrix3Xf& out) const {
     constexpr int j0 = kInitial ? 3 : 0;
     constexpr int nk = kInitial ? 1 : 3;
-    Index n = 0;
-    index_.for_each_near(q, kInitial ? r_initial_ : r_attraction_, sc.hits, [&](Index s) {
-      const Precomputed& p = pre_[static_cast<std::size_t>(s)];
-      const float dx = means_(0, s) - q.x();
-      const float dy = means_(1, s) - q.y();
-      const float dz = means_(2, s) - q.z();
-      if (sc.arg.size() < (n + 1) * nk) {
-        sc.arg.conservativeResize(2 * (n + 1) * nk);
-        sc.t.resize(static_cast<std::size_t>(2 * (n + 1) * nk * 3));
+    const Index n = q.cols();
+    if (n == 0) return;
+    const Eigen::Vector3f lo = q.rowwise().minCoeff();
+    const float inv_cell = 1.0f / cell_;
+    std::vector<std::pair<std::uint64_t, Index>> keys(static_cast<std::size_t>(n));
+    auto coord = [&](float v, float l) {
+      return static_cast<std::uint64_t>(
+          std::clamp(std::floor((v - l) * inv_cell), 0.0f, static_cast<float>((1 << 21) - 1)));
+    };
+    tbb::parallel_for(tbb::blocked_range<Index>(0, n, 4096), [&](const auto& r) {
+      for (Index i = r.begin(); i != r.end(); ++i) {
+        const std::uint64_t key = (coord(q(0, i), lo.x()) << 42) | (coord(q(1, i), lo.y()) << 21) |
+                                  coord(q(2, i), lo.z());
+        keys[static_cast<std::size_t>(i)] = {key, i};
       }
-      for (int jj = 0; jj < nk; ++jj) {
-        const float* a = p.inv[j0 + jj];
-        const float tx = a[0] * dx + a[1] * dy + a[2] * dz;
-        const float ty = a[1] * dx + a[3] * dy + a[4] * dz;
-        const float tz = a[2] * dx + a[4] * dy + a[5] * dz;
-        const float e = dx * tx + dy * ty + dz * tz;
-        if (jj == 0 && e > 32.0f) return;  // exponent below -16 for every kernel
-        const Index slot = n * nk + jj;
-        sc.arg[slot] = p.log_coef[j0 + jj] - 0.5f * e;
-        float* t = &sc.t[static_cast<std::size_t>(3 * slot)];
-        t[0] = tx * s2_[j0 + jj];
-        t[1] = ty * s2_[j0 + jj];
-        t[2] = tz * s2_[j0 + jj];
-      }
-      ++n;
     });
-    const Index m = n * nk;
-    if (m == 0) return q;  // no component within reach: the particle stays
-    sc.w = sc.arg.head(m).exp();
-    float nx = 0.0f, ny = 0.0f, nz = 0.0f;
-    for (Index i = 0; i < m; ++i) {
-      const float* t = &sc.t[static_cast<std::size_t>(3 * i)];
-      nx += sc.w[i] * t[0];
-      ny += sc.w[i] * t[1];
-      nz += sc.w[i] * t[2];
-    }
-    const float den = sc.w.head(m).sum();
-    if (!(den > 0.0f)) return q;
-    return q + Eigen::Vector3f(nx, ny, nz) / den;
+    std::sort(keys.begin(), keys.end());
+    std::vector<std::size_t> starts;
+    for (std::size_t i = 0; i < keys.size(); ++i)
+      if (i == 0 || keys[i].first != keys[i - 1].first) starts.push_back(i);
+    starts.push_back(keys.size());
+    std::vector<float> radii = kInitial ? r_initial_ : r_attraction_;
+    const float half_diag = 0.5f * std::sqrt(3.0f) * cell_;
+    for (float& r : radii)
+      r += half_diag;
+
+    tbb::parallel_for(
+        tbb::blocked_range<std::size_t>(0, starts.size() - 1, 1), [&](const auto& rr) {
+          CellScratch sc;
+          for (std::size_t c = rr.begin(); c != rr.end(); ++c) {
+            const std::uint64_t key = keys[starts[c]].first;
+            const Eigen::Vector3f center =
+                lo + cell_ * (Eigen::Vector3f(static_cast<float>(key >> 42),
+                                              static_cast<float>((key >> 21) & ((1u << 21) - 1)),
+                                              static_cast<float>(key & ((1u << 21) - 1))) +
+                              Eigen::Vector3f::Constant(0.5f));
+            sc.ids.clear();
+            index_.for_each_near(center, radii, sc.hits, [&](Index s) { sc.ids.push_back(s); });
+            const Index m = static_cast<Index>(sc.ids.size());
+            sc.soa.resize(m, 9);
+            for (Index k = 0; k < m; ++k) {
+              const Index s = sc.ids[static_cast<std::size_t>(k)];
+              const float* a = pre_[static_cast<std::size_t>(s)].inv[j0];
+              sc.soa.row(k) << means_(0, s), means_(1, s), means_(2, s), a[0], a[1], a[2], a[3],
+                  a[4], a[5];
+            }
+            if (sc.arg.size() < m * nk) {
+              sc.arg.resize(m * nk);
+              sc.t.resize(3, m * nk);
+            }
+            for (std::size_t pi = starts[c]; pi < starts[c + 1]; ++pi) {
+              const Index i = keys[pi].second;
+              const Eigen::Vector3f qi = q.col(i);
+              if (m == 0) {
+                out.col(i) = qi;  // no component within reach: the particle stays
+                continue;
+              }
+              // Widest-kernel exponents of every candidate, vectorised.
+              sc.dx = sc.soa.col(0).array() - qi.x();
+              sc.dy = sc.soa.col(1).array() - qi.y();
+              sc.dz = sc.soa.col(2).array() - qi.z();
+              sc.e = sc.dx * (sc.soa.col(3).array() * sc.dx + sc.soa.col(4).array() * sc.dy +
+                              sc.soa.col(5).array() * sc.dz) +
+                     sc.dy * (sc.soa.col(4).array() * sc.dx + sc.soa.col(6).array() * sc.dy +
+                              sc.soa.col(7).array() * sc.dz) +
+                     sc.dz * (sc.soa.col(5).array() * sc.dx + sc.soa.col(7).array() * sc.dy +
+                              sc.soa.col(8).array() * sc.dz);
+              Index slot = 0;
+              for (Index k = 0; k < m; ++k) {
+                if (sc.e[k] > 32.0f) continue;
+                const Precomputed& p =
+                    pre_[static_cast<std::size_t>(sc.ids[static_cast<std::size_t>(k)])];
+                const float dx = sc.dx[k], dy = sc.dy[k], dz = sc.dz[k];
+                for (int jj = 0; jj < nk; ++jj) {
+                  const float* a = p.inv[j0 + jj];
+                  const float tx = a[0] * dx + a[1] * dy + a[2] * dz;
+                  const float ty = a[1] * dx + a[3] * dy + a[4] * dz;
+                  const float tz = a[2] * dx + a[4] * dy + a[5] * dz;
+                  sc.arg[slot] = p.log_coef[j0 + jj] - 0.5f * (dx * tx + dy * ty + dz * tz);
+                  const float s2 = s2_[j0 + jj];
+                  sc.t.col(slot) << tx * s2, ty * s2, tz * s2;
+                  ++slot;
+                }
+              }
+              if (slot == 0) {
+                out.col(i) = qi;
+                continue;
+              }
+              sc.w = sc.arg.head(slot).exp();
+              const float den = sc.w.sum();
+              const Eigen::Vector3f num = sc.t.leftCols(slot) * sc.w.matrix();
+              out.col(i) = den > 0.0f ? Eigen::Vector3f(qi + num / den) : qi;
+            }
+          }
+        });
   }
 
  private:
   const Eigen::Matrix3Xf& means_;
+  float cell_;
   float s2_[4];
   std::vector<Precomputed> pre_;
   detail::MixtureIndex index_;
@@ -156,10 +221,9 @@ Eigen::VectorXf cut_density_weights(const Eigen::Matrix3Xf& q, const KdTree& tre
 template <class Body>
 void for_each_particle(Index m, Body body) {
   tbb::parallel_for(tbb::blocked_range<Index>(0, m, kGrain), [&](const auto& range) {
-    StepScratch sc;
     kernels::Scratch s;
     for (Index i = range.begin(); i != range.end(); ++i)
-      body(i, sc, s);
+      body(i, s);
   });
 }
 
@@ -208,9 +272,7 @@ void clop_project(const GaussianMixture& m, Eigen::Matrix3Xf& q, const ClopParam
   Eigen::Matrix3Xf next(3, n);
   {
     auto timer = ctx.phase("attraction");
-    for_each_particle(n, [&](Index i, StepScratch& sc, kernels::Scratch&) {
-      next.col(i) = pm->step<true>(q.col(i), sc);
-    });
+    pm->project_all<true>(q, next);
     q.swap(next);
   }
   const float h = static_cast<float>(h_abs);
@@ -222,9 +284,7 @@ void clop_project(const GaussianMixture& m, Eigen::Matrix3Xf& q, const ClopParam
     ctx.check_cancelled("resample.clop");
     {
       auto timer = ctx.phase("attraction");
-      for_each_particle(n, [&](Index i, StepScratch& sc, kernels::Scratch&) {
-        next.col(i) = pm->step<false>(q.col(i), sc);
-      });
+      pm->project_all<false>(q, next);
     }
     if (mu > 0.0f) {
       const bool recompute = !p.interleave || t % 2 == 0 || t == steps - 1;
@@ -233,7 +293,7 @@ void clop_project(const GaussianMixture& m, Eigen::Matrix3Xf& q, const ClopParam
         const KdTree tree(q);
         Eigen::VectorXf w;  // empty: unweighted repulsion (LOP)
         if (p.weighted) w = cut_density_weights(q, tree, h, cutoff);
-        for_each_particle(n, [&](Index i, auto&, kernels::Scratch& s) {
+        for_each_particle(n, [&](Index i, kernels::Scratch& s) {
           rep.col(i) = kernels::repulsion(i, q, tree, w, h, cutoff, s);
         });
       }
