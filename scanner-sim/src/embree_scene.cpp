@@ -65,35 +65,36 @@ void EmbreeDevice::check(const char* what) {
 EmbreeScene::EmbreeScene(EmbreeDevice& device, const TriangleMesh& mesh) {
   scene_ = rtcNewScene(device.get());
   device.check("new scene");
-  RTCGeometry geom = rtcNewGeometry(device.get(), RTC_GEOMETRY_TYPE_TRIANGLE);
-  // New (Embree-owned) buffers are padded by Embree for its 16-byte vertex loads.
-  auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0,
-                                                        RTC_FORMAT_FLOAT3, 3 * sizeof(float),
-                                                        static_cast<size_t>(mesh.num_vertices())));
-  auto* f = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0,
-                                                           RTC_FORMAT_UINT3, 3 * sizeof(unsigned),
-                                                           static_cast<size_t>(mesh.num_faces())));
-  if (v == nullptr || f == nullptr) {
-    rtcReleaseGeometry(geom);
-    device.check("geometry buffers");
-    throw Error("scan: embree: cannot allocate geometry buffers");
-  }
-  for (Eigen::Index i = 0; i < mesh.num_vertices(); ++i) {
-    for (int k = 0; k < 3; ++k)
-      v[3 * i + k] = mesh.vertices(k, i);
-  }
-  for (Eigen::Index i = 0; i < mesh.num_faces(); ++i) {
-    for (int k = 0; k < 3; ++k)
-      f[3 * i + k] = static_cast<unsigned>(mesh.faces(k, i));
-  }
-  rtcCommitGeometry(geom);
-  rtcAttachGeometry(scene_, geom);
-  rtcReleaseGeometry(geom);
-  // Robust traversal: no rays slip through shared edges of a closed mesh.
-  rtcSetSceneFlags(scene_, RTC_SCENE_FLAG_ROBUST);
-  rtcSetSceneBuildQuality(scene_, RTC_BUILD_QUALITY_HIGH);
-  rtcCommitScene(scene_);
   try {
+    RTCGeometry geom = rtcNewGeometry(device.get(), RTC_GEOMETRY_TYPE_TRIANGLE);
+    device.check("new geometry");
+    // New (Embree-owned) buffers are padded by Embree for its 16-byte vertex loads.
+    auto* v = static_cast<float*>(
+        rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                                3 * sizeof(float), static_cast<size_t>(mesh.num_vertices())));
+    auto* f = static_cast<unsigned*>(
+        rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                3 * sizeof(unsigned), static_cast<size_t>(mesh.num_faces())));
+    if (v == nullptr || f == nullptr) {
+      rtcReleaseGeometry(geom);
+      device.check("geometry buffers");
+      throw Error("scan: embree: cannot allocate geometry buffers");
+    }
+    for (Eigen::Index i = 0; i < mesh.num_vertices(); ++i) {
+      for (int k = 0; k < 3; ++k)
+        v[3 * i + k] = mesh.vertices(k, i);
+    }
+    for (Eigen::Index i = 0; i < mesh.num_faces(); ++i) {
+      for (int k = 0; k < 3; ++k)
+        f[3 * i + k] = static_cast<unsigned>(mesh.faces(k, i));
+    }
+    rtcCommitGeometry(geom);
+    rtcAttachGeometry(scene_, geom);
+    rtcReleaseGeometry(geom);
+    // Robust traversal: no rays slip through shared edges of a closed mesh.
+    rtcSetSceneFlags(scene_, RTC_SCENE_FLAG_ROBUST);
+    rtcSetSceneBuildQuality(scene_, RTC_BUILD_QUALITY_HIGH);
+    rtcCommitScene(scene_);
     device.check("commit scene");
   } catch (...) {
     rtcReleaseScene(scene_);

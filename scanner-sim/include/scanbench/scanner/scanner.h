@@ -20,7 +20,9 @@
 //     surfaces (HELIOS++ beam divergence).
 //  2. The clean point: the hit of the lowest-numbered sub-ray that hit (on the surface).
 //  3. Drop-outs: incidence angle at the clean point (between the ray and the unoriented face
-//     normal) above `max_incidence_deg`; range outside [range_min, range_max] (diag).
+//     normal) above `max_incidence_deg`; range outside [range_min, range_max] (diag). Rays end at
+//     range_max. range_min is also the minimum measurable range: with explicit poses nearer than
+//     that, lower range_min too.
 //  4. Flying pixels: a pixel whose 4-neighbour has no hit (silhouette) or a range differing by more
 //     than `flying_depth_jump` becomes, with probability `flying_pixel_prob`, a point on its own
 //     ray at a uniform depth between its range and the far neighbour's range (range +
