@@ -23,6 +23,7 @@
 #include "scanbench/metrics/heatmap.h"
 #include "scanbench/metrics/mesh_volume.h"
 #include "scanbench/metrics/p2plane.h"
+#include "scanbench/metrics/registry.h"
 #include "scanbench/metrics/surface_sampling.h"
 
 namespace scanbench::harness {
@@ -132,6 +133,9 @@ void add_eval_command(Cli& cli) {
         metric_params.erase("heatmap");
       }
       const auto heat = params_from_json<metrics::HeatmapParams>(heat_json, "eval --set heatmap");
+      // Reject bad metric names and parameters before any file is read.
+      for (const auto& [name, obj] : metric_params.items())
+        metrics::registry().at(name).params.validate(obj, "eval --set " + name);
 
       RunContext ctx(opts->seed, opts->threads);
       metrics::GroundTruthOptions gopt;
@@ -211,7 +215,8 @@ void add_eval_command(Cli& cli) {
       for (const auto& [k, v] : record.items()) {
         if (v.is_object() || v.is_array() || k.ends_with("_rel")) continue;
         const std::string rel = record.contains(k + "_rel") && !record[k + "_rel"].is_null()
-                                    ? fmt::format("  ({} diag)", fmt_value(record[k + "_rel"]))
+                                    ? fmt::format("  ({} {})", fmt_value(record[k + "_rel"]),
+                                                  k.ends_with("_var") ? "diag^2" : "diag")
                                     : "";
         fmt::print("  {:<28} {}{}\n", k, fmt_value(v), rel);
       }

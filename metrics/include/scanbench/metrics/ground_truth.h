@@ -22,10 +22,9 @@
 #include "scanbench/core/bbox.h"
 #include "scanbench/core/point_cloud.h"
 #include "scanbench/core/triangle_mesh.h"
+#include "scanbench/metrics/distance_field.h"
 
 namespace scanbench::metrics {
-
-class DistanceField;
 
 /// Result of an exact closest-point query.
 struct ClosestPoint {
@@ -40,7 +39,7 @@ enum class DistancePath { Exact, Field };
 
 struct GroundTruthOptions {
   double field_voxel = 1.0 / 512.0;  ///< voxel size of the field, fraction of the bbox diagonal
-  float band_voxels = 3.0f;          ///< half-width of the field's narrow band, in voxels
+  float band_voxels = 5.0f;          ///< half-width of the field's narrow band, in voxels
 };
 
 class GroundTruth {
