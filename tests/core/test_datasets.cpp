@@ -178,6 +178,41 @@ TEST(Procedural, RippleIsAClosedSolidWithTheIntegratedVolume) {
   }
 }
 
+TEST(Procedural, CoarsestAndOddParametersStayClosedAndOriented) {
+  SphereParams sp;
+  sp.resolution = 1;
+  expect_solid(make_sphere(sp), "sphere 1");
+  sp.resolution = 7;
+  sp.radius = 1e-3;
+  expect_solid(make_sphere(sp), "sphere tiny");
+  TorusParams tp;
+  tp.major_segments = 3;
+  tp.minor_segments = 3;
+  expect_solid(make_torus(tp), "torus 3x3");
+  CubeParams cp;
+  cp.resolution = 1;
+  expect_solid(make_cube(cp), "cube 1");
+  FandiskBlockParams fp;
+  fp.resolution = 2;
+  fp.fillet_radius = 0.05;
+  expect_solid(make_fandisk_block(fp), "fandisk coarse");
+  fp.resolution = 97;
+  fp.fillet_radius = 0.6;
+  fp.depth = 3.3;
+  expect_solid(make_fandisk_block(fp), "fandisk fine");
+  RippleParams rp;
+  rp.ripples = 1;
+  rp.rings_per_ripple = 2;
+  rp.sectors = 3;
+  expect_solid(make_ripple(rp), "ripple coarse");
+  rp.ripples = 7;
+  rp.rings_per_ripple = 5;
+  rp.sectors = 101;
+  rp.taper = 0.0;
+  rp.radius = 3.7;
+  expect_solid(make_ripple(rp), "ripple odd");
+}
+
 TEST(Procedural, WeldMergesExactDuplicatesOnly) {
   TriangleMesh m;
   m.vertices.resize(3, 4);
