@@ -58,8 +58,10 @@ void BM_FieldBuild(benchmark::State& state) {
   const Fixture& f = fixture();
   const float voxel = f.gt->field().voxel_size();
   for (auto _ : state) {
-    scanbench::metrics::DistanceField field(f.gt->mesh(), voxel, 3.0f,
-                                            scanbench::metrics::DistanceField::Kind::Signed);
+    scanbench::metrics::DistanceField field(
+        f.gt->mesh(), voxel, f.gt->options().band_voxels,
+        f.gt->closed() ? scanbench::metrics::DistanceField::Kind::Signed
+                       : scanbench::metrics::DistanceField::Kind::Unsigned);
     benchmark::DoNotOptimize(field.active_voxels());
   }
 }
