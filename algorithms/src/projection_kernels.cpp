@@ -6,6 +6,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <numeric>
 
@@ -100,10 +101,18 @@ Cells make_cells(const Eigen::Matrix3Xf& q, float cell) {
 // The candidates of one cell in structure-of-arrays form, padded to a multiple of the packet
 // size with far-away dummies (their squared distance overflows to +inf and the support mask
 // zeroes them).
+// Candidates are stored shell by shell (kShells shells of equal width in distance from the cell
+// centre, kd-tree order within a shell), so a query at distance dq from the centre only visits the
+// shells up to radius + dq: by the triangle inequality nothing farther can be in its support.
+constexpr int kShells = 16;
 struct Candidates {
   std::vector<std::pair<Eigen::Index, float>> hits;
   std::vector<float> x, y, z, weight;
   std::vector<Eigen::Index> index;
+  std::vector<int> shell;
+  std::array<Eigen::Index, kShells + 1> shell_begin{};
+  Eigen::Vector3f centre = Eigen::Vector3f::Zero();
+  float reach = 0.0f;
   Eigen::Index n = 0;       // real candidates
   Eigen::Index padded = 0;  // n rounded up to the packet size
 };
@@ -142,14 +151,29 @@ void for_each_query(const Eigen::Matrix3Xf& queries, const Eigen::Matrix3Xf& pts
       c.z.assign(np, 1e30f);
       c.weight.assign(np, 0.0f);
       c.index.assign(np, -1);
+      c.centre = cells.centre[static_cast<std::size_t>(cc)];
+      c.reach = reach;
+      // Counting sort of the hits into distance shells (stable: kd-tree order within a shell).
+      c.shell.resize(c.hits.size());
+      std::array<Eigen::Index, kShells + 1> next{};
+      for (std::size_t t = 0; t < c.hits.size(); ++t) {
+        const int sh =
+            std::min(kShells - 1, static_cast<int>(std::sqrt(c.hits[t].second) * kShells / reach));
+        c.shell[t] = sh;
+        ++next[static_cast<std::size_t>(sh) + 1];
+      }
+      for (int sh = 0; sh < kShells; ++sh)
+        next[static_cast<std::size_t>(sh) + 1] += next[static_cast<std::size_t>(sh)];
+      c.shell_begin = next;
       for (std::size_t t = 0; t < c.hits.size(); ++t) {
         const Eigen::Index j = c.hits[t].first;
-        c.x[t] = pts(0, j);
-        c.y[t] = pts(1, j);
-        c.z[t] = pts(2, j);
-        c.index[t] = j;
-        c.weight[t] = weight_of(j);
-        if (find_self) slot[static_cast<std::size_t>(j)] = static_cast<Eigen::Index>(t);
+        const auto pos = static_cast<std::size_t>(next[static_cast<std::size_t>(c.shell[t])]++);
+        c.x[pos] = pts(0, j);
+        c.y[pos] = pts(1, j);
+        c.z[pos] = pts(2, j);
+        c.index[pos] = j;
+        c.weight[pos] = weight_of(j);
+        if (find_self) slot[static_cast<std::size_t>(j)] = static_cast<Eigen::Index>(pos);
       }
       // A query lies in its cell, hence within reach of the centre: it is among the candidates.
       for (std::size_t k = b; k < e; ++k) {
@@ -180,7 +204,13 @@ std::pair<float, Eigen::Vector3f> kernel_sums(const Eigen::Vector3f& q, float ra
   const Packet kk = ei::pset1<Packet>(-kThetaFactor / (h * h));
   const Packet floor2 = ei::pset1<Packet>(kClampRatio * kClampRatio * h * h);
   Packet sw = ei::pset1<Packet>(0.0f), sx = sw, sy = sw, sz = sw;
-  for (Eigen::Index t = 0; t < c.padded; t += kLanes) {
+  // Last shell that can hold a point of the support (with a margin against float rounding).
+  const float dq = (q - c.centre).norm();
+  const int last =
+      std::min(kShells - 1, static_cast<int>((radius + dq) * 1.0001f * kShells / c.reach));
+  const Eigen::Index end = std::min(
+      c.padded, (c.shell_begin[static_cast<std::size_t>(last) + 1] + kLanes - 1) / kLanes * kLanes);
+  for (Eigen::Index t = 0; t < end; t += kLanes) {
     const Packet dx = ei::psub(ei::ploadu<Packet>(c.x.data() + t), qx);
     const Packet dy = ei::psub(ei::ploadu<Packet>(c.y.data() + t), qy);
     const Packet dz = ei::psub(ei::ploadu<Packet>(c.z.data() + t), qz);
