@@ -123,6 +123,18 @@ TriangleMesh read_obj(const std::filesystem::path& path) {
     Tokens t(line);
     std::string_view tok;
     t.next(tok);
+    if (tok == "f") {
+      // tinyobjloader reads indices with atoi ("1.5" -> 1, "x" -> 0): check each v[/vt[/vn]].
+      while (t.next(tok)) {
+        const std::string_view v = tok.substr(0, tok.find('/'));
+        std::int64_t index = 0;
+        if (!parse_number(v, index) || index == 0) {
+          throw IoError(fmt::format("{}: line {}: face index '{}' is not a nonzero integer", name,
+                                    lines.number(), tok.substr(0, 40)));
+        }
+      }
+      continue;
+    }
     if (tok != "v") continue;
     int n = 0;
     while (t.next(tok)) {

@@ -295,6 +295,8 @@ TEST_F(IoTest, ObjPolygonsAndIndexForms) {
   EXPECT_THROW(read_mesh(file("bad.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n")), IoError);
   EXPECT_THROW(read_mesh(file("zero.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n")), IoError);
   EXPECT_THROW(read_mesh(file("empty.obj", "# nothing\n")), IoError);
+  EXPECT_THROW(read_mesh(file("frac.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2.5 3\n")), IoError);
+  EXPECT_THROW(read_mesh(file("short.obj", "v 0 0 0\nv 1 0\nv 0 1 0\nf 1 2 3\n")), IoError);
 }
 
 TEST_F(IoTest, TruncatedPlyGivesAClearError) {
