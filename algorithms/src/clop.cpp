@@ -196,28 +196,6 @@ class PreparedMixture {
   std::vector<float> r_attraction_, r_initial_;
 };
 
-// WLOP particle density weights w_i = 1 + sum_{i' != i} theta(|q_i - q_i'|) with theta cut at
-// `cutoff` like the rest of the repulsion term (section 8; kernels::density_weights sums to h).
-Eigen::VectorXf cut_density_weights(const Eigen::Matrix3Xf& q, const KdTree& tree, float h,
-                                    float cutoff) {
-  const Index n = q.cols();
-  Eigen::VectorXf w(n);
-  const float k = -kernels::kThetaFactor / (h * h);
-  tbb::parallel_for(tbb::blocked_range<Index>(0, n, 256), [&](const auto& r) {
-    std::vector<std::pair<Index, float>> hits;
-    Eigen::ArrayXf d2;
-    for (Index i = r.begin(); i != r.end(); ++i) {
-      tree.radius(q.col(i), cutoff, hits);
-      d2.resize(static_cast<Index>(hits.size()));
-      Index m = 0;
-      for (const auto& hit : hits)
-        if (hit.first != i) d2[m++] = hit.second;
-      w[i] = 1.0f + (k * d2.head(m)).exp().sum();
-    }
-  });
-  return w;
-}
-
 template <class Body>
 void for_each_particle(Index m, Body body) {
   tbb::parallel_for(tbb::blocked_range<Index>(0, m, kGrain), [&](const auto& range) {
@@ -292,7 +270,13 @@ void clop_project(const GaussianMixture& m, Eigen::Matrix3Xf& q, const ClopParam
         auto timer = ctx.phase("repulsion");
         const KdTree tree(q);
         Eigen::VectorXf w;  // empty: unweighted repulsion (LOP)
-        if (p.weighted) w = cut_density_weights(q, tree, h, cutoff);
+        if (p.weighted) {
+          // w_i' within the cutoff: the whole repulsion kernel is cut (section 8).
+          const std::vector<double> v = detail::cell_density(q, tree, h, cutoff);
+          w.resize(n);
+          for (Index i = 0; i < n; ++i)
+            w[i] = static_cast<float>(v[static_cast<std::size_t>(i)]);
+        }
         for_each_particle(n, [&](Index i, kernels::Scratch& s) {
           rep.col(i) = kernels::repulsion(i, q, tree, w, h, cutoff, s);
         });

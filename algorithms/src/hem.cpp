@@ -10,6 +10,7 @@
 #include <limits>
 #include <utility>
 
+#include "mixture_index.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/kdtree.h"
 #include "scanbench/core/rng.h"
@@ -88,35 +89,32 @@ std::vector<Component> initial_mixture(const Eigen::Matrix3Xf& pts, const HemPar
 
   std::vector<Component> comps(static_cast<std::size_t>(n));
   std::vector<double> inv_v(static_cast<std::size_t>(n), 1.0);
-  const float k_theta = static_cast<float>(-16.0 / (h_abs * h_abs));
+  const std::vector<double> density =
+      p.weighted
+          ? detail::cell_density(pts, tree, static_cast<float>(h_abs), static_cast<float>(h_abs))
+          : std::vector<double>();
   tbb::parallel_for(tbb::blocked_range<Index>(0, n, 128), [&](const tbb::blocked_range<Index>& rr) {
     std::vector<std::pair<Index, float>> nb;
-    Eigen::ArrayXf d2s;
     for (Index j = rr.begin(); j < rr.end(); ++j) {
       const auto uj = static_cast<std::size_t>(j);
       const double nnd = nn[uj] > 0.0 ? nn[uj] : median_nn;
       const double r = p.init_radius_factor * nnd;
-      const double query = p.weighted ? std::max(r, h_abs) : r;
-      tree.radius(pts.col(j), static_cast<float>(query), nb);
+      tree.radius(pts.col(j), static_cast<float>(r), nb);
       const Vector3d pj = pts.col(j).cast<double>();
       Vector3d sum = Vector3d::Zero();
       Matrix3d sum2 = Matrix3d::Zero();
       double count = 0.0;
       const double r2 = r * r;
-      d2s.resize(static_cast<Index>(nb.size()));
-      Index nd = 0;
-      for (const auto& [i, d2f] : nb) {
-        const Vector3d dlt = pts.col(i).cast<double>() - pj;  // centred at p_j for precision
+      for (const auto& hit : nb) {
+        const Vector3d dlt =
+            pts.col(hit.first).cast<double>() - pj;  // centred at p_j for precision
         const double dd = dlt.squaredNorm();
         if (dd <= r2) {
           sum += dlt;
           sum2 += dlt * dlt.transpose();
           count += 1.0;
         }
-        if (i != j) d2s[nd++] = d2f;
       }
-      const double density =
-          p.weighted ? 1.0 + static_cast<double>((k_theta * d2s.head(nd)).exp().sum()) : 1.0;
       Component& c = comps[uj];
       c.mu = pj;
       const double bias = p.cov_bias * r2;
@@ -131,7 +129,7 @@ std::vector<Component> initial_mixture(const Eigen::Matrix3Xf& pts, const HemPar
       c.cov = condition(cov0, abs_floor);
       c.axis = sigma_max > 0.0 ? Vector3d(es.eigenvectors().col(0)) : Vector3d::UnitZ();
       c.spread = p.normal_spread0;
-      inv_v[uj] = p.weighted ? 1.0 / density : 1.0;
+      inv_v[uj] = p.weighted ? 1.0 / density[uj] : 1.0;
     }
   });
   double total = 0.0;  // fixed order: thread-independent
