@@ -58,7 +58,7 @@ void add_scan_command(Cli& cli) {
                                          : scanner::preset_values(opts->preset);
       for (const auto& s : opts->sets)
         apply_assignment(values, s);
-      const auto p = params_from_json<scanner::ScannerParams>(values, "scan --set");
+      const auto p = params_from_json<scanner::ScannerParams>(values, "scanner");
       RunContext ctx(opts->seed, opts->threads);
       scanner::Scan s = scanner::scan(mesh, p, ctx);
       Json input = Json::object();
