@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <cstdint>
 
 namespace scanbench {
 
@@ -105,8 +106,13 @@ Json ParamInfo::to_json() const {
   j["type"] = scanbench::to_string(type);
   j["default"] = default_value;
   const bool numeric = type == ParamType::Int || type == ParamType::Real;
-  j["min"] = numeric && std::isfinite(range.min) ? Json(range.min) : Json(nullptr);
-  j["max"] = numeric && std::isfinite(range.max) ? Json(range.max) : Json(nullptr);
+  // Integer parameters show integer bounds (1, not 1.0).
+  auto bound = [&](double v) {
+    if (!numeric || !std::isfinite(v)) return Json(nullptr);
+    return type == ParamType::Int ? Json(static_cast<std::int64_t>(v)) : Json(v);
+  };
+  j["min"] = bound(range.min);
+  j["max"] = bound(range.max);
   if (numeric) {
     j["min_exclusive"] = range.min_open;
     j["max_exclusive"] = range.max_open;
