@@ -74,10 +74,12 @@ Eigen::Vector3f repulsion(Eigen::Index i, const Eigen::Matrix3Xf& particles, con
                           Scratch& s);
 
 /// Batched forms of the kernels above for every query at once (TBB-parallel). Queries are grouped
-/// into cubic cells of side radius/3; one KdTree radius query per cell (radius + half the cell
-/// diagonal, about 1.3 x radius) collects the candidates that every query of the cell then filters
-/// to its exact support with vectorised distance tests. Each query's sums run over its candidates
-/// in a fixed order, so results do not depend on the thread count; they equal the per-query
+/// into cubic cells of side `radius`; one KdTree radius query per cell (radius + half the cell
+/// diagonal) collects the candidates, bucketed into distance shells around the cell centre. Each
+/// query visits only the shells up to radius + its distance from the centre (triangle inequality),
+/// skips packets of candidates lying wholly outside its support, and sums with SSE packets
+/// (distances, support mask, exp, clamp, division). Each query's sums run over its candidates in
+/// a fixed order, so results do not depend on the thread count; they equal the per-query
 /// functions up to float summation order. This is what makes the discrete operators fast: the
 /// tree is walked once per cell instead of once per particle.
 ///
