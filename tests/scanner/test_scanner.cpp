@@ -456,6 +456,16 @@ TEST(Scanner, BitIdenticalFilesForOneAndTwoThreads) {
   EXPECT_EQ(back.sensor_origins.cols(), p.views);
   for (const char* prop : {"outlier", "clean_x", "clean_y", "clean_z"})
     EXPECT_TRUE(back.has_property(prop)) << prop;
+  // The sidecar holds parameters, seed and per-scan poses and misalignments.
+  const Json rec = Json::parse(json[0]);
+  EXPECT_EQ(rec["seed"].get<int>(), 42);
+  EXPECT_EQ(rec["params"], params_to_json(p));
+  ASSERT_EQ(rec["scans"].size(), static_cast<std::size_t>(p.views));
+  for (const Json& sc : rec["scans"]) {
+    for (const char* key : {"sensor_origin", "registered_origin", "forward", "up", "misaligned"})
+      EXPECT_TRUE(sc.contains(key)) << key;
+    EXPECT_EQ(sc["misaligned"].get<bool>(), !sc["misalignment"].is_null());
+  }
   std::filesystem::remove_all(dir);
 }
 
