@@ -7,6 +7,7 @@
 // the medians. --scaling adds 1- vs 2-thread speedups, CLOP's time growth exponent over input
 // sizes and its peak memory per input point (Linux: peak RSS reset through /proc/self/clear_refs).
 #include <fmt/format.h>
+#include <sys/resource.h>
 
 #include <algorithm>
 #include <chrono>
@@ -38,6 +39,14 @@ double median_of(std::vector<double> v) {
 
 double now_seconds() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+// CPU seconds (user + system, every thread) of this process so far.
+double cpu_seconds() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return static_cast<double>(u.ru_utime.tv_sec + u.ru_stime.tv_sec) +
+         1e-6 * static_cast<double>(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
 }
 
 // kB value of a /proc/self/status field ("VmRSS", "VmHWM"), or -1 when unavailable.
@@ -88,6 +97,7 @@ struct CaseResult {
   std::string algorithm;
   Json params;
   std::vector<double> seconds;
+  std::vector<double> cpu;  // process CPU seconds per repeat (robust on a shared machine)
   std::map<std::string, double> phases;  // of the last repeat
   algorithms::AlgorithmOutput output;
 };
@@ -102,8 +112,10 @@ CaseResult run_case(const std::string& name, const std::string& algorithm, const
   for (int i = 0; i < repeats; ++i) {
     RunContext ctx(seed, threads);
     const double t0 = now_seconds();
+    const double c0 = cpu_seconds();
     r.output = entry.fn(input, r.params, ctx);
     r.seconds.push_back(now_seconds() - t0);
+    r.cpu.push_back(cpu_seconds() - c0);
     r.phases = ctx.phase_seconds();
   }
   return r;
@@ -195,11 +207,11 @@ void add_bench_resample(CLI::App* bench, Cli& cli) {
       };
       const Json input_metrics = measure(input);
       Json cases = Json::array();
-      std::map<std::string, double> med;
-      fmt::print("{:>10} {:>10} {:>10} {:>14} {:>11}  phases\n", "method", "median_s", "particles",
-                 "p2plane_mean", "nn_dist_cv");
-      fmt::print("{:>10} {:>10} {:>10} {:>14.6f} {:>11.4f}\n", "input", "-", input.size(),
-                 input_metrics.value("p2plane_mean_rel", 0.0),
+      std::map<std::string, double> med, med_cpu;
+      fmt::print("{:>10} {:>10} {:>10} {:>10} {:>14} {:>11}  phases\n", "method", "median_s",
+                 "cpu_s", "particles", "p2plane_mean", "nn_dist_cv");
+      fmt::print("{:>10} {:>10} {:>10} {:>10} {:>14.6f} {:>11.4f}\n", "input", "-", "-",
+                 input.size(), input_metrics.value("p2plane_mean_rel", 0.0),
                  input_metrics.value("nn_dist_cv", 0.0));
       for (const CaseResult& r : results) {
         const Json m = measure(r.output.points);
@@ -208,6 +220,8 @@ void add_bench_resample(CLI::App* bench, Cli& cli) {
         c["algorithm"] = r.algorithm;
         c["median_s"] = med[r.name] = median_of(r.seconds);
         c["seconds"] = r.seconds;
+        c["cpu_s"] = med_cpu[r.name] = median_of(r.cpu);
+        c["cpu_seconds"] = r.cpu;
         c["p2plane_mean"] = m.value("p2plane_mean_rel", 0.0);
         c["p2plane_mean_abs"] = m.value("p2plane_mean", 0.0);
         c["p2plane_rms"] = m.value("p2plane_rms_rel", 0.0);
@@ -222,19 +236,25 @@ void add_bench_resample(CLI::App* bench, Cli& cli) {
         }
         c["phases"] = ph;
         c["params"] = r.params;
-        fmt::print("{:>10} {:>10.3f} {:>10} {:>14.6f} {:>11.4f}  {}\n", r.name, med[r.name],
-                   r.output.points.size(), c["p2plane_mean"].get<double>(),
-                   c["nn_dist_cv"].get<double>(), phase_text);
+        fmt::print("{:>10} {:>10.3f} {:>10.3f} {:>10} {:>14.6f} {:>11.4f}  {}\n", r.name,
+                   med[r.name], med_cpu[r.name], r.output.points.size(),
+                   c["p2plane_mean"].get<double>(), c["nn_dist_cv"].get<double>(), phase_text);
         cases.push_back(std::move(c));
       }
       Json ratios = Json::object();
       ratios["wlop_over_clop"] = med["wlop"] / med["clop"];
-      fmt::print("wlop_over_clop      {:8.2f}  (target >= 6)\n", med["wlop"] / med["clop"]);
+      ratios["wlop_over_clop_cpu"] = med_cpu["wlop"] / med_cpu["clop"];
+      fmt::print("wlop_over_clop      {:8.2f}  (target >= 6; CPU time ratio {:.2f})\n",
+                 med["wlop"] / med["clop"], med_cpu["wlop"] / med_cpu["clop"]);
       if (!o.no_cgal) {
         ratios["cgal_wlop_over_clop"] = med["cgal_wlop"] / med["clop"];
         ratios["cgal_wlop_over_wlop"] = med["cgal_wlop"] / med["wlop"];
-        fmt::print("cgal_wlop_over_clop {:8.2f}  (target >= 25)\n", med["cgal_wlop"] / med["clop"]);
-        fmt::print("cgal_wlop_over_wlop {:8.2f}  (target >= 3)\n", med["cgal_wlop"] / med["wlop"]);
+        ratios["cgal_wlop_over_clop_cpu"] = med_cpu["cgal_wlop"] / med_cpu["clop"];
+        ratios["cgal_wlop_over_wlop_cpu"] = med_cpu["cgal_wlop"] / med_cpu["wlop"];
+        fmt::print("cgal_wlop_over_clop {:8.2f}  (target >= 25; CPU time ratio {:.2f})\n",
+                   med["cgal_wlop"] / med["clop"], med_cpu["cgal_wlop"] / med_cpu["clop"]);
+        fmt::print("cgal_wlop_over_wlop {:8.2f}  (target >= 3; CPU time ratio {:.2f})\n",
+                   med["cgal_wlop"] / med["wlop"], med_cpu["cgal_wlop"] / med_cpu["wlop"]);
       }
 
       Json scaling = Json::object();
