@@ -5,6 +5,7 @@
 #include <openvdb/tools/LevelSetUtil.h>
 #include <openvdb/tools/MeshToVolume.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
 
 #include <cmath>
 #include <mutex>
@@ -128,10 +129,31 @@ void DistanceField::distances(const Eigen::Matrix3Xf& q, Eigen::VectorXf& out,
   out.resize(n);
   inside.assign(static_cast<std::size_t>(n), 0);
   const auto& xf = impl_->grid->transform();
-  tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, n, 4096),
-                    [&](const tbb::blocked_range<Eigen::Index>& r) {
+  // Visit the queries leaf by leaf (sorted by the Morton code of their 8^3 leaf, then by index:
+  // a total order, so the visiting order is deterministic) for cache locality; every result is
+  // written to its own index, so the order never changes a value.
+  std::vector<std::pair<std::uint64_t, Eigen::Index>> order(static_cast<std::size_t>(n));
+  tbb::parallel_for(
+      tbb::blocked_range<Eigen::Index>(0, n, 4096), [&](const tbb::blocked_range<Eigen::Index>& r) {
+        for (Eigen::Index i = r.begin(); i < r.end(); ++i) {
+          const openvdb::Vec3d ip = xf.worldToIndex(openvdb::Vec3d(q(0, i), q(1, i), q(2, i)));
+          std::uint64_t key = 0;
+          for (int k = 0; k < 3; ++k) {
+            // 21 bits per axis of the leaf coordinate (offset to stay positive).
+            const auto c = static_cast<std::uint64_t>(
+                (static_cast<std::int64_t>(std::floor(ip[k])) >> 3) + (1 << 20));
+            for (int b = 0; b < 21; ++b)
+              key |= ((c >> b) & 1u) << (3 * b + k);
+          }
+          order[static_cast<std::size_t>(i)] = {key, i};
+        }
+      });
+  tbb::parallel_sort(order.begin(), order.end());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, order.size(), 4096),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
                       const Accessor acc = impl_->grid->getConstAccessor();
-                      for (Eigen::Index i = r.begin(); i < r.end(); ++i) {
+                      for (std::size_t k = r.begin(); k < r.end(); ++k) {
+                        const Eigen::Index i = order[k].second;
                         float v = 0.0f;
                         if (sample(acc, xf, q.col(i), v)) {
                           out[i] = std::abs(v);
