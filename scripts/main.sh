@@ -7,3 +7,7 @@ bash "$here/scripts/build.sh"
 sb="${SCANBENCH_BUILD_DIR:-$here/build}/harness/scanbench"
 "$sb" --version
 "$sb" list
+# The default experiment (configs/default.json): scans, algorithm runs, metrics, tables, report.
+out="${SCANBENCH_RESULTS:-$here/results/default-$(date -u +%Y%m%d-%H%M%S)}"
+"$sb" run "$here/configs/default.json" -o "$out" --jobs 1
+"$sb" report "$out"

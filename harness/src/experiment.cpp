@@ -261,7 +261,8 @@ StepSpec parse_step(const Json& j, const Where& w) {
 }
 
 VariantSpec parse_variant(const Json& j, const Where& w) {
-  check_keys(j, w, {"label", "algorithm", "params", "chain", "sweep"});
+  check_keys(j, w,
+             {"label", "algorithm", "params", "chain", "sweep", "timeout_s", "memory_limit_mb"});
   VariantSpec v;
   if (j.contains("algorithm") == j.contains("chain")) {
     fail(w, "expected exactly one of \"algorithm\" (one step) and \"chain\" (a list of steps)");
@@ -291,6 +292,10 @@ VariantSpec parse_variant(const Json& j, const Where& w) {
       v.label += (v.label.empty() ? "" : "+") + s.label;
   }
   if (j.contains("sweep")) v.sweeps = parse_sweeps(j["sweep"], w / "sweep");
+  if (j.contains("timeout_s")) v.timeout_s = get_number(j["timeout_s"], w / "timeout_s", 0.1, 1e6);
+  if (j.contains("memory_limit_mb")) {
+    v.memory_limit_mb = get_number(j["memory_limit_mb"], w / "memory_limit_mb", 64, 1e7);
+  }
   return v;
 }
 
@@ -651,8 +656,8 @@ Plan expand(const Experiment& e) {
           job.point_label = plabel;
           job.repeats = e.repeats;
           job.threads = e.threads;
-          job.timeout_s = e.timeout_s;
-          job.memory_limit_mb = e.memory_limit_mb;
+          job.timeout_s = v.timeout_s > 0 ? v.timeout_s : e.timeout_s;
+          job.memory_limit_mb = v.memory_limit_mb > 0 ? v.memory_limit_mb : e.memory_limit_mb;
           job.save_outputs = e.save_outputs;
           job.metrics = e.metrics;
           job.metric_params = e.metric_params;

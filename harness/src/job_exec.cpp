@@ -15,8 +15,10 @@
 #include "scanbench/harness/records.h"
 #include "scanbench/harness/runner.h"
 #include "scanbench/harness/test_algorithms.h"
+#include "scanbench/metrics/distance_field.h"
 #include "scanbench/metrics/evaluate.h"
 #include "scanbench/metrics/ground_truth.h"
+#include "scanbench/metrics/heatmap.h"
 #include "scanbench/scanner/scanner.h"
 
 namespace scanbench::harness {
@@ -178,6 +180,32 @@ Json execute_job(const Job& job, const fs::path& out) {
       write_mesh(*final_out.mesh, base.string() + ".mesh.ply");
       artifacts["mesh"] = "outputs/" + job.id + ".mesh.ply";
     }
+    // Heatmap of the point-to-plane error E(q) = <q - p, N_p> (REFERENCE 6) on four views.
+    if (final_out.points.size() > 0) {
+      const auto cps = gt.closest_points(final_out.points.positions);
+      Eigen::VectorXf err(final_out.points.size());
+      for (Eigen::Index i = 0; i < err.size(); ++i) {
+        const auto& c = cps[static_cast<std::size_t>(i)];
+        err[i] = (final_out.points.positions.col(i) - c.point).dot(c.normal);
+      }
+      metrics::HeatmapParams hp;
+      hp.width = hp.height = 256;
+      metrics::write_heatmap(final_out.points, err, gt.bbox(), gt.diagonal(), hp,
+                             base.string() + ".heatmap.png",
+                             fmt::format("{} / {} / {} {}: |E|", job.dataset_label,
+                                         job.scanner_label, job.variant, job.point_label));
+      artifacts["heatmap"] = "outputs/" + job.id + ".heatmap.png";
+    }
+    // The ground truth's distance field, once per mesh.
+    const fs::path vdb = out / "fields" / (scan_key["mesh"].get<std::string>() + ".vdb");
+    if (!fs::exists(vdb)) {
+      fs::create_directories(vdb.parent_path());
+      const fs::path tmp =
+          vdb.parent_path() / fmt::format(".{}.{}", getpid(), vdb.filename().string());
+      gt.field().write_vdb(tmp, "distance");
+      fs::rename(tmp, vdb);
+    }
+    artifacts["field"] = "fields/" + vdb.filename().string();
   }
   res["timing"] = timing;
   res["sizes"] = sizes;

@@ -492,11 +492,16 @@ fs::path write_report(const fs::path& dir, const fs::path& out_arg) {
   for (const Json* r : ok) {
     const std::string v = field_value(*r, "variant");
     if (!by_variant.count(v)) variant_order.push_back(v);
-    by_variant[v][group_of(*r)].push_back(r);
+    // Records of different sweeps (e.g. alpha x levels, then h alone) are plotted separately.
+    std::string swept;
+    for (const auto& [k, val] : (*r)["point"].items())
+      swept += "," + k;
+    by_variant[v][group_of(*r) + "\x1f" + swept].push_back(r);
   }
   std::string sweep_html, heat_html, comp_html;
   for (const auto& v : variant_order) {
-    for (const auto& [group, rs] : by_variant[v]) {
+    for (const auto& [group_key, rs] : by_variant[v]) {
+      const std::string group = group_key.substr(0, group_key.find('\x1f'));
       std::vector<std::string> keys = numeric_point_keys(rs);
       if (report_cfg.contains("x") && report_cfg["x"].is_string()) {
         const std::string x = report_cfg["x"].get<std::string>();
@@ -574,6 +579,27 @@ fs::path write_report(const fs::path& dir, const fs::path& out_arg) {
   }
   if (!heat_html.empty()) {
     h += "<h2>Heatmaps</h2>\n<div class=\"plots\" id=\"heatmaps\">\n" + heat_html + "</div>\n";
+  }
+
+  // Per-job error heatmaps (PNG images written next to the outputs), inline.
+  {
+    std::string imgs;
+    int shown = 0;
+    for (const Json* r : ok) {
+      const Json art = r->value("artifacts", Json::object());
+      const std::string rel = art.value("heatmap", std::string());
+      if (rel.empty() || !fs::exists(dir / rel)) continue;
+      if (++shown > 40) break;
+      imgs += fmt::format(
+          "<figure><a href=\"{0}\"><img src=\"{0}\" width=\"560\" alt=\"{1}\">"
+          "</a><figcaption>{1}</figcaption></figure>\n",
+          esc(rel), esc(r->value("key", std::string())));
+    }
+    if (!imgs.empty()) {
+      h += "<h2>Error heatmaps (|point-to-plane error| on four views)</h2>\n<div class=\"plots\" "
+           "id=\"error-heatmaps\">\n" +
+           imgs + "</div>\n";
+    }
   }
 
   // Time per phase: medians of the repeat samples, sub-phases of each step stacked.

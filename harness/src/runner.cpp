@@ -325,9 +325,7 @@ RunSummary run_experiment(const Experiment& e, const RunOptions& opts) {
         const std::string status = record["status"].get<std::string>();
         ++summary.ran;
         ++summary.by_status[status];
-        progress.finished(
-            it->job->key, status,
-            progress.elapsed() > 0 ? record["timing"]["job_wall_s"].get<double>() : 0.0);
+        progress.finished(it->job->key, status, record["timing"]["job_wall_s"].get<double>());
         fs::remove(it->spec);
         fs::remove(it->result);
         it = running.erase(it);

@@ -128,7 +128,9 @@ TEST(Compare, FlagsSlowdownAndAccuracyLossButNotNoise) {
       total_flagged = v.verdict == "regression";
       EXPECT_LT(v.p, 0.05);
     }
-    if (v.kind == "accuracy") EXPECT_NE(v.verdict, "regression") << v.quantity;
+    if (v.kind == "accuracy") {
+      EXPECT_NE(v.verdict, "regression") << v.quantity;
+    }
   }
   EXPECT_TRUE(total_flagged);
 
@@ -163,7 +165,9 @@ TEST(Compare, HigherIsBetterAndStatusAndTooFewRepeats) {
   for (const auto& v : r.verdicts) {
     if (v.quantity == "fscore") fscore_reg = v.verdict == "regression";
     if (v.quantity == "time.total") time_na = v.verdict == "n/a";
-    if (v.quantity == "output_points") EXPECT_NE(v.verdict, "regression");
+    if (v.quantity == "output_points") {
+      EXPECT_NE(v.verdict, "regression");
+    }
   }
   EXPECT_TRUE(fscore_reg);
   EXPECT_TRUE(time_na);  // one sample per side: no U test, no timing verdict

@@ -54,7 +54,9 @@ using Sweep = std::vector<std::pair<std::string, std::vector<Json>>>;
 struct VariantSpec {
   std::string label;
   std::vector<StepSpec> chain;
-  std::vector<Sweep> sweeps;  ///< union of Cartesian products; empty = one point
+  std::vector<Sweep> sweeps;   ///< union of Cartesian products; empty = one point
+  double timeout_s = 0;        ///< > 0: overrides the experiment's per-job timeout
+  double memory_limit_mb = 0;  ///< > 0: overrides the experiment's per-job memory limit
 };
 
 struct Experiment {
