@@ -146,19 +146,15 @@ void add_nightly_command(Cli& cli) {
       const fs::path out =
           do_run(a->run, config_root() / "nightly.json", "results/nightly-" + stamp());
       if (a->update_baseline) {
-        fs::create_directories(baseline / "jobs");
-        for (const auto& e : fs::directory_iterator(baseline / "jobs"))
-          fs::remove(e.path());
-        for (const char* f : {"runs.jsonl", "runs.csv", "config.json", "plan.json"})
+        // Only the merged records and the config: small enough to commit.
+        fs::create_directories(baseline);
+        for (const char* f : {"runs.jsonl", "runs.csv", "config.json"})
           fs::copy_file(out / f, baseline / f, fs::copy_options::overwrite_existing);
-        for (const auto& e : fs::directory_iterator(out / "jobs"))
-          fs::copy_file(e.path(), baseline / "jobs" / e.path().filename(),
-                        fs::copy_options::overwrite_existing);
         fmt::print("baseline updated: {}\n", baseline.string());
         write_report(out);
         return 0;
       }
-      if (!fs::exists(baseline / "runs.jsonl") && !fs::exists(baseline / "jobs")) {
+      if (!fs::exists(baseline / "runs.jsonl")) {
         throw IoError(fmt::format("{}: no baseline (run `scanbench nightly --update-baseline`)",
                                   baseline.string()));
       }

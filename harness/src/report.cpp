@@ -564,9 +564,14 @@ fs::path write_report(const fs::path& dir, const fs::path& out_arg) {
         std::vector<std::string> skeys;
         if (keys.size() > 1) skeys.assign(keys.begin() + 1, keys.end());
         const auto series = build_series(rs, "", skeys, metrics.front(), true);
+        std::size_t points = 0;
+        for (const auto& ser : series)
+          points += ser.pts.size();
         const std::string svg =
-            line_plot(fmt::format("{}: {} vs compression ({})", v, metrics.front(), group),
-                      "compression = scan points / Gaussians", metrics.front(), series);
+            points < 2
+                ? std::string()  // one point is no curve
+                : line_plot(fmt::format("{}: {} vs compression ({})", v, metrics.front(), group),
+                            "compression = scan points / Gaussians", metrics.front(), series);
         if (!svg.empty()) comp_html += svg + "\n";
       }
     }
