@@ -146,10 +146,16 @@ void add_nightly_command(Cli& cli) {
       const fs::path out =
           do_run(a->run, config_root() / "nightly.json", "results/nightly-" + stamp());
       if (a->update_baseline) {
-        // Only the merged records and the config: small enough to commit.
+        // Only the merged records (without histograms) and the config: small enough to commit.
         fs::create_directories(baseline);
-        for (const char* f : {"runs.jsonl", "runs.csv", "config.json"})
+        for (const char* f : {"runs.csv", "config.json"})
           fs::copy_file(out / f, baseline / f, fs::copy_options::overwrite_existing);
+        std::string jsonl;
+        for (Json r : load_records(out)) {
+          r.erase("histograms");
+          jsonl += r.dump() + "\n";
+        }
+        write_file_atomic(baseline / "runs.jsonl", jsonl);
         fmt::print("baseline updated: {}\n", baseline.string());
         write_report(out);
         return 0;
