@@ -263,14 +263,19 @@ void add_bench_resample(CLI::App* bench, Cli& cli) {
           const bool is_clop = std::string(name) == "clop";
           const Json& p = is_clop ? clop_p : wlop_p;
           const std::string algo = is_clop ? "resample.clop" : "resample.wlop";
-          const double t1 = median_of(run_case(name, algo, p, input, o.repeats, 1, o.seed).seconds);
-          const double t2 = median_of(run_case(name, algo, p, input, o.repeats, 2, o.seed).seconds);
+          const CaseResult r1 = run_case(name, algo, p, input, o.repeats, 1, o.seed);
+          const CaseResult r2 = run_case(name, algo, p, input, o.repeats, 2, o.seed);
+          const double t1 = median_of(r1.seconds);
+          const double t2 = median_of(r2.seconds);
+          // Wall-time speedup; the CPU-time ratio shows the parallel overhead (1 = none).
+          ratios[fmt::format("{}_threads_cpu_2_over_1", name)] =
+              median_of(r2.cpu) / median_of(r1.cpu);
           ratios[fmt::format("{}_threads_2_over_1", name)] = t1 / t2;
           fmt::print("{} 1 thread {:.3f} s, 2 threads {:.3f} s: speedup {:.2f} (target >= 1.8)\n",
                      name, t1, t2, t1 / t2);
         }
         Json growth = Json::array();
-        std::vector<double> ns, ts;
+        std::vector<double> ns, ts, tcs;
         double mem_per_point = -1.0;
         for (long size : o.sizes) {
           const PointCloud big = camel_scan(mesh, size, o.seed, nullptr);
@@ -280,24 +285,30 @@ void add_bench_resample(CLI::App* bench, Cli& cli) {
               run_case("clop", "resample.clop", clop_p, big, o.repeats, o.threads, o.seed);
           const long hwm = status_kb("VmHWM");
           const double t = median_of(r.seconds);
-          const double per_point =
-              mem_ok && rss0 >= 0 && hwm >= 0
-                  ? 1024.0 * static_cast<double>(hwm - rss0) / static_cast<double>(big.size())
-                  : -1.0;
+          const double tc = median_of(r.cpu);
+          // Peak growth over the RSS before the run; -1 when /proc cannot reset the peak.
+          const double per_point = mem_ok && rss0 >= 0 && hwm >= 0
+                                       ? 1024.0 * static_cast<double>(std::max(hwm - rss0, 0L)) /
+                                             static_cast<double>(big.size())
+                                       : -1.0;
           mem_per_point = per_point;
           ns.push_back(static_cast<double>(big.size()));
           ts.push_back(t);
+          tcs.push_back(tc);
           growth.push_back({{"points", big.size()},
                             {"median_s", t},
+                            {"cpu_s", tc},
                             {"mixture_components", r.output.mixture ? r.output.mixture->size() : 0},
                             {"peak_bytes_per_point", per_point}});
-          fmt::print("clop at {:>9} points: {:8.3f} s, peak memory {:.0f} B/point\n", big.size(), t,
-                     per_point);
+          fmt::print("clop at {:>9} points: {:8.3f} s ({:.3f} CPU s), peak memory {:.0f} B/point\n",
+                     big.size(), t, tc, per_point);
         }
         if (ns.size() >= 2) {
           const double exponent =
               std::log(ts.back() / ts.front()) / std::log(ns.back() / ns.front());
           ratios["clop_growth_exponent"] = exponent;
+          ratios["clop_growth_exponent_cpu"] =
+              std::log(tcs.back() / tcs.front()) / std::log(ns.back() / ns.front());
           ratios["clop_peak_bytes_per_point_largest"] = mem_per_point;
           fmt::print(
               "clop growth exponent {:.3f} (target <= 1.1), peak {:.0f} B/point at {} "
