@@ -11,6 +11,7 @@
 #include <cstring>
 #include <limits>
 
+#include "fixtures.h"
 #include "scanbench/algorithms/clop.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/kdtree.h"
@@ -19,27 +20,8 @@
 namespace scanbench::algorithms {
 namespace {
 
-PointCloud noisy_sphere(int n, float radius, float sigma, std::uint64_t seed) {
-  Rng rng(seed);
-  PointCloud c;
-  c.positions.resize(3, n);
-  for (int i = 0; i < n; ++i) {
-    Eigen::Vector3f d;
-    do {
-      d = Eigen::Vector3f(static_cast<float>(rng.normal()), static_cast<float>(rng.normal()),
-                          static_cast<float>(rng.normal()));
-    } while (d.norm() < 1e-6f);
-    c.positions.col(i) = d.normalized() * (radius + static_cast<float>(rng.normal(0.0, sigma)));
-  }
-  return c;
-}
-
-double mean_radial_error(const Eigen::Matrix3Xf& p, double radius) {
-  double s = 0.0;
-  for (Eigen::Index i = 0; i < p.cols(); ++i)
-    s += std::abs(static_cast<double>(p.col(i).norm()) - radius);
-  return s / static_cast<double>(p.cols());
-}
+using fixtures::mean_radial_error;
+using fixtures::noisy_sphere;
 
 // Coefficient of variation of nearest-neighbour distances (the regularity measure).
 double nn_cv(const Eigen::Matrix3Xf& p) {

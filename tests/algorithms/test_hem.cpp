@@ -8,6 +8,7 @@
 #include <cstring>
 #include <limits>
 
+#include "fixtures.h"
 #include "scanbench/algorithms/hem.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/rng.h"
@@ -15,20 +16,8 @@
 namespace scanbench::algorithms {
 namespace {
 
-PointCloud noisy_sphere(int n, float radius, float sigma, std::uint64_t seed) {
-  Rng rng(seed);
-  PointCloud c;
-  c.positions.resize(3, n);
-  for (int i = 0; i < n; ++i) {
-    Eigen::Vector3f d;
-    do {
-      d = Eigen::Vector3f(static_cast<float>(rng.normal()), static_cast<float>(rng.normal()),
-                          static_cast<float>(rng.normal()));
-    } while (d.norm() < 1e-6f);
-    c.positions.col(i) = d.normalized() * (radius + static_cast<float>(rng.normal(0.0, sigma)));
-  }
-  return c;
-}
+using fixtures::mean_radial_error;
+using fixtures::noisy_sphere;
 
 // The z = 0 plane sampled uniformly on [0, 1]^2 with density `dense` times higher for x < 0.5.
 PointCloud two_density_plane(int n_sparse, int dense, std::uint64_t seed) {

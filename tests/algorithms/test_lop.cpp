@@ -7,6 +7,7 @@
 #include <limits>
 #include <set>
 
+#include "fixtures.h"
 #include "projection_kernels.h"
 #include "scanbench/algorithms/lop.h"
 #include "scanbench/core/errors.h"
@@ -16,28 +17,8 @@
 namespace scanbench::algorithms {
 namespace {
 
-// n points uniform on the sphere of radius R about the origin, with radial N(0, sigma) noise.
-PointCloud noisy_sphere(int n, float radius, float sigma, std::uint64_t seed) {
-  Rng rng(seed);
-  PointCloud c;
-  c.positions.resize(3, n);
-  for (int i = 0; i < n; ++i) {
-    Eigen::Vector3f d;
-    do {
-      d = Eigen::Vector3f(static_cast<float>(rng.normal()), static_cast<float>(rng.normal()),
-                          static_cast<float>(rng.normal()));
-    } while (d.norm() < 1e-6f);
-    c.positions.col(i) = d.normalized() * (radius + static_cast<float>(rng.normal(0.0, sigma)));
-  }
-  return c;
-}
-
-double mean_radial_error(const Eigen::Matrix3Xf& p, double radius) {
-  double s = 0.0;
-  for (Eigen::Index i = 0; i < p.cols(); ++i)
-    s += std::abs(static_cast<double>(p.col(i).norm()) - radius);
-  return s / static_cast<double>(p.cols());
-}
+using fixtures::mean_radial_error;
+using fixtures::noisy_sphere;
 
 // Coefficient of variation of nearest-neighbour distances (brute force).
 double nn_cv(const Eigen::Matrix3Xf& p) {
