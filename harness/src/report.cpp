@@ -17,29 +17,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-std::string esc(const std::string& s) {
-  std::string o;
-  for (char c : s) {
-    switch (c) {
-      case '<':
-        o += "&lt;";
-        break;
-      case '>':
-        o += "&gt;";
-        break;
-      case '&':
-        o += "&amp;";
-        break;
-      case '"':
-        o += "&quot;";
-        break;
-      default:
-        o += c;
-    }
-  }
-  return o;
-}
-
 const char* kPalette[] = {"#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd",
                           "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf"};
 const char* color(std::size_t i) {
@@ -92,7 +69,7 @@ std::string svg_open(const std::string& title, int w = kW, int h = kH) {
       "{1}\" font-family=\"sans-serif\" font-size=\"11\"><title>{2}</title>"
       "<text x=\"{3}\" y=\"16\" text-anchor=\"middle\" font-size=\"12\" "
       "font-weight=\"bold\">{2}</text>",
-      w, h, esc(title), w / 2);
+      w, h, html_escape(title), w / 2);
 }
 
 /// Axes with ticks; returns the SVG and the mapping functions through the out parameters.
@@ -120,20 +97,20 @@ std::string draw_axes(Axes& a, double xlo, double xhi, double ylo, double yhi,
     s += fmt::format(
         "<line x1=\"{0:.1f}\" x2=\"{0:.1f}\" y1=\"{1}\" y2=\"{2}\" stroke=\"#ddd\"/>"
         "<text x=\"{0:.1f}\" y=\"{3}\" text-anchor=\"middle\">{4}</text>",
-        x, kT, kH - kB, kH - kB + 14, esc(format_number(v)));
+        x, kT, kH - kB, kH - kB + 14, html_escape(format_number(v)));
   }
   for (double v : yt) {
     const double y = a.py(v);
     s += fmt::format(
         "<line x1=\"{0}\" x2=\"{1}\" y1=\"{2:.1f}\" y2=\"{2:.1f}\" stroke=\"#ddd\"/>"
         "<text x=\"{3}\" y=\"{4:.1f}\" text-anchor=\"end\">{5}</text>",
-        kL, kW - kR, y, kL - 4, y + 4, esc(format_number(v)));
+        kL, kW - kR, y, kL - 4, y + 4, html_escape(format_number(v)));
   }
   s += fmt::format("<text x=\"{}\" y=\"{}\" text-anchor=\"middle\">{}</text>", (kL + kW - kR) / 2,
-                   kH - 8, esc(xlabel));
+                   kH - 8, html_escape(xlabel));
   s += fmt::format(
       "<text x=\"14\" y=\"{0}\" text-anchor=\"middle\" transform=\"rotate(-90 14 {0})\">{1}</text>",
-      (kT + kH - kB) / 2, esc(ylabel));
+      (kT + kH - kB) / 2, html_escape(ylabel));
   return s;
 }
 
@@ -144,7 +121,7 @@ std::string legend(const std::vector<std::string>& names) {
     s += fmt::format(
         "<rect x=\"{}\" y=\"{}\" width=\"10\" height=\"10\" fill=\"{}\"/>"
         "<text x=\"{}\" y=\"{}\">{}</text>",
-        kW - kR + 8, y - 8, color(i), kW - kR + 22, y + 1, esc(names[i]));
+        kW - kR + 8, y - 8, color(i), kW - kR + 22, y + 1, html_escape(names[i]));
   }
   return s;
 }
@@ -200,7 +177,7 @@ std::string heatmap(const std::string& title, const std::string& xlabel, const s
   for (std::size_t r = 0; r < ys.size(); ++r) {
     const int y = kT + static_cast<int>(r) * ch;
     svg += fmt::format("<text x=\"{}\" y=\"{}\" text-anchor=\"end\">{}</text>", kL - 4, y + 15,
-                       esc(ys[r]));
+                       html_escape(ys[r]));
     for (std::size_t c = 0; c < xs.size(); ++c) {
       const double val = v[r][c];
       const double t = hi > lo ? (val - lo) / (hi - lo) : 0.5;
@@ -208,25 +185,25 @@ std::string heatmap(const std::string& title, const std::string& xlabel, const s
       svg += fmt::format(
           "<rect x=\"{}\" y=\"{}\" width=\"{}\" height=\"{}\" fill=\"{}\" stroke=\"#fff\">"
           "<title>{}</title></rect>",
-          x, y, cw, ch, std::isfinite(val) ? viridis(t) : "#eee", esc(format_number(val)));
+          x, y, cw, ch, std::isfinite(val) ? viridis(t) : "#eee", html_escape(format_number(val)));
       if (std::isfinite(val) && cw >= 40) {
         svg += fmt::format(
             "<text x=\"{}\" y=\"{}\" text-anchor=\"middle\" font-size=\"9\" "
             "fill=\"{}\">{}</text>",
-            x + cw / 2, y + 15, t > 0.6 ? "#000" : "#fff", esc(format_number(val)));
+            x + cw / 2, y + 15, t > 0.6 ? "#000" : "#fff", html_escape(format_number(val)));
       }
     }
   }
   const int yb = kT + static_cast<int>(ys.size()) * ch;
   for (std::size_t c = 0; c < xs.size(); ++c) {
     svg += fmt::format("<text x=\"{}\" y=\"{}\" text-anchor=\"middle\">{}</text>",
-                       kL + static_cast<int>(c) * cw + cw / 2, yb + 14, esc(xs[c]));
+                       kL + static_cast<int>(c) * cw + cw / 2, yb + 14, html_escape(xs[c]));
   }
   svg += fmt::format("<text x=\"{}\" y=\"{}\" text-anchor=\"middle\">{}</text>",
-                     kL + cw * static_cast<int>(xs.size()) / 2, yb + 30, esc(xlabel));
-  svg += fmt::format("<text x=\"4\" y=\"{}\">{}</text>", kT - 4, esc(ylabel));
+                     kL + cw * static_cast<int>(xs.size()) / 2, yb + 30, html_escape(xlabel));
+  svg += fmt::format("<text x=\"4\" y=\"{}\">{}</text>", kT - 4, html_escape(ylabel));
   svg += fmt::format("<text x=\"{}\" y=\"{}\">min {} (dark) .. max {} (yellow)</text>", kL, yb + 46,
-                     esc(format_number(lo)), esc(format_number(hi)));
+                     html_escape(format_number(lo)), html_escape(format_number(hi)));
   return svg + "</svg>";
 }
 
@@ -251,7 +228,7 @@ std::string stacked_bars(const std::string& title, const std::vector<std::string
     std::string lab = labels[r];
     if (lab.size() > 42) lab = lab.substr(0, 40) + "..";
     svg += fmt::format("<text x=\"{}\" y=\"{}\" text-anchor=\"end\">{}</text>", left - 4, y + 12,
-                       esc(lab));
+                       html_escape(lab));
     double x = left, total = 0;
     for (std::size_t p = 0; p < parts.size(); ++p) {
       const double v = std::max(0.0, values[r][p]);
@@ -261,19 +238,19 @@ std::string stacked_bars(const std::string& title, const std::vector<std::string
         svg += fmt::format(
             "<rect x=\"{:.1f}\" y=\"{}\" width=\"{:.1f}\" height=\"{}\" fill=\"{}\">"
             "<title>{}: {} s</title></rect>",
-            x, y, bw, bh, color(p), esc(parts[p]), esc(format_number(v)));
+            x, y, bw, bh, color(p), html_escape(parts[p]), html_escape(format_number(v)));
       }
       x += bw;
     }
     svg += fmt::format("<text x=\"{:.1f}\" y=\"{}\">{} s</text>", x + 4, y + 12,
-                       esc(format_number(total)));
+                       html_escape(format_number(total)));
   }
   int y = kT + static_cast<int>(labels.size()) * (bh + 4) + 14;
   for (std::size_t p = 0; p < parts.size() && p < 12; ++p, y += 15) {
     svg += fmt::format(
         "<rect x=\"{}\" y=\"{}\" width=\"10\" height=\"10\" fill=\"{}\"/>"
         "<text x=\"{}\" y=\"{}\">{}</text>",
-        left, y - 9, color(p), left + 14, y, esc(parts[p]));
+        left, y - 9, color(p), left + 14, y, html_escape(parts[p]));
   }
   return svg + "</svg>";
 }
@@ -361,7 +338,7 @@ std::vector<Series> build_series(const std::vector<const Json*>& rs, const std::
 
 std::string link(const fs::path& dir, const std::string& rel, const std::string& text) {
   if (rel.empty() || !fs::exists(dir / rel)) return "";
-  return fmt::format("<a href=\"{}\">{}</a>", esc(rel), esc(text));
+  return fmt::format("<a href=\"{}\">{}</a>", html_escape(rel), html_escape(text));
 }
 
 }  // namespace
@@ -404,7 +381,7 @@ fs::path write_report(const fs::path& dir, const fs::path& out_arg) {
 
   std::string h;
   h += "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>scanbench: " +
-       esc(name) +
+       html_escape(name) +
        "</title>\n<style>\n"
        "body{font-family:sans-serif;margin:1.5em;max-width:1400px;color:#222}"
        "table{border-collapse:collapse;margin:0.6em 0}td,th{border:1px solid #ccc;padding:2px 6px;"
@@ -413,18 +390,19 @@ fs::path write_report(const fs::path& dir, const fs::path& out_arg) {
        ".plots{display:flex;flex-wrap:wrap;gap:10px}.plots svg{border:1px solid #eee}"
        "h2{border-bottom:1px solid #ccc;margin-top:1.5em}code{font-size:12px}"
        ".regression{color:#b00;font-weight:bold}\n</style></head><body>\n";
-  h += "<h1>scanbench report: " + esc(name) + "</h1>\n";
+  h += "<h1>scanbench report: " + html_escape(name) + "</h1>\n";
   if (cfg.contains("description")) {
-    h += "<p>" + esc(cfg["description"].get<std::string>()) + "</p>\n";
+    h += "<p>" + html_escape(cfg["description"].get<std::string>()) + "</p>\n";
   }
   if (!records.empty() && records.front().contains("context")) {
     const Json& c = records.front()["context"];
     h += fmt::format(
         "<p id=\"context\">commit <code>{}</code>, {}, {} build; host {} ({}, {} hardware "
         "threads); {} threads per job; first job {}</p>\n",
-        esc(c.value("commit", "")), esc(c.value("compiler", "")), esc(c.value("build", "")),
-        esc(c.value("host", "")), esc(c.value("cpu", "")), c.value("hardware_threads", 0),
-        c.value("threads", 0), esc(c.value("date", "")));
+        html_escape(c.value("commit", "")), html_escape(c.value("compiler", "")),
+        html_escape(c.value("build", "")), html_escape(c.value("host", "")),
+        html_escape(c.value("cpu", "")), c.value("hardware_threads", 0), c.value("threads", 0),
+        html_escape(c.value("date", "")));
   }
   std::string counts;
   for (const auto& [s, n] : status_counts)
@@ -432,14 +410,14 @@ fs::path write_report(const fs::path& dir, const fs::path& out_arg) {
   h += fmt::format(
       "<p id=\"summary\">{} jobs: {}. Records: <a href=\"runs.jsonl\">runs.jsonl</a>, "
       "<a href=\"runs.csv\">runs.csv</a>, <a href=\"config.json\">config.json</a>.</p>\n",
-      records.size(), esc(counts));
+      records.size(), html_escape(counts));
 
   // Nightly verdicts.
   if (fs::exists(dir / "compare.json")) {
     const Json cmp = read_json_file(dir / "compare.json");
     h += fmt::format("<h2>Comparison with the baseline: <span class=\"{}\">{}</span></h2>\n",
                      cmp.value("regressions", 0) > 0 ? "regression" : "",
-                     esc(cmp.value("verdict", std::string("?"))));
+                     html_escape(cmp.value("verdict", std::string("?"))));
     h += "<table id=\"verdicts\"><tr><th>job</th><th>quantity</th><th>base</th><th>new</th>"
          "<th>change</th><th>p</th><th>verdict</th></tr>\n";
     for (const auto& v : cmp.value("comparisons", Json::array())) {
@@ -451,8 +429,9 @@ fs::path write_report(const fs::path& dir, const fs::path& out_arg) {
       h += fmt::format(
           "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>"
           "<td class=\"{}\">{}</td></tr>\n",
-          esc(v.value("key", "")), esc(v.value("quantity", "")), num("base"), num("new"),
-          num("change"), num("p"), verdict == "regression" ? "regression" : "", esc(verdict));
+          html_escape(v.value("key", "")), html_escape(v.value("quantity", "")), num("base"),
+          num("new"), num("change"), num("p"), verdict == "regression" ? "regression" : "",
+          html_escape(verdict));
     }
     h += "</table>\n";
   }
@@ -470,8 +449,8 @@ fs::path write_report(const fs::path& dir, const fs::path& out_arg) {
     h += fmt::format(
         "<tr class=\"failed\"><td>{}</td><td>{}</td><td style=\"text-align:left\">{}"
         "</td><td>{}</td></tr>\n",
-        esc(r.value("key", "")), esc(r.value("status", "")), esc(r.value("error", "")),
-        link(dir, art.value("log", ""), "log"));
+        html_escape(r.value("key", "")), html_escape(r.value("status", "")),
+        html_escape(r.value("error", "")), link(dir, art.value("log", ""), "log"));
   }
   if (any_failed) h += "</table>\n";
 
@@ -598,7 +577,7 @@ fs::path write_report(const fs::path& dir, const fs::path& out_arg) {
       imgs += fmt::format(
           "<figure><a href=\"{0}\"><img src=\"{0}\" width=\"560\" alt=\"{1}\">"
           "</a><figcaption>{1}</figcaption></figure>\n",
-          esc(rel), esc(r->value("key", std::string())));
+          html_escape(rel), html_escape(r->value("key", std::string())));
     }
     if (!imgs.empty()) {
       h += "<h2>Error heatmaps (|point-to-plane error| on four views)</h2>\n<div class=\"plots\" "
@@ -719,7 +698,7 @@ fs::path write_report(const fs::path& dir, const fs::path& out_arg) {
     h += fmt::format(
         "<tr><td style=\"text-align:left\">{}</td><td>{}</td><td>{} / {}</td>"
         "<td style=\"text-align:left\">{}</td></tr>\n",
-        esc(r.value("key", "")), esc(r.value("status", "")),
+        html_escape(r.value("key", "")), html_escape(r.value("status", "")),
         format_number(record_value(r, "sizes.scan_points")),
         format_number(record_value(r, "sizes.output_points")), files);
   }

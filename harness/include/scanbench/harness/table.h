@@ -51,5 +51,7 @@ std::string render_table(const Table& t, const std::string& format);
 std::string field_value(const Json& record, const std::string& field);
 /// Numbers in tables: 4 significant digits.
 std::string format_number(double v);
+/// Escapes <, >, & and " for HTML text and attribute values.
+std::string html_escape(const std::string& s);
 
 }  // namespace scanbench::harness
