@@ -158,13 +158,7 @@ AlgorithmOutput csw(const PointCloud& in, const CswParams& p, RunContext& ctx) {
   Eigen::Matrix3Xf initial;
   if (p.resample) {
     ClopParams cp;
-    cp.h = p.h;
-    cp.mu = p.mu;
-    cp.iterations = p.iterations;
-    cp.particles = p.particles;
-    cp.repulsion_cutoff = p.repulsion_cutoff;
-    cp.interleave = p.interleave;
-    cp.weighted = p.weighted;
+    static_cast<ClopSettings&>(cp) = p;  // every CLOP and HEM setting of p
     const Index m = kernels::particle_count(p.particles, in.size(), stage);
     {
       auto timer = ctx.phase("init");

@@ -72,24 +72,17 @@ void declare_clop_params(ParamDeclarer<T>& d) {
   declare_hem_params(d);
 }
 
-struct ClopParams {
+/// The CLOP settings with their defaults, held once (ClopParams and CswParams derive from it).
+struct ClopSettings : HemSettings {
   double h = 0.02;
   double mu = 0.4;
   int iterations = 10;
   double particles = 0.5;
   double repulsion_cutoff = 0.5;
   bool interleave = true;
-  // HEM (declared by declare_hem_params)
-  double alpha = 2.0;
-  int levels = 8;
-  double min_reduction = 0.025;
-  double parent_probability = 1.0 / 3.0;
-  double init_radius_factor = 2.5;
-  int init_neighbors = 4;
-  double cov_bias = 1e-3;
-  bool weighted = true;
-  double normal_spread0 = 1e-3;
+};
 
+struct ClopParams : ClopSettings {
   static void declare(ParamDeclarer<ClopParams>& d) { declare_clop_params(d); }
 };
 

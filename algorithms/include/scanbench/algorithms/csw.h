@@ -32,27 +32,12 @@
 
 namespace scanbench::algorithms {
 
-struct CswParams {
+/// CSW settings; the CLOP and HEM settings (used when resample is true; h also sets the density
+/// weights of the mixture) come from ClopSettings.
+struct CswParams : ClopSettings {
   bool resample = true;
   double normal_h = 0.02;
   int csw_iterations = 10;
-  // CLOP (declared by declare_clop_params, used when resample is true; h also sets the density
-  // weights of the mixture)
-  double h = 0.02;
-  double mu = 0.4;
-  int iterations = 10;
-  double particles = 0.5;
-  double repulsion_cutoff = 0.5;
-  bool interleave = true;
-  double alpha = 2.0;
-  int levels = 8;
-  double min_reduction = 0.025;
-  double parent_probability = 1.0 / 3.0;
-  double init_radius_factor = 2.5;
-  int init_neighbors = 4;
-  double cov_bias = 1e-3;
-  bool weighted = true;
-  double normal_spread0 = 1e-3;
 
   static void declare(ParamDeclarer<CswParams>& d) {
     d.flag("resample", &CswParams::resample,

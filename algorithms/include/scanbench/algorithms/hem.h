@@ -41,8 +41,8 @@
 
 namespace scanbench::algorithms {
 
-/// Declares the HEM parameters on any struct T that has the members below (HemParams and
-/// ClopParams share these declarations, so their names, ranges and docs cannot drift).
+/// Declares the HEM parameters on any struct T derived from HemSettings (HemParams, ClopParams
+/// and CswParams share these declarations, so their names, ranges, defaults and docs cannot drift).
 template <class T>
 void declare_hem_params(ParamDeclarer<T>& d) {
   d.real("alpha", &T::alpha, Range::closed(0.5, 10.0), "",
@@ -70,8 +70,9 @@ void declare_hem_params(ParamDeclarer<T>& d) {
          "initial wrapped-normal spread sigma^2 of each point's normal axis (CSW, section 9.2)");
 }
 
-struct HemParams {
-  double h = 0.02;  ///< kernel width of the density weights v_j, fraction of the bbox diagonal
+/// The HEM settings with their defaults, held once: HemParams, ClopParams and CswParams derive
+/// from it (declare_hem_params declares them on each).
+struct HemSettings {
   double alpha = 2.0;
   int levels = 8;
   double min_reduction = 0.025;
@@ -81,6 +82,10 @@ struct HemParams {
   double cov_bias = 1e-3;
   bool weighted = true;
   double normal_spread0 = 1e-3;
+};
+
+struct HemParams : HemSettings {
+  double h = 0.02;  ///< kernel width of the density weights v_j, fraction of the bbox diagonal
 
   static void declare(ParamDeclarer<HemParams>& d) {
     d.real("h", &HemParams::h, Range::open_min(0.0, 1.0), "diag",
@@ -89,20 +94,11 @@ struct HemParams {
   }
 };
 
-/// The HEM settings of any struct declared with declare_hem_params (h is set separately).
-template <class T>
-HemParams hem_params_of(const T& t, double h) {
+/// The HEM settings of any struct derived from HemSettings, with the absolute h.
+inline HemParams hem_params_of(const HemSettings& t, double h) {
   HemParams p;
+  static_cast<HemSettings&>(p) = t;
   p.h = h;
-  p.alpha = t.alpha;
-  p.levels = t.levels;
-  p.min_reduction = t.min_reduction;
-  p.parent_probability = t.parent_probability;
-  p.init_radius_factor = t.init_radius_factor;
-  p.init_neighbors = t.init_neighbors;
-  p.cov_bias = t.cov_bias;
-  p.weighted = t.weighted;
-  p.normal_spread0 = t.normal_spread0;
   return p;
 }
 
