@@ -23,6 +23,7 @@
 #include "scanbench/core/datasets.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/run_context.h"
+#include "scanbench/harness/records.h"
 #include "scanbench/metrics/evaluate.h"
 #include "scanbench/metrics/ground_truth.h"
 #include "scanbench/scanner/scanner.h"
@@ -30,12 +31,6 @@
 namespace scanbench::harness {
 
 namespace {
-
-double median_of(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  const std::size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
 
 double now_seconds() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
@@ -218,9 +213,9 @@ void add_bench_resample(CLI::App* bench, Cli& cli) {
         Json c = Json::object();
         c["name"] = r.name;
         c["algorithm"] = r.algorithm;
-        c["median_s"] = med[r.name] = median_of(r.seconds);
+        c["median_s"] = med[r.name] = median(r.seconds);
         c["seconds"] = r.seconds;
-        c["cpu_s"] = med_cpu[r.name] = median_of(r.cpu);
+        c["cpu_s"] = med_cpu[r.name] = median(r.cpu);
         c["cpu_seconds"] = r.cpu;
         c["p2plane_mean"] = m.value("p2plane_mean_rel", 0.0);
         c["p2plane_mean_abs"] = m.value("p2plane_mean", 0.0);
@@ -265,11 +260,10 @@ void add_bench_resample(CLI::App* bench, Cli& cli) {
           const std::string algo = is_clop ? "resample.clop" : "resample.wlop";
           const CaseResult r1 = run_case(name, algo, p, input, o.repeats, 1, o.seed);
           const CaseResult r2 = run_case(name, algo, p, input, o.repeats, 2, o.seed);
-          const double t1 = median_of(r1.seconds);
-          const double t2 = median_of(r2.seconds);
+          const double t1 = median(r1.seconds);
+          const double t2 = median(r2.seconds);
           // Wall-time speedup; the CPU-time ratio shows the parallel overhead (1 = none).
-          ratios[fmt::format("{}_threads_cpu_2_over_1", name)] =
-              median_of(r2.cpu) / median_of(r1.cpu);
+          ratios[fmt::format("{}_threads_cpu_2_over_1", name)] = median(r2.cpu) / median(r1.cpu);
           ratios[fmt::format("{}_threads_2_over_1", name)] = t1 / t2;
           fmt::print("{} 1 thread {:.3f} s, 2 threads {:.3f} s: speedup {:.2f} (target >= 1.8)\n",
                      name, t1, t2, t1 / t2);
@@ -284,8 +278,8 @@ void add_bench_resample(CLI::App* bench, Cli& cli) {
           const CaseResult r =
               run_case("clop", "resample.clop", clop_p, big, o.repeats, o.threads, o.seed);
           const long hwm = status_kb("VmHWM");
-          const double t = median_of(r.seconds);
-          const double tc = median_of(r.cpu);
+          const double t = median(r.seconds);
+          const double tc = median(r.cpu);
           // Peak growth over the RSS before the run; -1 when /proc cannot reset the peak.
           const double per_point = mem_ok && rss0 >= 0 && hwm >= 0
                                        ? 1024.0 * static_cast<double>(std::max(hwm - rss0, 0L)) /

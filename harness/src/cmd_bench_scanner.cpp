@@ -12,17 +12,10 @@
 #include "commands.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/run_context.h"
+#include "scanbench/harness/records.h"
 #include "scanbench/scanner/throughput.h"
 
 namespace scanbench::harness {
-
-namespace {
-double median_of(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  const std::size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
-}  // namespace
 
 void add_bench_scanner(CLI::App* bench, Cli& cli) {
   struct Opts {
@@ -75,7 +68,7 @@ void add_bench_scanner(CLI::App* bench, Cli& cli) {
         cases.push_back(std::move(c));
         ratios.push_back(r.ratio);
       }
-      const double med = median_of(ratios);
+      const double med = median(ratios);
       fmt::print("scanner_over_bare_embree (median over sizes): {:.3f} (target >= 0.8)\n", med);
       if (!opts->json.empty()) {
         Json out = Json::object();
