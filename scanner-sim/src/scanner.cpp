@@ -4,14 +4,19 @@
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
+#include <xmmintrin.h>
 
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <atomic>
+#include <bit>
+#include <boost/random/normal_distribution.hpp>
 #include <chrono>
 #include <cmath>
+#include <cstddef>
 #include <fstream>
 #include <limits>
+#include <memory>
 #include <numeric>
 #include <sstream>
 
@@ -105,30 +110,48 @@ Json vec_json(const Eigen::Vector3d& v) {
 }
 
 constexpr double kGoldenAngle = 2.399963229728653;          // pi (3 - sqrt 5)
-constexpr int kTile = 8;                                    // tiles of 8 x 8 pixels
 constexpr std::size_t kGroupPixels = std::size_t{1} << 21;  // pixels of the views done together
 
-/// What pass A learns about one pixel.
-enum class PixelStatus : std::uint8_t { Miss, Point, Grazing, OutOfRange };
-struct PixelHit {
-  float raw_range;  ///< beam range when the beam returned (before drop-outs), else +inf
-  float cos_incidence;
-  Eigen::Vector3f clean;
-  PixelStatus status;
-  bool mixed;  ///< sub-rays disagree (some missed, or ranges spread over flying_depth_jump)
-};
-/// What pass B decides for one returned pixel.
-enum class PointKind : std::uint8_t { None, Surface, Flying, Uniform };
-struct PixelOut {
-  Eigen::Vector3f position;
-  PointKind kind;
-  std::int32_t outliers;  ///< uniform outliers following this pixel's point
+/// What passes A and B learn about one pixel (one byte per pixel).
+enum PixelStatus : std::uint8_t { kMiss, kPoint, kFlying, kGrazing, kOutOfRange };
+
+/// Per-pixel results of a group of views, structure of arrays (pass B reads the ranges of the
+/// 4-neighbours only). Default-initialised storage: every field is written before it is read.
+struct GroupImage {
+  explicit GroupImage(std::size_t n)
+      : range(new float[n]),
+        status(new std::uint8_t[n]),
+        position(new Eigen::Vector3f[n]),
+        clean(new Eigen::Vector3f[n]),
+        outliers(new std::int32_t[n]) {}
+  std::unique_ptr<float[]>
+      range;  ///< beam range when the beam returned (before drop-outs), else +inf
+  std::unique_ptr<std::uint8_t[]> status;       ///< PixelStatus
+  std::unique_ptr<Eigen::Vector3f[]> position;  ///< kPoint / kFlying: the output point (true frame)
+  std::unique_ptr<Eigen::Vector3f[]> clean;     ///< kPoint / kFlying: the noise-free surface hit
+  std::unique_ptr<std::int32_t[]> outliers;     ///< kPoint / kFlying: uniform outliers that follow
 };
 
 struct Counters {
   std::atomic<std::int64_t> misses{0}, grazing{0}, out_of_range{0}, mixed{0}, flying{0}, uniform{0},
       returned{0};
 };
+
+/// scanbench::Rng as a uniform random bit generator (full 64-bit range) for Boost.Random.
+struct RngBits {
+  using result_type = std::uint64_t;
+  static constexpr result_type min() { return 0; }
+  static constexpr result_type max() { return ~result_type{0}; }
+  result_type operator()() { return rng.next(); }
+  Rng& rng;
+};
+
+/// Standard normal deviate by the ziggurat method (Marsaglia and Tsang 2000; Boost.Random's
+/// 128-layer tables): one 64-bit draw of `rng` in about 99% of the calls.
+inline double standard_normal(Rng& rng) {
+  RngBits bits{rng};
+  return boost::random::normal_distribution<double>(0.0, 1.0)(bits);
+}
 
 }  // namespace
 
@@ -235,53 +258,108 @@ ScannerEngine::Tile ScannerEngine::tile(int t) const {
           std::min(resolution_, (ty + 1) * kTile)};
 }
 
-Eigen::Vector3f ScannerEngine::pixel_dir(const Camera& cam, int u, int v, int sub) const {
-  // The same float operations as make_tile_rays, so both give bit-identical directions.
+namespace {
+
+/// A camera's basis broadcast to the four lanes of an SSE register.
+struct CameraLanes {
+  explicit CameraLanes(const Camera& c)
+      : fx(_mm_set1_ps(c.forward.x())),
+        fy(_mm_set1_ps(c.forward.y())),
+        fz(_mm_set1_ps(c.forward.z())),
+        rx(_mm_set1_ps(c.right.x())),
+        ry(_mm_set1_ps(c.right.y())),
+        rz(_mm_set1_ps(c.right.z())),
+        ux(_mm_set1_ps(c.up.x())),
+        uy(_mm_set1_ps(c.up.y())),
+        uz(_mm_set1_ps(c.up.z())) {}
+  __m128 fx, fy, fz, rx, ry, rz, ux, uy, uz;
+};
+
+/// normalise(forward + xs right + ys up) in four lanes. SSE is part of baseline x86-64, and each
+/// lane performs exactly the scalar IEEE operations in a fixed order (no FMA contraction of
+/// intrinsics), so a direction does not depend on the lane it was computed in.
+inline void unit_dirs4(const CameraLanes& c, __m128 xs, __m128 ys, __m128& dx, __m128& dy,
+                       __m128& dz) {
+  dx = _mm_add_ps(_mm_add_ps(c.fx, _mm_mul_ps(xs, c.rx)), _mm_mul_ps(ys, c.ux));
+  dy = _mm_add_ps(_mm_add_ps(c.fy, _mm_mul_ps(xs, c.ry)), _mm_mul_ps(ys, c.uy));
+  dz = _mm_add_ps(_mm_add_ps(c.fz, _mm_mul_ps(xs, c.rz)), _mm_mul_ps(ys, c.uz));
+  const __m128 len2 =
+      _mm_add_ps(_mm_add_ps(_mm_mul_ps(dx, dx), _mm_mul_ps(dy, dy)), _mm_mul_ps(dz, dz));
+  const __m128 s = _mm_div_ps(_mm_set1_ps(1.0f), _mm_sqrt_ps(len2));
+  dx = _mm_mul_ps(dx, s);
+  dy = _mm_mul_ps(dy, s);
+  dz = _mm_mul_ps(dz, s);
+}
+
+static_assert(offsetof(RTCRay, tnear) == 12 && offsetof(RTCRay, time) == 28 &&
+                  offsetof(RTCRay, flags) == 44,
+              "RTCRay layout: org+tnear, dir+time, tfar+mask+id+flags as three 16-byte rows");
+
+}  // namespace
+
+float ScannerEngine::image_x(const Camera& cam, int u) const {
   const float inv = 2.0f / static_cast<float>(resolution_);
-  const float y = (1.0f - (static_cast<float>(v) + 0.5f) * inv) * cam.tan_half;
-  const float x = ((static_cast<float>(u) + 0.5f) * inv - 1.0f) * cam.tan_half;
-  const Eigen::Vector2f& o = beam_offsets_[static_cast<std::size_t>(sub)];
-  const float xs = x + o.x(), ys = y + o.y();
-  const float dx = cam.forward.x() + xs * cam.right.x() + ys * cam.up.x();
-  const float dy = cam.forward.y() + xs * cam.right.y() + ys * cam.up.y();
-  const float dz = cam.forward.z() + xs * cam.right.z() + ys * cam.up.z();
-  const float s = 1.0f / std::sqrt(dx * dx + dy * dy + dz * dz);
-  return {dx * s, dy * s, dz * s};
+  return ((static_cast<float>(u) + 0.5f) * inv - 1.0f) * cam.tan_half;
+}
+
+float ScannerEngine::image_y(const Camera& cam, int v) const {
+  const float inv = 2.0f / static_cast<float>(resolution_);
+  return (1.0f - (static_cast<float>(v) + 0.5f) * inv) * cam.tan_half;
+}
+
+Eigen::Vector3f ScannerEngine::axis_dir(const Camera& cam, int u, int v) const {
+  // The operations of make_tile_rays for sub-ray 0, so the direction is bit-identical to the
+  // cast ray's.
+  const Eigen::Vector2f& o = beam_offsets_[0];
+  __m128 dx, dy, dz;
+  unit_dirs4(CameraLanes(cam), _mm_set1_ps(image_x(cam, u) + o.x()),
+             _mm_set1_ps(image_y(cam, v) + o.y()), dx, dy, dz);
+  return {_mm_cvtss_f32(dx), _mm_cvtss_f32(dy), _mm_cvtss_f32(dz)};
 }
 
 void ScannerEngine::make_tile_rays(const Camera& cam, const Tile& t, RTCRayHit* out) const {
-  // pixel_dir() written out with the per-tile constants hoisted (this runs for every ray).
+  // Runs for every ray: image-plane offsets of one tile row, then four directions per step,
+  // transposed into the AoS stream with three 16-byte stores per ray.
+  const CameraLanes lanes(cam);
+  const __m128 org_tnear = _mm_setr_ps(cam.origin.x(), cam.origin.y(), cam.origin.z(), 0.0f);
   const float tfar = static_cast<float>(p_.range_max) * diag_;
-  const float inv = 2.0f / static_cast<float>(resolution_);
-  const float ox = cam.origin.x(), oy = cam.origin.y(), oz = cam.origin.z();
+  // tfar, mask = all bits, id = 0, flags = 0.
+  const __m128i tail = _mm_setr_epi32(std::bit_cast<std::int32_t>(tfar), -1, 0, 0);
+  const int n = (t.u1 - t.u0) * sub_rays_;
+  alignas(16) float xs[kTile * kMaxSubRays + 4];
+  alignas(16) float ys[kTile * kMaxSubRays + 4];
   for (int v = t.v0; v < t.v1; ++v) {
-    const float y = (1.0f - (static_cast<float>(v) + 0.5f) * inv) * cam.tan_half;
+    const float y = image_y(cam, v);
+    int j = 0;
     for (int u = t.u0; u < t.u1; ++u) {
-      const float x = ((static_cast<float>(u) + 0.5f) * inv - 1.0f) * cam.tan_half;
-      for (int k = 0; k < sub_rays_; ++k) {
+      const float x = image_x(cam, u);
+      for (int k = 0; k < sub_rays_; ++k, ++j) {
         const Eigen::Vector2f& o = beam_offsets_[static_cast<std::size_t>(k)];
-        const float xs = x + o.x(), ys = y + o.y();
-        float dx = cam.forward.x() + xs * cam.right.x() + ys * cam.up.x();
-        float dy = cam.forward.y() + xs * cam.right.y() + ys * cam.up.y();
-        float dz = cam.forward.z() + xs * cam.right.z() + ys * cam.up.z();
-        const float s = 1.0f / std::sqrt(dx * dx + dy * dy + dz * dz);
-        RTCRayHit& r = *out++;
-        r.ray.org_x = ox;
-        r.ray.org_y = oy;
-        r.ray.org_z = oz;
-        r.ray.tnear = 0.0f;
-        r.ray.dir_x = dx * s;
-        r.ray.dir_y = dy * s;
-        r.ray.dir_z = dz * s;
-        r.ray.time = 0.0f;
-        r.ray.tfar = tfar;
-        r.ray.mask = 0xffffffffu;
-        r.ray.id = 0;
-        r.ray.flags = 0;
+        xs[j] = x + o.x();
+        ys[j] = y + o.y();
+      }
+    }
+    for (; j % 4 != 0; ++j) {
+      xs[j] = 0.0f;
+      ys[j] = 0.0f;
+    }
+    for (int j0 = 0; j0 < n; j0 += 4) {
+      __m128 dx, dy, dz;
+      unit_dirs4(lanes, _mm_load_ps(xs + j0), _mm_load_ps(ys + j0), dx, dy, dz);
+      __m128 time = _mm_setzero_ps();
+      _MM_TRANSPOSE4_PS(dx, dy, dz, time);
+      const __m128 dir_time[4] = {dx, dy, dz, time};
+      const int m = std::min(4, n - j0);
+      for (int l = 0; l < m; ++l) {
+        RTCRayHit& r = out[j0 + l];
+        _mm_storeu_ps(&r.ray.org_x, org_tnear);
+        _mm_storeu_ps(&r.ray.dir_x, dir_time[l]);
+        _mm_storeu_si128(reinterpret_cast<__m128i*>(&r.ray.tfar), tail);
         r.hit.geomID = RTC_INVALID_GEOMETRY_ID;
         r.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
       }
     }
+    out += n;
   }
 }
 
@@ -331,10 +409,12 @@ Scan ScannerEngine::run(RunContext& ctx) const {
   const float jump = static_cast<float>(p_.flying_depth_jump) * diag_;
   const float spread = static_cast<float>(p_.flying_spread) * diag_;
   const double f_out = p_.outlier_fraction;
+  const double flying_prob = p_.flying_pixel_prob;
   const BoundingBox obox = box_.scaled(static_cast<float>(p_.outlier_box_scale));
   const int need = (sub_rays_ + 1) / 2;
 
   const std::uint64_t pixel_seed = ctx.stream_seed("scan.pixels");
+  const std::uint64_t flying_seed = ctx.stream_seed("scan.flying");
   const std::uint64_t outlier_seed = ctx.stream_seed("scan.outliers");
   const std::uint64_t misalign_seed = ctx.stream_seed("scan.misalign");
 
@@ -357,8 +437,7 @@ Scan ScannerEngine::run(RunContext& ctx) const {
   const int group = static_cast<int>(
       std::clamp<std::size_t>(kGroupPixels / npix, 1, static_cast<std::size_t>(views)));
   const std::size_t group_rows = static_cast<std::size_t>(group) * static_cast<std::size_t>(R);
-  std::vector<PixelHit> image(static_cast<std::size_t>(group) * npix);
-  std::vector<PixelOut> outs(image.size());
+  GroupImage image(static_cast<std::size_t>(group) * npix);
   std::vector<std::int64_t> row_start(group_rows + 1);
   std::vector<std::int64_t> row_surface(group_rows), row_outliers(group_rows);
   std::vector<Eigen::Vector3d> row_sum(group_rows);
@@ -380,22 +459,32 @@ Scan ScannerEngine::run(RunContext& ctx) const {
     const int gv = std::min(group, views - g0);
     const int rows_g = gv * R;
 
-    // Pass A: cast every beam, tile by tile, and evaluate the beam at each pixel.
+    // Pass A, tile by tile: cast every beam, evaluate it, and for returned pixels draw the range
+    // noise and the number of uniform outliers from the tile's stream (pixels in row-major order).
     const auto t0 = Clock::now();
     tbb::parallel_for(
         tbb::blocked_range<int>(0, gv * tiles_, 1), [&](const tbb::blocked_range<int>& r) {
           std::vector<RTCRayHit>& buf = buffers.local();
+          std::int64_t c_miss = 0, c_grazing = 0, c_range = 0, c_mixed = 0;
           for (int gt = r.begin(); gt < r.end(); ++gt) {
             const int lv = gt / tiles_;
-            const Camera& cam = cameras_[static_cast<std::size_t>(g0 + lv)];
-            PixelHit* img = image.data() + static_cast<std::size_t>(lv) * npix;
+            const int view = g0 + lv;
+            const Camera& cam = cameras_[static_cast<std::size_t>(view)];
+            const std::size_t base = static_cast<std::size_t>(lv) * npix;
+            float* range = image.range.get() + base;
+            std::uint8_t* status = image.status.get() + base;
+            Eigen::Vector3f* position = image.position.get() + base;
+            Eigen::Vector3f* clean = image.clean.get() + base;
+            std::int32_t* outliers = image.outliers.get() + base;
             const Tile tl = tile(gt % tiles_);
             make_tile_rays(cam, tl, buf.data());
             caster.intersect(buf.data(), static_cast<unsigned>(tile_ray_count(tl)));
+            Rng rng(derive_seed(derive_seed(pixel_seed, static_cast<std::uint64_t>(view)),
+                                static_cast<std::uint64_t>(gt % tiles_)));
             const RTCRayHit* rh = buf.data();
             for (int v = tl.v0; v < tl.v1; ++v) {
               for (int u = tl.u0; u < tl.u1; ++u, rh += sub_rays_) {
-                PixelHit& px = img[static_cast<std::size_t>(v) * R + u];
+                const std::size_t i = static_cast<std::size_t>(v) * R + u;
                 int hits = 0;
                 int first = -1;
                 double sum = 0.0;
@@ -409,89 +498,104 @@ Scan ScannerEngine::run(RunContext& ctx) const {
                   lo = std::min(lo, rh[k].ray.tfar);
                   hi = std::max(hi, rh[k].ray.tfar);
                 }
-                px.mixed = hits > 0 && (hits < sub_rays_ || hi - lo > jump);
+                c_mixed += hits > 0 && (hits < sub_rays_ || hi - lo > jump);
                 if (hits < need) {
-                  px.status = PixelStatus::Miss;
-                  px.raw_range = std::numeric_limits<float>::infinity();
+                  range[i] = std::numeric_limits<float>::infinity();
+                  status[i] = kMiss;
+                  ++c_miss;
                   continue;
                 }
                 const RTCRayHit& h = rh[first];
                 const Eigen::Vector3f d(h.ray.dir_x, h.ray.dir_y, h.ray.dir_z);
-                px.raw_range = hits == 1 ? h.ray.tfar : static_cast<float>(sum / hits);
-                px.clean = cam.origin + h.ray.tfar * d;
+                const float raw = hits == 1 ? h.ray.tfar : static_cast<float>(sum / hits);
+                range[i] = raw;
                 const Eigen::Vector3f ng(h.hit.Ng_x, h.hit.Ng_y, h.hit.Ng_z);
                 const float len = ng.norm();
-                px.cos_incidence = len > 0.0f ? std::min(1.0f, std::abs(ng.dot(d)) / len) : 0.0f;
-                if (px.cos_incidence < cos_max) {
-                  px.status = PixelStatus::Grazing;
-                } else if (px.raw_range < range_lo || px.raw_range > range_hi) {
-                  px.status = PixelStatus::OutOfRange;
-                } else {
-                  px.status = PixelStatus::Point;
+                const float cos_incidence =
+                    len > 0.0f ? std::min(1.0f, std::abs(ng.dot(d)) / len) : 0.0f;
+                if (cos_incidence < cos_max) {
+                  status[i] = kGrazing;
+                  ++c_grazing;
+                  continue;
                 }
+                if (raw < range_lo || raw > range_hi) {
+                  status[i] = kOutOfRange;
+                  ++c_range;
+                  continue;
+                }
+                status[i] = kPoint;
+                clean[i] = cam.origin + h.ray.tfar * d;
+                const double sigma =
+                    diag_ *
+                    (p_.noise_sigma + p_.noise_range_slope * static_cast<double>(raw) / diag_ +
+                     p_.noise_incidence_slope *
+                         (1.0 / std::max(static_cast<double>(cos_incidence), 0.01) - 1.0));
+                float noisy = raw;
+                if (sigma > 0.0) noisy += static_cast<float>(sigma * standard_normal(rng));
+                // Along the beam axis: sub-ray 0.
+                const Eigen::Vector3f axis(rh[0].ray.dir_x, rh[0].ray.dir_y, rh[0].ray.dir_z);
+                position[i] = cam.origin + noisy * axis;
+                std::int32_t n_out = 0;
+                if (f_out > 0.0) {
+                  while (rng.uniform() < f_out)
+                    ++n_out;
+                }
+                outliers[i] = n_out;
               }
             }
           }
+          counters.misses += c_miss;
+          counters.grazing += c_grazing;
+          counters.out_of_range += c_range;
+          counters.mixed += c_mixed;
         });
     const auto t1 = Clock::now();
     t_rays += std::chrono::duration<double>(t1 - t0).count();
 
-    // Pass B: flying pixels, range noise and the number of uniform outliers, row by row; per-row
-    // counts and sums of surface points (reduced below in fixed order).
+    // Pass B, row by row: flying pixels (they replace the noisy point; no range noise), per-row
+    // point counts and sums of surface points (reduced below in fixed order).
     tbb::parallel_for(
         tbb::blocked_range<int>(0, rows_g, 1), [&](const tbb::blocked_range<int>& rows) {
-          std::int64_t c_miss = 0, c_grazing = 0, c_range = 0, c_mixed = 0, c_flying = 0,
-                       c_uniform = 0, c_returned = 0;
+          std::int64_t c_flying = 0, c_uniform = 0, c_returned = 0;
           for (int gr = rows.begin(); gr < rows.end(); ++gr) {
             const int lv = gr / R;
             const int v = gr % R;
             const int view = g0 + lv;
             const Camera& cam = cameras_[static_cast<std::size_t>(view)];
-            const PixelHit* img = image.data() + static_cast<std::size_t>(lv) * npix;
-            PixelOut* out_row = outs.data() + static_cast<std::size_t>(lv) * npix;
-            const std::uint64_t view_pixel_seed =
-                derive_seed(pixel_seed, static_cast<std::uint64_t>(view));
-            const std::uint64_t view_outlier_seed =
-                derive_seed(outlier_seed, static_cast<std::uint64_t>(view));
-            std::int64_t count = 0, surface = 0, outliers = 0;
+            const std::size_t base = static_cast<std::size_t>(lv) * npix;
+            const float* range = image.range.get() + base;
+            std::uint8_t* status = image.status.get() + base;
+            Eigen::Vector3f* position = image.position.get() + base;
+            const std::int32_t* outliers = image.outliers.get() + base;
+            const std::uint64_t view_flying_seed =
+                derive_seed(flying_seed, static_cast<std::uint64_t>(view));
+            std::int64_t count = 0, surface = 0, n_outliers = 0;
             Eigen::Vector3d sum = Eigen::Vector3d::Zero();
             for (int u = 0; u < R; ++u) {
               const std::size_t i = static_cast<std::size_t>(v) * R + u;
-              const PixelHit& px = img[i];
-              PixelOut& out = out_row[i];
-              out.kind = PointKind::None;
-              out.outliers = 0;
-              c_mixed += px.mixed ? 1 : 0;
-              if (px.status != PixelStatus::Point) {
-                c_miss += px.status == PixelStatus::Miss;
-                c_grazing += px.status == PixelStatus::Grazing;
-                c_range += px.status == PixelStatus::OutOfRange;
-                continue;
-              }
+              if (status[i] != kPoint) continue;
               ++c_returned;
-              Rng rng(derive_seed(view_pixel_seed, i));
-              float range = px.raw_range;
-              out.kind = PointKind::Surface;
-              if (p_.flying_pixel_prob > 0.0) {
+              if (flying_prob > 0.0) {
                 // The 4-neighbour with the largest range difference; behind a silhouette (no hit)
                 // the far end is range + flying_spread.
-                float target = range;
+                const float r0 = range[i];
+                float target = r0;
                 float best = 0.0f;
                 bool edge = false;
                 auto look = [&](int nu, int nv) {
                   if (nu < 0 || nv < 0 || nu >= R || nv >= R) return;
-                  const float nr = img[static_cast<std::size_t>(nv) * R + nu].raw_range;
+                  const float nr = range[static_cast<std::size_t>(nv) * R + nu];
                   float cand;
                   if (!std::isfinite(nr)) {
-                    cand = range + spread;
-                  } else if (std::abs(nr - range) > jump) {
+                    cand = r0 + spread;
+                  } else if (std::abs(nr - r0) > jump) {
                     cand = nr;
                   } else {
                     return;
                   }
                   edge = true;
-                  if (std::abs(cand - range) > best) {
-                    best = std::abs(cand - range);
+                  if (std::abs(cand - r0) > best) {
+                    best = std::abs(cand - r0);
                     target = cand;
                   }
                 };
@@ -499,46 +603,31 @@ Scan ScannerEngine::run(RunContext& ctx) const {
                 look(u + 1, v);
                 look(u, v - 1);
                 look(u, v + 1);
-                if (edge && rng.uniform() < p_.flying_pixel_prob) {
-                  range += static_cast<float>(rng.uniform()) * (target - range);
-                  out.kind = PointKind::Flying;
-                  ++c_flying;
+                if (edge) {
+                  Rng frng(derive_seed(view_flying_seed, i));
+                  if (frng.uniform() < flying_prob) {
+                    const float depth = r0 + static_cast<float>(frng.uniform()) * (target - r0);
+                    position[i] = cam.origin + depth * axis_dir(cam, u, v);
+                    status[i] = kFlying;
+                    ++c_flying;
+                  }
                 }
               }
-              if (out.kind == PointKind::Surface) {
-                const double r_diag = static_cast<double>(range) / diag_;
-                const double sigma =
-                    diag_ *
-                    (p_.noise_sigma + p_.noise_range_slope * r_diag +
-                     p_.noise_incidence_slope *
-                         (1.0 / std::max(static_cast<double>(px.cos_incidence), 0.01) - 1.0));
-                if (sigma > 0.0) range += static_cast<float>(sigma * rng.normal());
-              }
-              out.position = cam.origin + range * pixel_dir(cam, u, v, 0);
-              if (out.kind == PointKind::Surface) {
-                sum += out.position.cast<double>();
+              if (status[i] == kPoint) {
+                sum += position[i].cast<double>();
                 ++surface;
               } else {
-                ++outliers;
+                ++n_outliers;
               }
-              if (f_out > 0.0) {
-                Rng orng(derive_seed(view_outlier_seed, i));
-                while (orng.uniform() < f_out)
-                  ++out.outliers;
-                c_uniform += out.outliers;
-                outliers += out.outliers;
-              }
-              count += 1 + out.outliers;
+              n_outliers += outliers[i];
+              c_uniform += outliers[i];
+              count += 1 + outliers[i];
             }
             row_start[static_cast<std::size_t>(gr) + 1] = count;
             row_surface[static_cast<std::size_t>(gr)] = surface;
-            row_outliers[static_cast<std::size_t>(gr)] = outliers;
+            row_outliers[static_cast<std::size_t>(gr)] = n_outliers;
             row_sum[static_cast<std::size_t>(gr)] = sum;
           }
-          counters.misses += c_miss;
-          counters.grazing += c_grazing;
-          counters.out_of_range += c_range;
-          counters.mixed += c_mixed;
           counters.flying += c_flying;
           counters.uniform += c_uniform;
           counters.returned += c_returned;
@@ -624,8 +713,11 @@ Scan ScannerEngine::run(RunContext& ctx) const {
             const int lv = gr / R;
             const int v = gr % R;
             const int view = g0 + lv;
-            const PixelHit* img = image.data() + static_cast<std::size_t>(lv) * npix;
-            const PixelOut* out_row = outs.data() + static_cast<std::size_t>(lv) * npix;
+            const std::size_t img_base = static_cast<std::size_t>(lv) * npix;
+            const std::uint8_t* status = image.status.get() + img_base;
+            const Eigen::Vector3f* position = image.position.get() + img_base;
+            const Eigen::Vector3f* clean = image.clean.get() + img_base;
+            const std::int32_t* outliers = image.outliers.get() + img_base;
             const std::uint64_t view_outlier_seed =
                 derive_seed(outlier_seed, static_cast<std::uint64_t>(view));
             const bool moved = misaligned[static_cast<std::size_t>(view)] != 0;
@@ -634,24 +726,21 @@ Scan ScannerEngine::run(RunContext& ctx) const {
             Eigen::Index j = base + row_start[static_cast<std::size_t>(gr)];
             for (int u = 0; u < R; ++u) {
               const std::size_t i = static_cast<std::size_t>(v) * R + u;
-              const PixelOut& out = out_row[i];
-              if (out.kind == PointKind::None) continue;
+              if (status[i] != kPoint && status[i] != kFlying) continue;
               if (moved) {
-                cloud.positions.col(j) = (rot * out.position.cast<double>() + trans).cast<float>();
+                cloud.positions.col(j) = (rot * position[i].cast<double>() + trans).cast<float>();
               } else {
-                cloud.positions.col(j) = out.position;
+                cloud.positions.col(j) = position[i];
               }
-              cx[j] = img[i].clean.x();
-              cy[j] = img[i].clean.y();
-              cz[j] = img[i].clean.z();
-              flag[j] = out.kind == PointKind::Flying ? 1.0f : 0.0f;
+              cx[j] = clean[i].x();
+              cy[j] = clean[i].y();
+              cz[j] = clean[i].z();
+              flag[j] = status[i] == kFlying ? 1.0f : 0.0f;
               cloud.scan_ids[j] = view;
               ++j;
-              if (out.outliers == 0) continue;
+              if (outliers[i] == 0) continue;
               Rng orng(derive_seed(view_outlier_seed, i));
-              for (int k = 0; k <= out.outliers; ++k)
-                orng.uniform();  // replay the count draws of pass B
-              for (int o = 0; o < out.outliers; ++o, ++j) {
+              for (int o = 0; o < outliers[i]; ++o, ++j) {
                 for (int k = 0; k < 3; ++k)
                   cloud.positions(k, j) =
                       static_cast<float>(orng.uniform(obox.min[k], obox.max[k]));

@@ -37,13 +37,21 @@ class ScannerEngine {
   /// The bare loop: rtcIntersect1M over `rays` in the scanner's tiles, TBB-parallel.
   void cast_all(std::vector<RTCRayHit>& rays) const;
 
+  static constexpr int kTile = 8;         ///< tiles of kTile x kTile pixels
+  static constexpr int kMaxSubRays = 16;  ///< the schema's bound of sub_rays
+
  private:
   struct Tile {
     int u0, u1, v0, v1;
   };
   Tile tile(int t) const;
   int tile_ray_count(const Tile& t) const { return (t.u1 - t.u0) * (t.v1 - t.v0) * sub_rays_; }
-  Eigen::Vector3f pixel_dir(const Camera& cam, int u, int v, int sub) const;
+  /// Image-plane coordinates of pixel centres (tangent-plane units).
+  float image_x(const Camera& cam, int u) const;
+  float image_y(const Camera& cam, int v) const;
+  /// The unit direction of pixel (u, v)'s beam axis, bit-identical to its cast sub-ray 0.
+  Eigen::Vector3f axis_dir(const Camera& cam, int u, int v) const;
+  /// Every ray of tile `t` (pixel rows, pixels, sub-rays), ready for rtcIntersect1M.
   void make_tile_rays(const Camera& cam, const Tile& t, RTCRayHit* out) const;
 
   const TriangleMesh& mesh_;
