@@ -2,15 +2,20 @@
 
 #include <fmt/format.h>
 #include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <limits>
+#include <optional>
 #include <utility>
 
-#include "mixture_index.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/kdtree.h"
 #include "scanbench/core/rng.h"
@@ -22,6 +27,9 @@ namespace {
 using Eigen::Index;
 using Eigen::Matrix3d;
 using Eigen::Vector3d;
+using Eigen::Vector3f;
+using Hits = std::vector<std::pair<Index, float>>;
+using Range = std::pair<std::size_t, std::size_t>;
 
 // Double precision inside HEM: the likelihood exponent w_i|P| and the determinants of flat
 // Gaussians are where float loses everything.
@@ -31,48 +39,494 @@ struct Component {
   double w = 0.0;
   Vector3d axis;
   double spread = 0.0;
+  double lmax = 0.0;    // largest eigenvalue of cov
+  double logdet = 0.0;  // log |cov|
 };
 
 constexpr double kLog2Pi = 1.8378770664093453;
+// Relative slack of float distance bounds; the exact tests decide membership.
+constexpr float kSlack = 1e-5f;
 
-// Symmetric, eigenvalues >= max(abs_floor, 1e-6 lambda_max).
-Matrix3d condition(const Matrix3d& c, double abs_floor) {
-  const Matrix3d s = 0.5 * (c + c.transpose());
-  Eigen::SelfAdjointEigenSolver<Matrix3d> es(s);
-  Vector3d ev = es.eigenvalues();
+// Stores in c the symmetric `sym` with its eigenvalues clamped to >= max(abs_floor, 1e-6
+// lambda_max), with its largest eigenvalue and log-determinant. `ev`: the eigenvalues of `sym`
+// (ascending); `vectors()`: its eigenvectors, asked for only when clamping is needed.
+template <class Vectors>
+void store_conditioned(Component& c, const Matrix3d& sym, Vector3d ev, double abs_floor,
+                       Vectors&& vectors) {
   const double floor = std::max(abs_floor, 1e-6 * ev(2));
-  if (ev(0) >= floor) return s;
-  ev = ev.cwiseMax(floor);
-  Matrix3d r = es.eigenvectors() * ev.asDiagonal() * es.eigenvectors().transpose();
-  return 0.5 * (r + r.transpose());
+  if (ev(0) >= floor) {
+    c.cov = sym;
+  } else {
+    ev = ev.cwiseMax(floor);
+    const Matrix3d v = vectors();
+    const Matrix3d r = v * ev.asDiagonal() * v.transpose();
+    c.cov = 0.5 * (r + r.transpose());
+  }
+  c.lmax = ev(2);
+  c.logdet = std::log(ev(0)) + std::log(ev(1)) + std::log(ev(2));
 }
 
-double largest_eigenvalue(const Matrix3d& c) {
-  Eigen::SelfAdjointEigenSolver<Matrix3d> es(c, Eigen::EigenvaluesOnly);
-  return es.eigenvalues()(2);
+// The covariance guard: symmetric, eigenvalues clamped (closed-form 3x3 eigenvalues; the
+// iterative solver only for the rare matrix that needs clamping).
+void set_conditioned(Component& c, const Matrix3d& cov, double abs_floor) {
+  const Matrix3d s = 0.5 * (cov + cov.transpose());
+  Eigen::SelfAdjointEigenSolver<Matrix3d> es;
+  es.computeDirect(s, Eigen::EigenvaluesOnly);
+  store_conditioned(c, s, es.eigenvalues(), abs_floor, [&] {
+    es.compute(s);
+    return Matrix3d(es.eigenvectors());
+  });
+}
+
+// Eigen decomposition of a symmetric 3x3 matrix: the closed form where its eigenvectors are
+// provably accurate (residual |A v - lambda v| below 1e-6 of the eigenvalue gap, so the angle
+// error is below 1e-6 rad), otherwise the iterative solver (near-degenerate eigenvalues).
+Eigen::SelfAdjointEigenSolver<Matrix3d> eigen_decomposition(const Matrix3d& a) {
+  Eigen::SelfAdjointEigenSolver<Matrix3d> es;
+  es.computeDirect(a);
+  const Vector3d ev = es.eigenvalues();
+  bool accurate = ev.allFinite();
+  for (int i = 0; i < 3 && accurate; ++i) {
+    double gap = std::numeric_limits<double>::infinity();
+    for (int k = 0; k < 3; ++k)
+      if (k != i) gap = std::min(gap, std::abs(ev(i) - ev(k)));
+    const double residual =
+        (a * es.eigenvectors().col(i) - ev(i) * es.eigenvectors().col(i)).norm();
+    accurate = residual <= 1e-6 * gap;
+  }
+  if (!accurate) es.compute(a);
+  return es;
+}
+
+// Points sorted into a two-level grid: coarse cubes of width `width`, each split into split^3
+// fine cubes. Every point within `width` of a point lies in the 3 x 3 x 3 block of coarse cells
+// around that point's cell, so a neighbour search of radius <= width needs no tree: it reads the
+// block's contiguous ranges of the sorted coordinates.
+struct Grid {
+  double width = 0.0;
+  std::vector<Index> order;             // point indices in grid order
+  std::vector<float> x, y, z;           // their coordinates (structure of arrays)
+  std::vector<std::uint64_t> key;       // coarse cells, ascending
+  std::vector<std::size_t> start;       // coarse cell c: positions start[c] .. start[c + 1]
+  std::vector<std::size_t> fine_first;  // coarse cell c: fine cells fine_first[c] .. [c + 1]
+  std::vector<std::size_t> fine_start;  // fine cell f: positions fine_start[f] .. [f + 1]
+  std::vector<Vector3f> fine_centre;    // bounding-box centre of a fine cell's points
+  std::vector<float> fine_reach;        // largest distance of its points from that centre
+
+  std::size_t cells() const { return key.size(); }
+
+  // Position ranges of the existing coarse cells of the block around cell c, in key order.
+  void block(std::size_t c, std::vector<Range>& out) const {
+    out.clear();
+    constexpr std::uint64_t kMask = (std::uint64_t{1} << 21) - 1;
+    const std::uint64_t k = key[c];
+    const auto ix = static_cast<std::int64_t>(k >> 42),
+               iy = static_cast<std::int64_t>((k >> 21) & kMask),
+               iz = static_cast<std::int64_t>(k & kMask);
+    for (std::int64_t dx = -1; dx <= 1; ++dx)
+      for (std::int64_t dy = -1; dy <= 1; ++dy) {
+        const std::int64_t a = ix + dx, b = iy + dy;
+        if (a < 0 || b < 0 || a > static_cast<std::int64_t>(kMask) ||
+            b > static_cast<std::int64_t>(kMask))
+          continue;
+        // The three cells (a, b, iz - 1 .. iz + 1) are consecutive keys: one search.
+        const std::uint64_t lo_key = (static_cast<std::uint64_t>(a) << 42) |
+                                     (static_cast<std::uint64_t>(b) << 21) |
+                                     static_cast<std::uint64_t>(std::max<std::int64_t>(iz - 1, 0));
+        const std::uint64_t hi_key =
+            (static_cast<std::uint64_t>(a) << 42) | (static_cast<std::uint64_t>(b) << 21) |
+            static_cast<std::uint64_t>(std::min<std::int64_t>(iz + 1, kMask));
+        const auto first = std::lower_bound(key.begin(), key.end(), lo_key);
+        const auto last = std::upper_bound(first, key.end(), hi_key);
+        if (first != last)
+          out.emplace_back(start[static_cast<std::size_t>(first - key.begin())],
+                           start[static_cast<std::size_t>(last - key.begin())]);
+      }
+  }
+};
+
+Grid make_grid(const Eigen::Matrix3Xf& pts, double width, int split) {
+  const Index n = pts.cols();
+  const Vector3f lo = pts.rowwise().minCoeff();
+  const Vector3f hi = pts.rowwise().maxCoeff();
+  constexpr double kAxisCells = 1 << 20;  // 21-bit keys per axis never clamp
+  Grid g;
+  g.width = std::max(width, static_cast<double>((hi - lo).maxCoeff()) / kAxisCells);
+  if (!(g.width > 0.0) || !std::isfinite(g.width)) g.width = 1.0;
+  const double fine = g.width / split;
+  struct Entry {
+    std::uint64_t key;
+    std::uint32_t sub;
+    Index i;
+    bool operator<(const Entry& o) const {
+      return key != o.key ? key < o.key : sub != o.sub ? sub < o.sub : i < o.i;
+    }
+  };
+  std::vector<Entry> e(static_cast<std::size_t>(n));
+  tbb::parallel_for(tbb::blocked_range<Index>(0, n, 4096), [&](const tbb::blocked_range<Index>& r) {
+    for (Index i = r.begin(); i < r.end(); ++i) {
+      std::uint64_t key = 0;
+      std::uint32_t sub = 0;
+      for (int d = 0; d < 3; ++d) {
+        const double t = static_cast<double>(pts(d, i)) - static_cast<double>(lo(d));  // exact
+        const auto c =
+            static_cast<std::uint64_t>(std::clamp(std::floor(t / g.width), 0.0, kAxisCells));
+        const auto f = static_cast<std::uint32_t>(
+            std::clamp(std::floor(t / fine) - static_cast<double>(c) * split, 0.0, split - 1.0));
+        key = (key << 21) | c;
+        sub = sub * static_cast<std::uint32_t>(split) + f;
+      }
+      e[static_cast<std::size_t>(i)] = {key, sub, i};
+    }
+  });
+  tbb::parallel_sort(e.begin(), e.end());  // a total order: the same result for any thread count
+  g.order.resize(e.size());
+  g.x.resize(e.size());
+  g.y.resize(e.size());
+  g.z.resize(e.size());
+  for (std::size_t k = 0; k < e.size(); ++k) {
+    const Index i = e[k].i;
+    g.order[k] = i;
+    g.x[k] = pts(0, i);
+    g.y[k] = pts(1, i);
+    g.z[k] = pts(2, i);
+    if (k == 0 || e[k].key != e[k - 1].key) {
+      g.key.push_back(e[k].key);
+      g.start.push_back(k);
+      g.fine_first.push_back(g.fine_start.size());
+    }
+    if (k == 0 || e[k].key != e[k - 1].key || e[k].sub != e[k - 1].sub) g.fine_start.push_back(k);
+  }
+  g.start.push_back(e.size());
+  g.fine_first.push_back(g.fine_start.size());
+  g.fine_start.push_back(e.size());
+  const std::size_t nf = g.fine_start.size() - 1;
+  g.fine_centre.resize(nf);
+  g.fine_reach.resize(nf);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nf, 256), [&](const auto& r) {
+    for (std::size_t f = r.begin(); f != r.end(); ++f) {
+      const std::size_t b = g.fine_start[f], end = g.fine_start[f + 1];
+      Vector3f mn(g.x[b], g.y[b], g.z[b]), mx = mn;
+      for (std::size_t k = b + 1; k < end; ++k) {
+        mn = mn.cwiseMin(Vector3f(g.x[k], g.y[k], g.z[k]));
+        mx = mx.cwiseMax(Vector3f(g.x[k], g.y[k], g.z[k]));
+      }
+      const Vector3f centre = 0.5f * (mn + mx);
+      float reach = 0.0f;
+      for (std::size_t k = b; k < end; ++k)
+        reach = std::max(reach, (Vector3f(g.x[k], g.y[k], g.z[k]) - centre).norm());
+      g.fine_centre[f] = centre;
+      g.fine_reach[f] = reach * (1.0f + kSlack);
+    }
+  });
+  return g;
+}
+
+// GCC/Clang vector extensions: 4 floats, portable SIMD for the density kernel.
+using Float4 = float __attribute__((vector_size(16)));
+using Int4 = std::int32_t __attribute__((vector_size(16)));
+
+// exp(x) for x <= 0, about 1.4 ulp (Cephes expf: Cody-Waite reduction, degree-5 polynomial);
+// x below -80 gives exp(-80). Eigen's exp on SSE2 emulates floor and costs four times this.
+inline Float4 exp_nonpositive(Float4 x) {
+  const Float4 lo = Float4{} - 80.0f;
+  x = x < lo ? lo : x;
+  const Float4 n = (x * 1.44269504088896341f + 12582912.0f) - 12582912.0f;  // round(x / ln 2)
+  Float4 r = x - n * 0.693359375f;
+  r = r + n * 2.12194440e-4f;
+  Float4 y = Float4{} + 1.9875691500e-4f;
+  y = y * r + 1.3981999507e-3f;
+  y = y * r + 8.3334519073e-3f;
+  y = y * r + 4.1665795894e-2f;
+  y = y * r + 1.6666665459e-1f;
+  y = y * r + 5.0000001201e-1f;
+  y = y * (r * r) + r + 1.0f;
+  const Int4 bits = (__builtin_convertvector(n, Int4) + 127) << 23;  // 2^n
+  return y * reinterpret_cast<Float4>(bits);
+}
+
+// Candidate coordinates padded to whole vectors with points at infinity, and their grid positions.
+struct Candidates {
+  std::vector<float> x, y, z;
+  std::vector<std::size_t> pos;
+  std::size_t size = 0;
+
+  void clear() {
+    x.clear();
+    y.clear();
+    z.clear();
+    pos.clear();
+    size = 0;
+  }
+  void add(const std::vector<float>& gx, const std::vector<float>& gy, const std::vector<float>& gz,
+           std::size_t k) {
+    x.push_back(gx[k]);
+    y.push_back(gy[k]);
+    z.push_back(gz[k]);
+    pos.push_back(k);
+  }
+  void pad() {
+    size = x.size();
+    const std::size_t m = (size + 3) & ~std::size_t{3};
+    x.resize(m, std::numeric_limits<float>::infinity());
+    y.resize(m, 0.0f);
+    z.resize(m, 0.0f);
+  }
+};
+
+inline Float4 load4(const float* p) {
+  Float4 v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+
+// WLOP density v_j = 1 + sum_{j' != j, |p_j - p_j'| <= h} exp(-16 |p_j - p_j'|^2 / h^2) of every
+// point, on a grid of coarse width >= h split into fine cells of width h/4. Each pair is
+// evaluated once: within a fine cell both ways, across fine cells by the earlier cell (its
+// candidates: the later points of its block within h + reach of its centre), adding the term to
+// both points. Partial sums are added in 2^-b fixed point: integer sums are exact and
+// order-free, so the result is the same for any thread count.
+std::vector<double> density_weights(const Grid& g, double h) {
+  const std::size_t n = g.order.size();
+  const auto hf = static_cast<float>(h);
+  const float c2 = hf * hf;
+  const float k_theta = -16.0f / c2;
+  // v <= n: 2^b n < 2^62.
+  const int bits = 62 - static_cast<int>(std::ceil(std::log2(static_cast<double>(n) + 1.0)));
+  const double scale = std::ldexp(1.0, bits);
+  auto fixed = [&](float x) { return std::llround(static_cast<double>(x) * scale); };
+  tbb::enumerable_thread_specific<std::vector<long long>> sums(
+      [n] { return std::vector<long long>(n, 0); });
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, g.cells(), 1), [&](const auto& rr) {
+    std::vector<long long>& sum = sums.local();
+    std::vector<Range> ranges;
+    Candidates own, cand;
+    std::vector<float> col;
+    for (std::size_t c = rr.begin(); c != rr.end(); ++c) {
+      g.block(c, ranges);
+      for (std::size_t f = g.fine_first[c]; f < g.fine_first[c + 1]; ++f) {
+        const std::size_t own_b = g.fine_start[f], own_e = g.fine_start[f + 1];
+        own.clear();
+        for (std::size_t k = own_b; k < own_e; ++k)
+          own.add(g.x, g.y, g.z, k);
+        own.pad();
+        const Vector3f centre = g.fine_centre[f];
+        const float reach = hf * (1.0f + kSlack) + g.fine_reach[f];
+        const float reach2 = reach * reach;
+        cand.clear();
+        for (const auto& [b, e] : ranges)
+          for (std::size_t k = std::max(b, own_e); k < e; ++k) {
+            const float dx = g.x[k] - centre.x(), dy = g.y[k] - centre.y(),
+                        dz = g.z[k] - centre.z();
+            if (dx * dx + dy * dy + dz * dz <= reach2) cand.add(g.x, g.y, g.z, k);
+          }
+        cand.pad();
+        col.assign(cand.x.size(), 0.0f);
+        // theta for 4 candidates; beyond h the exponent is -80, a term under 2e-35 that
+        // vanishes exactly next to the terms >= theta(h) = 1.1e-7 (and in the fixed point).
+        auto theta = [&](const Candidates& cs, std::size_t m4, float qx, float qy, float qz) {
+          const Float4 dx = load4(cs.x.data() + m4) - qx, dy = load4(cs.y.data() + m4) - qy,
+                       dz = load4(cs.z.data() + m4) - qz;
+          const Float4 d2 = dx * dx + dy * dy + dz * dz;
+          return exp_nonpositive(d2 <= c2 ? d2 * k_theta : Float4{} - 80.0f);
+        };
+        for (std::size_t a = 0; a < own.size; ++a) {
+          const float qx = own.x[a], qy = own.y[a], qz = own.z[a];
+          Float4 row = {0.0f, 0.0f, 0.0f, 0.0f};
+          // The own cell, self included: theta(0) = 1 is the leading 1.
+          for (std::size_t m4 = 0; m4 < own.x.size(); m4 += 4)
+            row += theta(own, m4, qx, qy, qz);
+          for (std::size_t m4 = 0; m4 < cand.x.size(); m4 += 4) {
+            const Float4 t = theta(cand, m4, qx, qy, qz);
+            row += t;
+            const Float4 cs = load4(col.data() + m4) + t;
+            std::memcpy(col.data() + m4, &cs, sizeof cs);
+          }
+          sum[own.pos[a]] += fixed((row[0] + row[1]) + (row[2] + row[3]));
+        }
+        for (std::size_t i = 0; i < cand.size; ++i)
+          sum[cand.pos[i]] += fixed(col[i]);
+      }
+    }
+  });
+  std::vector<long long> total(n, 0);
+  for (const auto& s : sums)
+    for (std::size_t k = 0; k < n; ++k)
+      total[k] += s[k];
+  std::vector<double> v(n);
+  for (std::size_t k = 0; k < n; ++k)
+    v[static_cast<std::size_t>(g.order[k])] = static_cast<double>(total[k]) / scale;
+  return v;
 }
 
 std::vector<Component> initial_mixture(const Eigen::Matrix3Xf& pts, const HemParams& p,
                                        double h_abs, double abs_floor) {
   const Index n = pts.cols();
   const KdTree tree(pts);
-  // Mean distance to the init_neighbors nearest distinct points (duplicates skipped).
-  std::vector<double> nn(static_cast<std::size_t>(n), 0.0);
   const int k_nn = p.init_neighbors;
-  tbb::parallel_for(tbb::blocked_range<Index>(0, n, 256), [&](const tbb::blocked_range<Index>& r) {
+  const int k_query = k_nn + 8;  // the nearest k_query points, duplicates included
+
+  // Mean distance to the k_nn nearest distinct points among the k_query nearest, by kd-tree.
+  auto tree_nn = [&](Index j) {
     std::vector<Index> idx;
     std::vector<float> d2;
-    for (Index j = r.begin(); j < r.end(); ++j) {
-      tree.knn(pts.col(j), k_nn + 8, idx, d2);
-      double sum = 0.0;
-      int found = 0;
-      for (float d : d2) {
-        if (d > 0.0f && found < k_nn) {
-          sum += std::sqrt(static_cast<double>(d));
-          ++found;
-        }
+    tree.knn(pts.col(j), k_query, idx, d2);
+    double sum = 0.0;
+    int found = 0;
+    for (float d : d2) {
+      if (d > 0.0f && found < k_nn) {
+        sum += std::sqrt(static_cast<double>(d));
+        ++found;
       }
-      if (found > 0) nn[static_cast<std::size_t>(j)] = sum / found;
+    }
+    return found > 0 ? sum / found : 0.0;
+  };
+
+  // Typical spacing from a fixed subset: sizes the grid of the neighbour searches.
+  double spacing = 0.0;
+  {
+    std::vector<double> sample;
+    for (Index j = 0; j < n; j += 61) {
+      const double d = tree_nn(j);
+      if (d > 0.0) sample.push_back(d);
+    }
+    if (!sample.empty()) {
+      auto mid = sample.begin() + static_cast<std::ptrdiff_t>(sample.size() / 2);
+      std::nth_element(sample.begin(), mid, sample.end());
+      spacing = *mid;
+    }
+  }
+  if (!(spacing > 0.0)) spacing = std::max(h_abs * 0.1, std::sqrt(abs_floor) * 10.0);
+
+  // Grid cells of width W: every neighbour within W * (1 - slack) of a point is in its block.
+  // A point whose nearest neighbours or radius r reach further asks the kd-tree.
+  const Grid g = make_grid(pts, std::max(3.0, 2.0 * p.init_radius_factor) * spacing, 1);
+  const float guaranteed = static_cast<float>(g.width) * (1.0f - 4.0f * kSlack);
+  std::vector<double> nn(static_cast<std::size_t>(n), 0.0);
+  std::vector<Component> comps(static_cast<std::size_t>(n));
+
+  // Eq. 12 for point j from its neighbours within r (`for_each` calls back with indices).
+  auto set_initial = [&](Index j, double r, auto&& for_each) {
+    const double r2 = r * r;
+    const Vector3d pj = pts.col(j).cast<double>();
+    Vector3d sum = Vector3d::Zero();
+    Matrix3d sum2 = Matrix3d::Zero();
+    double count = 0.0;
+    for_each([&](const Vector3d& q) {
+      const Vector3d dlt = q - pj;  // centred at p_j for precision
+      if (dlt.squaredNorm() <= r2) {
+        sum += dlt;
+        sum2 += dlt * dlt.transpose();
+        count += 1.0;
+      }
+    });
+    Component& comp = comps[static_cast<std::size_t>(j)];
+    comp.mu = pj;
+    const double bias = p.cov_bias * r2;
+    if (count < 1.0) count = 1.0;  // the point itself is always within r
+    const Vector3d mean = sum / count;
+    const Matrix3d cov_r = sum2 / count - mean * mean.transpose();
+    const Eigen::SelfAdjointEigenSolver<Matrix3d> es = eigen_decomposition(cov_r);
+    const double lmax = std::max(es.eigenvalues()(2), 0.0);
+    const double sigma_max = std::sqrt(lmax);
+    // eq. 12: Sigma0 = Sigma_r * scale + bias I, whose eigenvalues are ev_r * scale + bias.
+    const double scale = sigma_max > 0.0 ? r / (sigma_max * std::cbrt(count)) : 0.0;
+    const Matrix3d cov0 = cov_r * scale + Matrix3d::Identity() * bias;
+    const Vector3d ev = es.eigenvalues() * scale + Vector3d::Constant(bias);
+    store_conditioned(comp, 0.5 * (cov0 + cov0.transpose()), ev, abs_floor,
+                      [&] { return Matrix3d(es.eigenvectors()); });
+    comp.axis = sigma_max > 0.0 ? Vector3d(es.eigenvectors().col(0)) : Vector3d::UnitZ();
+    comp.spread = p.normal_spread0;
+  };
+  auto tree_initial = [&](Index j, double r) {
+    Hits own;
+    tree.radius(pts.col(j), static_cast<float>(r) * (1.0f + kSlack), own);
+    set_initial(j, r, [&](auto&& f) {
+      for (const auto& hit : own)
+        f(pts.col(hit.first).cast<double>());
+    });
+  };
+
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, g.cells(), 4), [&](const auto& rr) {
+    std::vector<Range> ranges;
+    Candidates cand;
+    std::vector<float> d2;
+    std::vector<std::uint32_t> near;
+    std::vector<float> best(static_cast<std::size_t>(k_nn));
+    for (std::size_t c = rr.begin(); c != rr.end(); ++c) {
+      g.block(c, ranges);
+      cand.clear();
+      for (const auto& [b, e] : ranges) {
+        cand.x.insert(cand.x.end(), g.x.begin() + static_cast<std::ptrdiff_t>(b),
+                      g.x.begin() + static_cast<std::ptrdiff_t>(e));
+        cand.y.insert(cand.y.end(), g.y.begin() + static_cast<std::ptrdiff_t>(b),
+                      g.y.begin() + static_cast<std::ptrdiff_t>(e));
+        cand.z.insert(cand.z.end(), g.z.begin() + static_cast<std::ptrdiff_t>(b),
+                      g.z.begin() + static_cast<std::ptrdiff_t>(e));
+      }
+      cand.pad();
+      const std::size_t m = cand.x.size();
+      d2.resize(m);
+      near.resize(m);
+      for (std::size_t k = g.start[c]; k < g.start[c + 1]; ++k) {
+        const Index j = g.order[k];
+        const float qx = g.x[k], qy = g.y[k], qz = g.z[k];
+        // Squared float distances as the kd-tree evaluates them ((dx^2 + dy^2) + dz^2).
+        for (std::size_t i = 0; i < m; ++i) {
+          const float dx = cand.x[i] - qx, dy = cand.y[i] - qy, dz = cand.z[i] - qz;
+          d2[i] = dx * dx + dy * dy + dz * dz;
+        }
+        int zeros = 0;
+        std::fill(best.begin(), best.end(), std::numeric_limits<float>::infinity());
+        float worst = best.back();
+        for (std::size_t i = 0; i < cand.size; ++i) {
+          const float d = d2[i];
+          if (d < worst) {  // rare after the first few candidates
+            if (d == 0.0f) {
+              ++zeros;
+              continue;
+            }
+            auto at = best.end() - 1;
+            for (; at != best.begin() && *(at - 1) > d; --at)
+              *at = *(at - 1);
+            *at = d;
+            worst = best.back();
+          }
+        }
+        // The k_query nearest hold min(zeros, k_query) duplicates (the point itself included),
+        // so the wanted distances are the `want` smallest positive ones.
+        const int want = std::min(k_nn, k_query - std::min(zeros, k_query));
+        double nnd = 0.0;
+        if (want > 0) {
+          const auto uw = static_cast<std::size_t>(want - 1);
+          if (best[uw] <= guaranteed * guaranteed) {  // infinite if fewer candidates
+            double sum = 0.0;
+            for (std::size_t i = 0; i <= uw; ++i)
+              sum += std::sqrt(static_cast<double>(best[i]));
+            nnd = sum / want;
+          } else {
+            nnd = tree_nn(j);
+          }
+        }
+        nn[static_cast<std::size_t>(j)] = nnd;
+        if (!(nnd > 0.0)) continue;  // only duplicates: r needs the median, below
+        const double r = p.init_radius_factor * nnd;
+        const auto rf = static_cast<float>(r);
+        if (rf * (1.0f + kSlack) > guaranteed) {
+          tree_initial(j, r);
+          continue;
+        }
+        const float pre = rf * rf * (1.0f + 4.0f * kSlack);
+        std::size_t hits = 0;
+        for (std::size_t i = 0; i < cand.size; ++i) {  // branch-free compaction
+          near[hits] = static_cast<std::uint32_t>(i);
+          hits += d2[i] <= pre ? 1 : 0;
+        }
+        set_initial(j, r, [&](auto&& f) {
+          for (std::size_t i = 0; i < hits; ++i)
+            f(Vector3d(cand.x[near[i]], cand.y[near[i]], cand.z[near[i]]));
+        });
+      }
     }
   });
   // Points with only duplicates among their nearest take the median distinct spacing.
@@ -86,57 +540,19 @@ std::vector<Component> initial_mixture(const Eigen::Matrix3Xf& pts, const HemPar
     median_nn = *mid;
   }
   if (median_nn <= 0.0) median_nn = std::max(h_abs * 0.1, std::sqrt(abs_floor) * 10.0);
+  for (Index j = 0; j < n; ++j)
+    if (!(nn[static_cast<std::size_t>(j)] > 0.0)) tree_initial(j, p.init_radius_factor * median_nn);
 
-  std::vector<Component> comps(static_cast<std::size_t>(n));
-  std::vector<double> inv_v(static_cast<std::size_t>(n), 1.0);
   const std::vector<double> density =
-      p.weighted
-          ? detail::cell_density(pts, tree, static_cast<float>(h_abs), static_cast<float>(h_abs))
-          : std::vector<double>();
-  tbb::parallel_for(tbb::blocked_range<Index>(0, n, 128), [&](const tbb::blocked_range<Index>& rr) {
-    std::vector<std::pair<Index, float>> nb;
-    for (Index j = rr.begin(); j < rr.end(); ++j) {
-      const auto uj = static_cast<std::size_t>(j);
-      const double nnd = nn[uj] > 0.0 ? nn[uj] : median_nn;
-      const double r = p.init_radius_factor * nnd;
-      tree.radius(pts.col(j), static_cast<float>(r), nb);
-      const Vector3d pj = pts.col(j).cast<double>();
-      Vector3d sum = Vector3d::Zero();
-      Matrix3d sum2 = Matrix3d::Zero();
-      double count = 0.0;
-      const double r2 = r * r;
-      for (const auto& hit : nb) {
-        const Vector3d dlt =
-            pts.col(hit.first).cast<double>() - pj;  // centred at p_j for precision
-        const double dd = dlt.squaredNorm();
-        if (dd <= r2) {
-          sum += dlt;
-          sum2 += dlt * dlt.transpose();
-          count += 1.0;
-        }
-      }
-      Component& c = comps[uj];
-      c.mu = pj;
-      const double bias = p.cov_bias * r2;
-      if (count < 1.0) count = 1.0;  // the point itself is always within r
-      const Vector3d mean = sum / count;
-      const Matrix3d cov_r = sum2 / count - mean * mean.transpose();
-      Eigen::SelfAdjointEigenSolver<Matrix3d> es(0.5 * (cov_r + cov_r.transpose()));
-      const double lmax = std::max(es.eigenvalues()(2), 0.0);
-      const double sigma_max = std::sqrt(lmax);
-      Matrix3d cov0 = Matrix3d::Identity() * bias;
-      if (sigma_max > 0.0) cov0 += cov_r * (r / (sigma_max * std::cbrt(count)));  // eq. 12
-      c.cov = condition(cov0, abs_floor);
-      c.axis = sigma_max > 0.0 ? Vector3d(es.eigenvectors().col(0)) : Vector3d::UnitZ();
-      c.spread = p.normal_spread0;
-      inv_v[uj] = p.weighted ? 1.0 / density[uj] : 1.0;
-    }
-  });
+      p.weighted ? density_weights(make_grid(pts, h_abs * (1.0 + 10.0 * kSlack), 4), h_abs)
+                 : std::vector<double>();
   double total = 0.0;  // fixed order: thread-independent
-  for (double v : inv_v)
-    total += v;
-  for (std::size_t j = 0; j < comps.size(); ++j)
-    comps[j].w = inv_v[j] / total;  // eq. 26 renormalised
+  for (std::size_t j = 0; j < comps.size(); ++j) {
+    comps[j].w = p.weighted ? 1.0 / density[j] : 1.0;
+    total += comps[j].w;
+  }
+  for (auto& c : comps)
+    c.w /= total;  // eq. 26 renormalised
   return comps;
 }
 
@@ -151,69 +567,100 @@ std::vector<Component> cluster_level(const std::vector<Component>& comps, const 
   const Index n = static_cast<Index>(comps.size());
   std::vector<char> is_parent(comps.size(), 0);
   std::vector<Index> parents;
+  std::vector<Index> others;  // the components that are not parents, in index order
   for (Index i = 0; i < n; ++i) {
     Rng rng(derive_seed(level_seed, static_cast<std::uint64_t>(i)));
     if (rng.uniform() < p.parent_probability) {
       is_parent[static_cast<std::size_t>(i)] = 1;
       parents.push_back(i);
+    } else {
+      others.push_back(i);
     }
   }
   if (parents.empty()) return comps;
 
-  Eigen::Matrix3Xf centers(3, n);
-  std::vector<double> logdet(comps.size());
-  tbb::parallel_for(tbb::blocked_range<Index>(0, n, 1024), [&](const tbb::blocked_range<Index>& r) {
-    for (Index i = r.begin(); i < r.end(); ++i) {
-      const auto& c = comps[static_cast<std::size_t>(i)];
-      centers.col(i) = c.mu.cast<float>();
-      logdet[static_cast<std::size_t>(i)] = std::log(c.cov.determinant());
-    }
-  });
+  // Candidate children of a parent: itself, and the non-parents (other parents are never
+  // children) within alpha * sigma_max(s) of mu_s.
+  Eigen::Matrix3Xf centers(3, static_cast<Index>(others.size()));
+  for (std::size_t k = 0; k < others.size(); ++k)
+    centers.col(static_cast<Index>(k)) =
+        comps[static_cast<std::size_t>(others[k])].mu.cast<float>();
   const KdTree tree(centers);
   const double kl_max = 0.5 * p.alpha * p.alpha;
   const Index np = static_cast<Index>(parents.size());
-  std::vector<std::vector<Child>> sets(parents.size());
-  tbb::parallel_for(tbb::blocked_range<Index>(0, np, 64), [&](const tbb::blocked_range<Index>& r) {
-    std::vector<std::pair<Index, float>> nb;
-    for (Index k = r.begin(); k < r.end(); ++k) {
-      const Index s = parents[static_cast<std::size_t>(k)];
-      const Component& ps = comps[static_cast<std::size_t>(s)];
-      const Matrix3d inv = ps.cov.inverse();
-      const double ld_s = logdet[static_cast<std::size_t>(s)];
-      const double log_ws = std::log(ps.w);
-      // D_KL >= d_M^2 / 2, so every admissible child is within alpha * sigma_max(s); the float
-      // kd-tree gets a hair of slack, the exact test below decides.
-      const double radius = p.alpha * std::sqrt(largest_eigenvalue(ps.cov)) * 1.001 +
-                            1e-6 * ps.mu.cwiseAbs().maxCoeff();
-      tree.radius(ps.mu.cast<float>(), static_cast<float>(radius), nb);
-      std::sort(nb.begin(), nb.end(),
-                [](const auto& a, const auto& b) { return a.first < b.first; });
-      auto& set = sets[static_cast<std::size_t>(k)];
-      for (const auto& nbi : nb) {
-        const Index i = nbi.first;
-        if (is_parent[static_cast<std::size_t>(i)] && i != s) continue;
-        const Component& ci = comps[static_cast<std::size_t>(i)];
-        const Vector3d d = ci.mu - ps.mu;
-        const double maha = d.dot(inv * d);
-        const double tr = (inv * ci.cov).trace();
-        const double kl = 0.5 * (maha + tr - 3.0 - (logdet[static_cast<std::size_t>(i)] - ld_s));
-        if (!(kl < kl_max) && i != s) continue;  // eq. 11 (a parent always keeps itself)
-        const double log_g = -0.5 * (3.0 * kLog2Pi + ld_s + maha);
-        const double log_l = ci.w * n_points * (log_g - 0.5 * tr);  // eq. 9, exponent w_i |P|
-        set.push_back({i, log_ws + log_l});
-      }
-    }
-  });
+
+  // Children of parent k: block b = k / kBlock holds the sets of its parents back to back;
+  // offsets[k] .. offsets[k + 1] index into it. Fixed blocks: thread-independent.
+  constexpr Index kBlock = 64;
+  const Index nblocks = (np + kBlock - 1) / kBlock;
+  std::vector<std::vector<Child>> block_sets(static_cast<std::size_t>(nblocks));
+  std::vector<std::size_t> offsets(static_cast<std::size_t>(np) + 1, 0);
+  tbb::parallel_for(
+      tbb::blocked_range<Index>(0, nblocks, 1), [&](const tbb::blocked_range<Index>& r) {
+        Hits nb;
+        for (Index b = r.begin(); b < r.end(); ++b) {
+          auto& set = block_sets[static_cast<std::size_t>(b)];
+          for (Index k = b * kBlock; k < std::min(np, (b + 1) * kBlock); ++k) {
+            const Index s = parents[static_cast<std::size_t>(k)];
+            const Component& ps = comps[static_cast<std::size_t>(s)];
+            const Matrix3d inv = ps.cov.inverse();
+            const double ld_s = ps.logdet;
+            const double log_ws = std::log(ps.w);
+            // D_KL >= d_M^2 / 2, so every admissible child is within alpha * sigma_max(s); the
+            // float kd-tree gets a hair of slack, the exact test below decides.
+            const double radius =
+                p.alpha * std::sqrt(ps.lmax) * 1.001 + 1e-6 * ps.mu.cwiseAbs().maxCoeff();
+            tree.radius(ps.mu.cast<float>(), static_cast<float>(radius), nb);
+            std::sort(nb.begin(), nb.end(),
+                      [](const auto& a, const auto& c) { return a.first < c.first; });
+            offsets[static_cast<std::size_t>(k)] = set.size();
+            auto consider = [&](Index i) {
+              const Component& ci = comps[static_cast<std::size_t>(i)];
+              const Vector3d d = ci.mu - ps.mu;
+              const double maha = d.dot(inv * d);
+              const double tr = (inv * ci.cov).trace();
+              const double kl = 0.5 * (maha + tr - 3.0 - (ci.logdet - ld_s));
+              if (!(kl < kl_max) && i != s) return;  // eq. 11 (a parent always keeps itself)
+              const double log_g = -0.5 * (3.0 * kLog2Pi + ld_s + maha);
+              const double log_l = ci.w * n_points * (log_g - 0.5 * tr);  // eq. 9, exponent w_i |P|
+              set.push_back({i, log_ws + log_l});
+            };
+            bool self_done = false;
+            for (const auto& nbi : nb) {
+              const Index i = others[static_cast<std::size_t>(nbi.first)];
+              if (!self_done && s < i) {
+                consider(s);
+                self_done = true;
+              }
+              consider(i);
+            }
+            if (!self_done) consider(s);
+          }
+        }
+      });
+  // Global offsets: block by block, in parent order.
+  std::vector<std::size_t> block_base(static_cast<std::size_t>(nblocks) + 1, 0);
+  for (Index b = 0; b < nblocks; ++b)
+    block_base[static_cast<std::size_t>(b) + 1] =
+        block_base[static_cast<std::size_t>(b)] + block_sets[static_cast<std::size_t>(b)].size();
+  auto set_range = [&](Index k) {
+    const auto b = static_cast<std::size_t>(k / kBlock);
+    const std::size_t end = k + 1 < std::min(np, (static_cast<Index>(b) + 1) * kBlock)
+                                ? offsets[static_cast<std::size_t>(k) + 1]
+                                : block_sets[b].size();
+    return std::pair<const Child*, const Child*>(
+        block_sets[b].data() + offsets[static_cast<std::size_t>(k)], block_sets[b].data() + end);
+  };
 
   // Log-sum-exp per child over the parents that hold it, in parent order (deterministic).
   const double neg_inf = -std::numeric_limits<double>::infinity();
   std::vector<double> cmax(comps.size(), neg_inf);
-  for (const auto& set : sets)
+  for (const auto& set : block_sets)
     for (const Child& c : set)
       cmax[static_cast<std::size_t>(c.i)] =
           std::max(cmax[static_cast<std::size_t>(c.i)], c.log_term);
   std::vector<double> csum(comps.size(), 0.0);
-  for (const auto& set : sets)
+  for (const auto& set : block_sets)
     for (const Child& c : set)
       csum[static_cast<std::size_t>(c.i)] +=
           std::exp(c.log_term - cmax[static_cast<std::size_t>(c.i)]);
@@ -227,9 +674,10 @@ std::vector<Component> cluster_level(const std::vector<Component>& comps, const 
       Matrix3d sum_cov = Matrix3d::Zero();
       Vector3d resultant = Vector3d::Zero();
       double sum_spread = 0.0;
-      for (const Child& c : sets[static_cast<std::size_t>(k)]) {
-        const auto ui = static_cast<std::size_t>(c.i);
-        const double ris = std::exp(c.log_term - cmax[ui]) / csum[ui];
+      const auto [first, last] = set_range(k);
+      for (const Child* c = first; c != last; ++c) {
+        const auto ui = static_cast<std::size_t>(c->i);
+        const double ris = std::exp(c->log_term - cmax[ui]) / csum[ui];
         const Component& ci = comps[ui];
         const double a = ris * ci.w;       // r_is w_i (proportional to r_is w_i |P| of eq. 29-30)
         const Vector3d d = ci.mu - ps.mu;  // centred at the old parent mean for precision
@@ -242,9 +690,9 @@ std::vector<Component> cluster_level(const std::vector<Component>& comps, const 
       }
       Component& out = next[static_cast<std::size_t>(k)];
       const Vector3d shift = sum_mu / ws;
-      out.w = ws;                                                                // eq. 10
-      out.mu = ps.mu + shift;                                                    // eq. 10
-      out.cov = condition(sum_cov / ws - shift * shift.transpose(), abs_floor);  // eq. 10
+      out.w = ws;                                                                 // eq. 10
+      out.mu = ps.mu + shift;                                                     // eq. 10
+      set_conditioned(out, sum_cov / ws - shift * shift.transpose(), abs_floor);  // eq. 10
       const double len = resultant.norm();
       const double rho = std::min(len / ws, 1.0);
       if (len > 0.0) {
