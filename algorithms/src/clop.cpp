@@ -8,6 +8,7 @@
 #include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <memory>
 #include <optional>
 #include <vector>
@@ -23,8 +24,6 @@ namespace {
 
 using Eigen::Index;
 
-constexpr Index kGrain = 64;
-
 // Per component, for the three fit Gaussians (k = 0..2) and the eq. 24 kernel (k = 3): the
 // inverse of Lambda as (xx, xy, xz, yy, yz, zz) and the dimensionless weight prefactor.
 struct Precomputed {
@@ -32,13 +31,17 @@ struct Precomputed {
   float log_coef[4];
 };
 
-// Per-thread scratch of one cell of particles.
+using Packet = Eigen::internal::packet_traits<float>::type;
+constexpr int kLanes = Eigen::internal::packet_traits<float>::size;
+
+// Per-thread scratch of one cell of particles: the candidate components in structure-of-arrays
+// form, field by field (mean x, y, z, then per kernel the six entries of Lambda^-1 and the log
+// prefactor), each field padded to a multiple of the packet size.
 struct CellScratch {
   std::vector<std::pair<Index, float>> hits;
   std::vector<Index> ids;
-  Eigen::Matrix<float, Eigen::Dynamic, 9> soa;  // per candidate: mean, widest-kernel Lambda^-1
-  Eigen::ArrayXf dx, dy, dz, e, arg, w;
-  Eigen::Matrix3Xf t;
+  std::vector<float> soa;
+  std::vector<float> valid;  // all-ones bit pattern for real candidates, 0 for the padding
 };
 
 class PreparedMixture {
@@ -81,11 +84,11 @@ class PreparedMixture {
   // One projection of every particle: eq. 24 (kInitial, j = 3) or eq. 22 (j = 0..2),
   // q' = q + sum_j s2_j w_j Lambda_j^-1 (mu - q) / sum_j w_j. Particles are batched by cells of
   // width h/4: the components near a cell are gathered once (radius + the cell's half diagonal)
-  // into contiguous arrays, then each particle of the cell evaluates them. A component is skipped
-  // when the exponent of its widest kernel is below -16 (the narrower ones are then below too:
-  // Lambda_j^-1 >= Lambda_0^-1): exactly the truncation of the gather radius, applied per
-  // component. Each particle's result depends only on its cell's candidate list, never on the
-  // thread count.
+  // into structure-of-arrays form, then each particle of the cell evaluates them in SIMD packets.
+  // A term (component s, kernel k) is dropped when its exponent is below -16: exactly the
+  // truncation of the gather radius, applied per term (when the widest kernel is out of reach,
+  // the narrower ones are too: Lambda_j^-1 >= Lambda_0^-1). Each particle's result depends only
+  // on its cell's candidate list, never on the thread count.
   template <bool kInitial>
   void project_all(const Eigen::Matrix3Xf& q, Eigen::Matrix3Xf& out) const {
     constexpr int j0 = kInitial ? 3 : 0;
@@ -116,9 +119,14 @@ class PreparedMixture {
     for (float& r : radii)
       r += half_diag;
 
+    constexpr int nf = 3 + 7 * nk;
     tbb::parallel_for(
         tbb::blocked_range<std::size_t>(0, starts.size() - 1, 1), [&](const auto& rr) {
+          namespace ei = Eigen::internal;
           CellScratch sc;
+          float ones;
+          const std::uint32_t bits = 0xffffffffu;
+          std::memcpy(&ones, &bits, sizeof ones);
           for (std::size_t c = rr.begin(); c != rr.end(); ++c) {
             const std::uint64_t key = keys[starts[c]].first;
             const Eigen::Vector3f center =
@@ -128,60 +136,80 @@ class PreparedMixture {
                               Eigen::Vector3f::Constant(0.5f));
             sc.ids.clear();
             index_.for_each_near(center, radii, sc.hits, [&](Index s) { sc.ids.push_back(s); });
-            const Index m = static_cast<Index>(sc.ids.size());
-            sc.soa.resize(m, 9);
+            const auto m = static_cast<Index>(sc.ids.size());
+            const Index padded = (m + kLanes - 1) / kLanes * kLanes;
+            const auto np = static_cast<std::size_t>(padded);
+            sc.soa.assign(nf * np, 0.0f);
+            sc.valid.assign(np, 0.0f);
             for (Index k = 0; k < m; ++k) {
               const Index s = sc.ids[static_cast<std::size_t>(k)];
-              const float* a = pre_[static_cast<std::size_t>(s)].inv[j0];
-              sc.soa.row(k) << means_(0, s), means_(1, s), means_(2, s), a[0], a[1], a[2], a[3],
-                  a[4], a[5];
+              const Precomputed& pc = pre_[static_cast<std::size_t>(s)];
+              const auto kk = static_cast<std::size_t>(k);
+              sc.valid[kk] = ones;
+              for (int d = 0; d < 3; ++d)
+                sc.soa[static_cast<std::size_t>(d) * np + kk] = means_(d, s);
+              for (int jj = 0; jj < nk; ++jj) {
+                for (int e = 0; e < 6; ++e)
+                  sc.soa[static_cast<std::size_t>(3 + 7 * jj + e) * np + kk] = pc.inv[j0 + jj][e];
+                sc.soa[static_cast<std::size_t>(3 + 7 * jj + 6) * np + kk] = pc.log_coef[j0 + jj];
+              }
             }
-            if (sc.arg.size() < m * nk) {
-              sc.arg.resize(m * nk);
-              sc.t.resize(3, m * nk);
-            }
+            const auto field = [&](int f) {
+              return sc.soa.data() + static_cast<std::size_t>(f) * np;
+            };
+            const Packet limit = ei::pset1<Packet>(32.0f);
+            const Packet minus_half = ei::pset1<Packet>(-0.5f);
             for (std::size_t pi = starts[c]; pi < starts[c + 1]; ++pi) {
               const Index i = keys[pi].second;
               const Eigen::Vector3f qi = q.col(i);
-              if (m == 0) {
-                out.col(i) = qi;  // no component within reach: the particle stays
-                continue;
-              }
-              // Widest-kernel exponents of every candidate, vectorised.
-              sc.dx = sc.soa.col(0).array() - qi.x();
-              sc.dy = sc.soa.col(1).array() - qi.y();
-              sc.dz = sc.soa.col(2).array() - qi.z();
-              sc.e = sc.dx * (sc.soa.col(3).array() * sc.dx + sc.soa.col(4).array() * sc.dy +
-                              sc.soa.col(5).array() * sc.dz) +
-                     sc.dy * (sc.soa.col(4).array() * sc.dx + sc.soa.col(6).array() * sc.dy +
-                              sc.soa.col(7).array() * sc.dz) +
-                     sc.dz * (sc.soa.col(5).array() * sc.dx + sc.soa.col(7).array() * sc.dy +
-                              sc.soa.col(8).array() * sc.dz);
-              Index slot = 0;
-              for (Index k = 0; k < m; ++k) {
-                if (sc.e[k] > 32.0f) continue;
-                const Precomputed& p =
-                    pre_[static_cast<std::size_t>(sc.ids[static_cast<std::size_t>(k)])];
-                const float dx = sc.dx[k], dy = sc.dy[k], dz = sc.dz[k];
+              const Packet qx = ei::pset1<Packet>(qi.x()), qy = ei::pset1<Packet>(qi.y()),
+                           qz = ei::pset1<Packet>(qi.z());
+              Packet sw = ei::pset1<Packet>(0.0f), sx = sw, sy = sw, sz = sw;
+              for (Index t = 0; t < padded; t += kLanes) {
+                const Packet dx = ei::psub(ei::ploadu<Packet>(field(0) + t), qx);
+                const Packet dy = ei::psub(ei::ploadu<Packet>(field(1) + t), qy);
+                const Packet dz = ei::psub(ei::ploadu<Packet>(field(2) + t), qz);
+                const Packet keep = ei::ploadu<Packet>(sc.valid.data() + t);
                 for (int jj = 0; jj < nk; ++jj) {
-                  const float* a = p.inv[j0 + jj];
-                  const float tx = a[0] * dx + a[1] * dy + a[2] * dz;
-                  const float ty = a[1] * dx + a[3] * dy + a[4] * dz;
-                  const float tz = a[2] * dx + a[4] * dy + a[5] * dz;
-                  sc.arg[slot] = p.log_coef[j0 + jj] - 0.5f * (dx * tx + dy * ty + dz * tz);
-                  const float s2 = s2_[j0 + jj];
-                  sc.t.col(slot) << tx * s2, ty * s2, tz * s2;
-                  ++slot;
+                  const float* a = field(3 + 7 * jj);
+                  const Packet a0 = ei::ploadu<Packet>(a + t);
+                  const Packet a1 = ei::ploadu<Packet>(a + np + t);
+                  const Packet a2 = ei::ploadu<Packet>(a + 2 * np + t);
+                  const Packet a3 = ei::ploadu<Packet>(a + 3 * np + t);
+                  const Packet a4 = ei::ploadu<Packet>(a + 4 * np + t);
+                  const Packet a5 = ei::ploadu<Packet>(a + 5 * np + t);
+                  const Packet tx =
+                      ei::padd(ei::padd(ei::pmul(a0, dx), ei::pmul(a1, dy)), ei::pmul(a2, dz));
+                  const Packet ty =
+                      ei::padd(ei::padd(ei::pmul(a1, dx), ei::pmul(a3, dy)), ei::pmul(a4, dz));
+                  const Packet tz =
+                      ei::padd(ei::padd(ei::pmul(a2, dx), ei::pmul(a4, dy)), ei::pmul(a5, dz));
+                  const Packet quad =
+                      ei::padd(ei::padd(ei::pmul(dx, tx), ei::pmul(dy, ty)), ei::pmul(dz, tz));
+                  // A term whose exponent is below -16 is dropped (the e^-16 truncation of
+                  // LOP's support radius, per component and kernel). The widest kernel comes
+                  // first: when it is out of reach, so are the narrower ones.
+                  const Packet in = ei::pand(keep, ei::pcmp_le(quad, limit));
+                  if (!ei::predux_any(in)) {
+                    if (jj == 0) break;
+                    continue;
+                  }
+                  const Packet w = ei::pand(ei::pexp(ei::padd(ei::ploadu<Packet>(a + 6 * np + t),
+                                                              ei::pmul(minus_half, quad))),
+                                            in);
+                  const Packet ws = ei::pmul(w, ei::pset1<Packet>(s2_[j0 + jj]));
+                  sw = ei::padd(sw, w);
+                  sx = ei::padd(sx, ei::pmul(ws, tx));
+                  sy = ei::padd(sy, ei::pmul(ws, ty));
+                  sz = ei::padd(sz, ei::pmul(ws, tz));
                 }
               }
-              if (slot == 0) {
-                out.col(i) = qi;
-                continue;
-              }
-              sc.w = sc.arg.head(slot).exp();
-              const float den = sc.w.sum();
-              const Eigen::Vector3f num = sc.t.leftCols(slot) * sc.w.matrix();
-              out.col(i) = den > 0.0f ? Eigen::Vector3f(qi + num / den) : qi;
+              const float den = ei::predux(sw);
+              out.col(i) =
+                  den > 0.0f ? Eigen::Vector3f(qi + Eigen::Vector3f(ei::predux(sx), ei::predux(sy),
+                                                                    ei::predux(sz)) /
+                                                        den)
+                             : qi;  // no component within reach: the particle stays
             }
           }
         });
@@ -195,15 +223,6 @@ class PreparedMixture {
   detail::MixtureIndex index_;
   std::vector<float> r_attraction_, r_initial_;
 };
-
-template <class Body>
-void for_each_particle(Index m, Body body) {
-  tbb::parallel_for(tbb::blocked_range<Index>(0, m, kGrain), [&](const auto& range) {
-    kernels::Scratch s;
-    for (Index i = range.begin(); i != range.end(); ++i)
-      body(i, s);
-  });
-}
 
 }  // namespace
 
@@ -268,18 +287,10 @@ void clop_project(const GaussianMixture& m, Eigen::Matrix3Xf& q, const ClopParam
       const bool recompute = !p.interleave || t % 2 == 0 || t == steps - 1;
       if (recompute) {
         auto timer = ctx.phase("repulsion");
-        const KdTree tree(q);
-        Eigen::VectorXf w;  // empty: unweighted repulsion (LOP)
-        if (p.weighted) {
-          // w_i' within the cutoff: the whole repulsion kernel is cut (section 8).
-          const std::vector<double> v = detail::cell_density(q, tree, h, cutoff);
-          w.resize(n);
-          for (Index i = 0; i < n; ++i)
-            w[i] = static_cast<float>(v[static_cast<std::size_t>(i)]);
-        }
-        for_each_particle(n, [&](Index i, kernels::Scratch& s) {
-          rep.col(i) = kernels::repulsion(i, q, tree, w, h, cutoff, s);
-        });
+        detail::NeighborGrid grid(q, kernels::grid_cell(cutoff));
+        // w_i' within the cutoff: the whole repulsion kernel is cut (section 8).
+        if (p.weighted) grid.set_weights(kernels::density_weights(grid, q, h, cutoff));
+        rep = kernels::repulsions(q, grid, h, cutoff);
       }
       next += mu * rep;
     }

@@ -7,7 +7,6 @@
 
 #include "projection_kernels.h"
 #include "scanbench/core/errors.h"
-#include "scanbench/core/kdtree.h"
 
 namespace scanbench::algorithms {
 
@@ -27,32 +26,30 @@ PointCloud project(const PointCloud& input, const LopParams& p, RunContext& ctx,
 
   Eigen::Matrix3Xf q;
   Eigen::Matrix3Xf next;
-  Eigen::VectorXf inverse_density;  // empty for LOP
-  std::optional<KdTree> point_tree;
+  std::optional<detail::NeighborGrid> point_grid;
   {
     auto timer = ctx.phase("init");
-    point_tree.emplace(pts);
+    point_grid.emplace(pts, kernels::grid_cell(h));
     // Copies (upsampling) are jittered by a small fraction of h so that they can separate.
     q = kernels::initial_particles(pts, m, ctx.stream_seed("particles"), 0.01f * h);
-    q = kernels::l2_means(q, pts, *point_tree, h);
+    q = kernels::l2_means(q, *point_grid, h);
   }
   if (weighted && p.iterations > 1) {
     auto timer = ctx.phase("density");
-    inverse_density = kernels::density_weights(pts, *point_tree, h).cwiseInverse();
+    point_grid->set_weights(kernels::density_weights(*point_grid, pts, h, h).cwiseInverse());
   }
   const float mu = static_cast<float>(p.mu);
   for (int it = 1; it < p.iterations; ++it) {
     ctx.check_cancelled(stage);
     {
       auto timer = ctx.phase("attraction");
-      next = kernels::attractions(q, pts, *point_tree, inverse_density, h);
+      next = kernels::attractions(q, *point_grid, h);
     }
     {
       auto timer = ctx.phase("repulsion");
-      const KdTree particle_tree(q);
-      Eigen::VectorXf w;  // empty for LOP
-      if (weighted) w = kernels::density_weights(q, particle_tree, h);
-      next += mu * kernels::repulsions(q, particle_tree, w, h, h);
+      detail::NeighborGrid particle_grid(q, kernels::grid_cell(h));
+      if (weighted) particle_grid.set_weights(kernels::density_weights(particle_grid, q, h, h));
+      next += mu * kernels::repulsions(q, particle_grid, h, h);
     }
     q.swap(next);
   }

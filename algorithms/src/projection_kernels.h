@@ -22,6 +22,7 @@
 #include <utility>
 #include <vector>
 
+#include "neighbor_grid.h"
 #include "scanbench/core/kdtree.h"
 
 namespace scanbench::algorithms::kernels {
@@ -42,12 +43,6 @@ struct Scratch {
   std::vector<std::pair<Eigen::Index, float>> hits;
   Eigen::ArrayXf a, b, dx, dy, dz;
 };
-
-/// Density weights 1 + sum_{j' != j} theta(|p_j - p_j'|) over the points within h of p_j
-/// (WLOP's v_j for input points, computed once; w_i for particles, every iteration; CLOP eq. 25).
-/// `tree` indexes `points`. TBB-parallel and batched by cells like l2_means() below; each weight
-/// is computed independently (deterministic).
-Eigen::VectorXf density_weights(const Eigen::Matrix3Xf& points, const KdTree& tree, float h);
 
 /// The L2 first iteration of LOP (CLOP eq. 2) for one particle q:
 /// sum_j p_j theta(|p_j - q|) / sum_j theta(|p_j - q|) over the points within h of q.
@@ -73,25 +68,28 @@ Eigen::Vector3f repulsion(Eigen::Index i, const Eigen::Matrix3Xf& particles, con
                           const Eigen::VectorXf& particle_weights, float h, float cutoff,
                           Scratch& s);
 
-/// Batched forms of the kernels above for every query at once (TBB-parallel). Queries are grouped
-/// into cubic cells of side `radius`; one KdTree radius query per cell (radius + half the cell
-/// diagonal) collects the candidates, bucketed into distance shells around the cell centre. Each
-/// query visits only the shells up to radius + its distance from the centre (triangle inequality),
-/// skips packets of candidates lying wholly outside its support, and sums with SSE packets
-/// (distances, support mask, exp, clamp, division). Each query's sums run over its candidates in
-/// a fixed order, so results do not depend on the thread count; they equal the per-query
-/// functions up to float summation order. This is what makes the discrete operators fast: the
-/// tree is walked once per cell instead of once per particle.
+/// Batched forms of the kernels above for every query at once (TBB-parallel), over a
+/// detail::NeighborGrid of the summed points (built with cell side grid_cell(radius) for the
+/// radius it is queried with). Each query streams the contiguous grid ranges around it and sums
+/// with SIMD packets (distances, support mask, exp, clamp, division) in a fixed order, so
+/// results do not depend on the thread count; they equal the per-query functions up to float
+/// summation order.
 ///
-/// l2_mean() of every column of q.
-Eigen::Matrix3Xf l2_means(const Eigen::Matrix3Xf& q, const Eigen::Matrix3Xf& points,
-                          const KdTree& tree, float h);
-/// attraction() of every column of q.
-Eigen::Matrix3Xf attractions(const Eigen::Matrix3Xf& q, const Eigen::Matrix3Xf& points,
-                             const KdTree& tree, const Eigen::VectorXf& inverse_density, float h);
-/// repulsion() of every particle (tree indexes `particles`).
-Eigen::Matrix3Xf repulsions(const Eigen::Matrix3Xf& particles, const KdTree& tree,
-                            const Eigen::VectorXf& particle_weights, float h, float cutoff);
+/// The grid cell side used for queries of the given radius (radius / 2: 5 x 5 columns).
+float grid_cell(float radius);
+/// Density weights 1 + sum_{j' != j, |p_j - p_j'| <= cutoff} theta(|p_j - p_j'|) of every point
+/// (WLOP's v_j for input points, computed once; w_i for particles, every iteration; CLOP eq. 25
+/// with the section 8 cutoff). `grid` was built from `points`.
+Eigen::VectorXf density_weights(const detail::NeighborGrid& grid, const Eigen::Matrix3Xf& points,
+                                float h, float cutoff);
+/// l2_mean() of every column of q (grid over the input points; its weights are ignored).
+Eigen::Matrix3Xf l2_means(const Eigen::Matrix3Xf& q, const detail::NeighborGrid& grid, float h);
+/// attraction() of every column of q; the grid's weights are 1 / v_j (all 1 for LOP).
+Eigen::Matrix3Xf attractions(const Eigen::Matrix3Xf& q, const detail::NeighborGrid& grid, float h);
+/// repulsion() of every particle; `grid` was built from `particles` and its weights are w_i'
+/// (all 1 for LOP).
+Eigen::Matrix3Xf repulsions(const Eigen::Matrix3Xf& particles, const detail::NeighborGrid& grid,
+                            float h, float cutoff);
 
 /// The number of particles for the `particles` parameter of the projection operators: a value
 /// in (0, 1] is a share of the n input points (rounded to nearest, at least 1); a value > 1 is a

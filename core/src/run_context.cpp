@@ -1,5 +1,7 @@
 #include "scanbench/core/run_context.h"
 
+#include <ctime>
+
 #include <fmt/format.h>
 #include <tbb/global_control.h>
 
@@ -17,12 +19,26 @@ RunContext::RunContext(std::uint64_t seed, int threads) : seed_(seed), threads_(
 
 RunContext::~RunContext() = default;
 
+namespace {
+
+double process_cpu_seconds() {
+  timespec t{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+}
+
+}  // namespace
+
 RunContext::PhaseTimer::PhaseTimer(RunContext& ctx, std::string name)
-    : ctx_(ctx), name_(std::move(name)), start_(std::chrono::steady_clock::now()) {}
+    : ctx_(ctx),
+      name_(std::move(name)),
+      start_(std::chrono::steady_clock::now()),
+      cpu_start_(process_cpu_seconds()) {}
 
 RunContext::PhaseTimer::~PhaseTimer() {
   const std::chrono::duration<double> d = std::chrono::steady_clock::now() - start_;
   ctx_.add_phase_time(name_, d.count());
+  ctx_.phases_cpu_[name_] += process_cpu_seconds() - cpu_start_;
 }
 
 void RunContext::check_cancelled(std::string_view stage) const {

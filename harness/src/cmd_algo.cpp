@@ -113,6 +113,10 @@ void add_algo_command(Cli& cli) {
         for (const auto& [name, seconds] : ctx.phase_seconds())
           phases[name] = seconds;
         record["phases"] = phases;
+        Json cpu = Json::object();
+        for (const auto& [name, seconds] : ctx.phase_cpu_seconds())
+          cpu[name] = seconds;
+        record["phases_cpu"] = cpu;
         record["total_s"] = total;
         write_json(record, opts->timings);
       }

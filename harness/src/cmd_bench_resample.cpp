@@ -93,7 +93,8 @@ struct CaseResult {
   Json params;
   std::vector<double> seconds;
   std::vector<double> cpu;  // process CPU seconds per repeat (robust on a shared machine)
-  std::map<std::string, double> phases;  // of the last repeat
+  std::map<std::string, double> phases;      // wall seconds, of the last repeat
+  std::map<std::string, double> phases_cpu;  // process CPU seconds, of the last repeat
   algorithms::AlgorithmOutput output;
 };
 
@@ -112,6 +113,7 @@ CaseResult run_case(const std::string& name, const std::string& algorithm, const
     r.seconds.push_back(now_seconds() - t0);
     r.cpu.push_back(cpu_seconds() - c0);
     r.phases = ctx.phase_seconds();
+    r.phases_cpu = ctx.phase_cpu_seconds();
   }
   return r;
 }
@@ -230,6 +232,10 @@ void add_bench_resample(CLI::App* bench, Cli& cli) {
           phase_text += fmt::format("{}={:.3f} ", k, v);
         }
         c["phases"] = ph;
+        Json ph_cpu = Json::object();
+        for (const auto& [k, v] : r.phases_cpu)
+          ph_cpu[k] = v;
+        c["phases_cpu"] = ph_cpu;
         c["params"] = r.params;
         fmt::print("{:>10} {:>10.3f} {:>10.3f} {:>10} {:>14.6f} {:>11.4f}  {}\n", r.name,
                    med[r.name], med_cpu[r.name], r.output.points.size(),

@@ -74,8 +74,8 @@ class KernelOracle : public ::testing::Test {
 
 TEST_F(KernelOracle, DensityWeightsMatchBruteForce) {
   const auto& p = cloud_.positions;
-  const KdTree tree(p);
-  const Eigen::VectorXf v = kernels::density_weights(p, tree, h_);
+  const detail::NeighborGrid grid(p, kernels::grid_cell(h_));
+  const Eigen::VectorXf v = kernels::density_weights(grid, p, h_, h_);
   ASSERT_EQ(v.size(), p.cols());
   for (Eigen::Index j = 0; j < p.cols(); j += 7) {
     double ref = 1.0;
@@ -107,7 +107,8 @@ TEST_F(KernelOracle, L2MeanMatchesBruteForceWeightedMean) {
 TEST_F(KernelOracle, AttractionMatchesBruteForceWithDensityWeights) {
   const auto& p = cloud_.positions;
   const KdTree tree(p);
-  const Eigen::VectorXf inv_v = kernels::density_weights(p, tree, h_).cwiseInverse();
+  const detail::NeighborGrid grid(p, kernels::grid_cell(h_));
+  const Eigen::VectorXf inv_v = kernels::density_weights(grid, p, h_, h_).cwiseInverse();
   kernels::Scratch s;
   for (int weighted = 0; weighted < 2; ++weighted) {
     const Eigen::VectorXf none;
@@ -130,7 +131,8 @@ TEST_F(KernelOracle, AttractionMatchesBruteForceWithDensityWeights) {
 TEST_F(KernelOracle, RepulsionMatchesBruteForceWithCutoff) {
   const auto& q = particles_;
   const KdTree tree(q);
-  const Eigen::VectorXf w = kernels::density_weights(q, tree, h_);
+  const detail::NeighborGrid grid(q, kernels::grid_cell(h_));
+  const Eigen::VectorXf w = kernels::density_weights(grid, q, h_, h_);
   kernels::Scratch s;
   for (const float cutoff : {h_, 0.5f * h_}) {
     for (Eigen::Index i = 0; i < q.cols(); i += 3) {
@@ -155,18 +157,72 @@ TEST_F(KernelOracle, BatchedKernelsEqualPerParticleKernels) {
   const auto& p = cloud_.positions;
   const KdTree tree(p);
   const KdTree qtree(particles_);
-  const Eigen::VectorXf inv_v = kernels::density_weights(p, tree, h_).cwiseInverse();
-  const Eigen::VectorXf w = kernels::density_weights(particles_, qtree, h_);
-  const Eigen::Matrix3Xf l2 = kernels::l2_means(particles_, p, tree, h_);
-  const Eigen::Matrix3Xf f1 = kernels::attractions(particles_, p, tree, inv_v, h_);
-  const Eigen::Matrix3Xf f2 = kernels::repulsions(particles_, qtree, w, h_, 0.5f * h_);
+  detail::NeighborGrid grid(p, kernels::grid_cell(h_));
+  const Eigen::VectorXf inv_v = kernels::density_weights(grid, p, h_, h_).cwiseInverse();
+  // Cutoff h/2 as in CLOP section 8: the density is cut too.
+  const float cutoff = 0.5f * h_;
+  detail::NeighborGrid qgrid(particles_, kernels::grid_cell(cutoff));
+  const Eigen::VectorXf w = kernels::density_weights(qgrid, particles_, h_, cutoff);
+  for (Eigen::Index i = 0; i < particles_.cols(); ++i) {
+    double ref = 1.0;
+    for (Eigen::Index k = 0; k < particles_.cols(); ++k) {
+      const double d = (particles_.col(i) - particles_.col(k)).cast<double>().norm();
+      if (k != i && d <= cutoff) ref += theta_d(d, h_);
+    }
+    EXPECT_NEAR(w[i], ref, 1e-5 * ref) << "particle " << i;
+  }
+  const Eigen::Matrix3Xf l2 = kernels::l2_means(particles_, grid, h_);
+  grid.set_weights(inv_v);
+  const Eigen::Matrix3Xf f1 = kernels::attractions(particles_, grid, h_);
+  qgrid.set_weights(w);
+  const Eigen::Matrix3Xf f2 = kernels::repulsions(particles_, qgrid, h_, cutoff);
   kernels::Scratch s;
   for (Eigen::Index i = 0; i < particles_.cols(); ++i) {
     const Eigen::Vector3f q = particles_.col(i);
     EXPECT_LT((l2.col(i) - kernels::l2_mean(q, p, tree, h_, s)).norm(), 1e-6f);
     EXPECT_LT((f1.col(i) - kernels::attraction(q, p, tree, inv_v, h_, s)).norm(), 1e-6f);
-    EXPECT_LT((f2.col(i) - kernels::repulsion(i, particles_, qtree, w, h_, 0.5f * h_, s)).norm(),
+    EXPECT_LT((f2.col(i) - kernels::repulsion(i, particles_, qtree, w, h_, cutoff, s)).norm(),
               1e-6f);
+  }
+}
+
+// Queries off the grid (outside its bounding box, in empty cells) and coinciding points.
+TEST(NeighborGrid, RangesHoldEveryPointWithinTheRadius) {
+  const PointCloud c = noisy_sphere(800, 1.0f, 0.05f, 9);
+  Eigen::Matrix3Xf pts = c.positions;
+  pts.col(5) = pts.col(4);  // a duplicate
+  const float radius = 0.3f;
+  for (const float cell : {radius / 2, radius, radius / 3}) {
+    const detail::NeighborGrid grid(pts, cell);
+    Eigen::Matrix3Xf queries(3, 60);
+    for (Eigen::Index i = 0; i < 60; ++i)
+      queries.col(i) = pts.col(i * 13) * (0.5f + 0.03f * static_cast<float>(i));
+    for (const bool self : {false, true}) {
+      const Eigen::Matrix3Xf& qs = self ? pts : queries;
+      std::vector<int> count(static_cast<std::size_t>(qs.cols()), 0);
+      grid.for_each_query(
+          qs, radius, self,
+          [&](Eigen::Index i, Eigen::Index pos, const detail::GridRange* r, std::size_t n) {
+            std::vector<char> seen(static_cast<std::size_t>(pts.cols()), 0);
+            for (std::size_t k = 0; k < n; ++k) {
+              for (Eigen::Index t = r[k].begin; t < r[k].end; ++t) {
+                ASSERT_FALSE(seen[static_cast<std::size_t>(grid.index(t))]);
+                seen[static_cast<std::size_t>(grid.index(t))] = 1;
+              }
+            }
+            if (self) {
+              ASSERT_EQ(grid.index(pos), i);
+            }
+            for (Eigen::Index j = 0; j < pts.cols(); ++j) {
+              if ((pts.col(j) - qs.col(i)).norm() <= radius) {
+                EXPECT_TRUE(seen[static_cast<std::size_t>(j)]) << "query " << i << " point " << j;
+              }
+            }
+            ++count[static_cast<std::size_t>(i)];
+          });
+      for (const int k : count)
+        EXPECT_EQ(k, 1);
+    }
   }
 }
 

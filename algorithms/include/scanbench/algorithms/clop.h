@@ -22,11 +22,12 @@
 //    second iteration (the previous F2 vector is reused; the last iteration always recomputes).
 //  - kernel theta(r) = exp(-16 r^2 / h^2), h a fraction of the input's bbox diagonal.
 //  - Components are gathered per particle through kd-trees over the component means, one per
-//    size class (largest covariance eigenvalue within a factor 4). A component is skipped when
-//    its weight exponent is below -16 for every point of its class's bound, i.e. beyond
-//    sqrt(32 (lambda_class + s^2)) with s^2 = sigma_1^2 h^2 (attraction) or h^2/32 (eq. 24):
-//    the same e^-16 truncation as LOP's support radius h (for a point-like Gaussian the eq. 24
-//    cutoff is exactly h).
+//    size class (largest covariance eigenvalue within a factor 2), batched by cells of particles.
+//    A term (component, kernel) is dropped when its exponent -(mu_s - q)^T Lambda_sk^-1 (mu_s -
+//    q) / 2 is below -16: the same e^-16 truncation as LOP's support radius h (for a point-like
+//    Gaussian the eq. 24 cutoff is exactly h). The search radius of a class, sqrt(32
+//    (lambda_class + s^2)) with s^2 = sigma_1^2 h^2 (attraction) or h^2/32 (eq. 24), holds
+//    every term that is kept.
 // Phase timers: "init" (particle selection, mixture preparation), "hem", "attraction" (eq. 24
 // and every F1), "repulsion" (density weights and F2). Results depend only on the input, the
 // parameters and ctx.seed(), never on the thread count.

@@ -35,7 +35,8 @@ class RunContext {
   /// A generator on the named stream.
   Rng rng(std::string_view stream) const { return Rng(stream_seed(stream)); }
 
-  /// RAII timer: adds the wall seconds between construction and destruction to phase `name`.
+  /// RAII timer: adds the wall seconds (and the process CPU seconds, all threads) between
+  /// construction and destruction to phase `name`.
   class PhaseTimer {
    public:
     PhaseTimer(RunContext& ctx, std::string name);
@@ -47,13 +48,20 @@ class RunContext {
     RunContext& ctx_;
     std::string name_;
     std::chrono::steady_clock::time_point start_;
+    double cpu_start_ = 0.0;
   };
   PhaseTimer phase(std::string name) { return PhaseTimer(*this, std::move(name)); }
   /// Adds seconds to a phase by hand.
   void add_phase_time(const std::string& name, double seconds) { phases_[name] += seconds; }
   /// Accumulated wall seconds per phase, in name order.
   const std::map<std::string, double>& phase_seconds() const { return phases_; }
-  void clear_phases() { phases_.clear(); }
+  /// Accumulated process CPU seconds (all threads) per phase timed with phase(): on a shared
+  /// machine this is steadier than wall time.
+  const std::map<std::string, double>& phase_cpu_seconds() const { return phases_cpu_; }
+  void clear_phases() {
+    phases_.clear();
+    phases_cpu_.clear();
+  }
 
   /// Requests cancellation (thread-safe; e.g. from a signal handler thread or a watchdog).
   void cancel() { cancelled_.store(true, std::memory_order_relaxed); }
@@ -66,6 +74,7 @@ class RunContext {
   int threads_;
   std::unique_ptr<tbb::global_control> control_;
   std::map<std::string, double> phases_;
+  std::map<std::string, double> phases_cpu_;
   std::atomic<bool> cancelled_{false};
 };
 
