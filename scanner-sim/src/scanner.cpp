@@ -14,6 +14,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstddef>
+#include <cstring>
 #include <fstream>
 #include <limits>
 #include <memory>
@@ -113,23 +114,26 @@ constexpr double kGoldenAngle = 2.399963229728653;          // pi (3 - sqrt 5)
 constexpr std::size_t kGroupPixels = std::size_t{1} << 21;  // pixels of the views done together
 
 /// What passes A and B learn about one pixel (one byte per pixel).
-enum PixelStatus : std::uint8_t { kMiss, kPoint, kFlying, kGrazing, kOutOfRange };
+/// What a pixel returned, and the kind of an output point (kPoint: surface, kFlying, kUniform).
+/// An enumeration, not a character type, so stores through it alias nothing else.
+enum class Px : std::uint8_t { kMiss, kPoint, kFlying, kGrazing, kOutOfRange, kUniform };
 
-/// Per-pixel results of a group of views, structure of arrays (pass B reads the ranges of the
-/// 4-neighbours only). Default-initialised storage: every field is written before it is read.
+/// Pass A's per-pixel results for a group of views, structure of arrays (pass B reads the ranges
+/// of the 4-neighbours). Default-initialised storage: pass A writes `range` and `status` of every
+/// pixel, and the other fields of every kPoint pixel, before pass B reads them.
 struct GroupImage {
   explicit GroupImage(std::size_t n)
       : range(new float[n]),
-        status(new std::uint8_t[n]),
+        status(new Px[n]),
         position(new Eigen::Vector3f[n]),
         clean(new Eigen::Vector3f[n]),
         outliers(new std::int32_t[n]) {}
-  std::unique_ptr<float[]>
-      range;  ///< beam range when the beam returned (before drop-outs), else +inf
-  std::unique_ptr<std::uint8_t[]> status;       ///< PixelStatus
-  std::unique_ptr<Eigen::Vector3f[]> position;  ///< kPoint / kFlying: the output point (true frame)
-  std::unique_ptr<Eigen::Vector3f[]> clean;     ///< kPoint / kFlying: the noise-free surface hit
-  std::unique_ptr<std::int32_t[]> outliers;     ///< kPoint / kFlying: uniform outliers that follow
+  /// Beam range when the beam returned (before drop-outs), else +inf.
+  std::unique_ptr<float[]> range;
+  std::unique_ptr<Px[]> status;                 ///< kMiss, kPoint, kGrazing or kOutOfRange
+  std::unique_ptr<Eigen::Vector3f[]> position;  ///< the noisy surface point (true frame)
+  std::unique_ptr<Eigen::Vector3f[]> clean;     ///< the noise-free surface hit
+  std::unique_ptr<std::int32_t[]> outliers;     ///< uniform outliers that follow the point
 };
 
 struct Counters {
@@ -291,29 +295,31 @@ inline void unit_dirs4(const CameraLanes& c, __m128 xs, __m128 ys, __m128& dx, _
   dz = _mm_mul_ps(dz, s);
 }
 
-static_assert(offsetof(RTCRay, tnear) == 12 && offsetof(RTCRay, time) == 28 &&
-                  offsetof(RTCRay, flags) == 44,
-              "RTCRay layout: org+tnear, dir+time, tfar+mask+id+flags as three 16-byte rows");
-
-}  // namespace
-
-float ScannerEngine::image_x(const Camera& cam, int u) const {
-  const float inv = 2.0f / static_cast<float>(resolution_);
+/// Image-plane coordinates of pixel centres (tangent-plane units) of an R x R image.
+inline float image_x(const Camera& cam, int resolution, int u) {
+  const float inv = 2.0f / static_cast<float>(resolution);
   return ((static_cast<float>(u) + 0.5f) * inv - 1.0f) * cam.tan_half;
 }
-
-float ScannerEngine::image_y(const Camera& cam, int v) const {
-  const float inv = 2.0f / static_cast<float>(resolution_);
+inline float image_y(const Camera& cam, int resolution, int v) {
+  const float inv = 2.0f / static_cast<float>(resolution);
   return (1.0f - (static_cast<float>(v) + 0.5f) * inv) * cam.tan_half;
 }
+
+static_assert(offsetof(RTCRay, tnear) == 12 && offsetof(RTCRay, time) == 28 &&
+                  offsetof(RTCRay, flags) == 44 &&
+                  offsetof(RTCHit, instID) == offsetof(RTCHit, geomID) + 4,
+              "RTCRayHit layout: org+tnear, dir+time, tfar+mask+id+flags as three 16-byte rows; "
+              "geomID and instID[0] adjacent");
+
+}  // namespace
 
 Eigen::Vector3f ScannerEngine::axis_dir(const Camera& cam, int u, int v) const {
   // The operations of make_tile_rays for sub-ray 0, so the direction is bit-identical to the
   // cast ray's.
   const Eigen::Vector2f& o = beam_offsets_[0];
   __m128 dx, dy, dz;
-  unit_dirs4(CameraLanes(cam), _mm_set1_ps(image_x(cam, u) + o.x()),
-             _mm_set1_ps(image_y(cam, v) + o.y()), dx, dy, dz);
+  unit_dirs4(CameraLanes(cam), _mm_set1_ps(image_x(cam, resolution_, u) + o.x()),
+             _mm_set1_ps(image_y(cam, resolution_, v) + o.y()), dx, dy, dz);
   return {_mm_cvtss_f32(dx), _mm_cvtss_f32(dy), _mm_cvtss_f32(dz)};
 }
 
@@ -325,14 +331,18 @@ void ScannerEngine::make_tile_rays(const Camera& cam, const Tile& t, RTCRayHit* 
   const float tfar = static_cast<float>(p_.range_max) * diag_;
   // tfar, mask = all bits, id = 0, flags = 0.
   const __m128i tail = _mm_setr_epi32(std::bit_cast<std::int32_t>(tfar), -1, 0, 0);
+  // hit.geomID and hit.instID[0] in one store.
+  constexpr std::size_t kIdsOffset = offsetof(RTCRayHit, hit) + offsetof(RTCHit, geomID);
+  constexpr std::uint64_t invalid_ids =
+      std::uint64_t{RTC_INVALID_GEOMETRY_ID} | (std::uint64_t{RTC_INVALID_GEOMETRY_ID} << 32);
   const int n = (t.u1 - t.u0) * sub_rays_;
   alignas(16) float xs[kTile * kMaxSubRays + 4];
   alignas(16) float ys[kTile * kMaxSubRays + 4];
   for (int v = t.v0; v < t.v1; ++v) {
-    const float y = image_y(cam, v);
+    const float y = image_y(cam, resolution_, v);
     int j = 0;
     for (int u = t.u0; u < t.u1; ++u) {
-      const float x = image_x(cam, u);
+      const float x = image_x(cam, resolution_, u);
       for (int k = 0; k < sub_rays_; ++k, ++j) {
         const Eigen::Vector2f& o = beam_offsets_[static_cast<std::size_t>(k)];
         xs[j] = x + o.x();
@@ -355,8 +365,7 @@ void ScannerEngine::make_tile_rays(const Camera& cam, const Tile& t, RTCRayHit* 
         _mm_storeu_ps(&r.ray.org_x, org_tnear);
         _mm_storeu_ps(&r.ray.dir_x, dir_time[l]);
         _mm_storeu_si128(reinterpret_cast<__m128i*>(&r.ray.tfar), tail);
-        r.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-        r.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+        std::memcpy(reinterpret_cast<char*>(&r) + kIdsOffset, &invalid_ids, sizeof invalid_ids);
       }
     }
     out += n;
@@ -438,17 +447,25 @@ Scan ScannerEngine::run(RunContext& ctx) const {
       std::clamp<std::size_t>(kGroupPixels / npix, 1, static_cast<std::size_t>(views)));
   const std::size_t group_rows = static_cast<std::size_t>(group) * static_cast<std::size_t>(R);
   GroupImage image(static_cast<std::size_t>(group) * npix);
+  // Output points per (row, tile column), then the rows' output offsets.
+  std::vector<std::int64_t> segment_points(group_rows * static_cast<std::size_t>(tiles_x_));
   std::vector<std::int64_t> row_start(group_rows + 1);
   std::vector<std::int64_t> row_surface(group_rows), row_outliers(group_rows);
   std::vector<Eigen::Vector3d> row_sum(group_rows);
   tbb::enumerable_thread_specific<std::vector<RTCRayHit>> buffers(
       [&] { return std::vector<RTCRayHit>(static_cast<std::size_t>(kTile * kTile * sub_rays_)); });
   Counters counters;
+  // Noise sigma = a + b r + c (1 / max(cos, 0.01) - 1), in the mesh's units.
+  const double noise_a = diag_ * p_.noise_sigma;
+  const double noise_b = p_.noise_range_slope;
+  const double noise_c = diag_ * p_.noise_incidence_slope;
 
   Scan s;
   PointCloud& cloud = s.cloud;
   cloud.resize(0);
   Eigen::VectorXf cx, cy, cz, flag;
+  std::unique_ptr<Px[]> kind;  // per output point of the group: kPoint, kFlying or kUniform
+  std::size_t kind_size = 0;
   Eigen::Matrix3Xf origins(3, views);
   Json scans = Json::array();
   double t_rays = 0, t_artifacts = 0;
@@ -465,71 +482,81 @@ Scan ScannerEngine::run(RunContext& ctx) const {
     tbb::parallel_for(
         tbb::blocked_range<int>(0, gv * tiles_, 1), [&](const tbb::blocked_range<int>& r) {
           std::vector<RTCRayHit>& buf = buffers.local();
+          const int sub = sub_rays_;
           std::int64_t c_miss = 0, c_grazing = 0, c_range = 0, c_mixed = 0;
           for (int gt = r.begin(); gt < r.end(); ++gt) {
             const int lv = gt / tiles_;
             const int view = g0 + lv;
+            const int t = gt % tiles_;
             const Camera& cam = cameras_[static_cast<std::size_t>(view)];
             const std::size_t base = static_cast<std::size_t>(lv) * npix;
             float* range = image.range.get() + base;
-            std::uint8_t* status = image.status.get() + base;
+            Px* status = image.status.get() + base;
             Eigen::Vector3f* position = image.position.get() + base;
             Eigen::Vector3f* clean = image.clean.get() + base;
             std::int32_t* outliers = image.outliers.get() + base;
-            const Tile tl = tile(gt % tiles_);
+            const Tile tl = tile(t);
             make_tile_rays(cam, tl, buf.data());
             caster.intersect(buf.data(), static_cast<unsigned>(tile_ray_count(tl)));
             Rng rng(derive_seed(derive_seed(pixel_seed, static_cast<std::uint64_t>(view)),
-                                static_cast<std::uint64_t>(gt % tiles_)));
+                                static_cast<std::uint64_t>(t)));
             const RTCRayHit* rh = buf.data();
             for (int v = tl.v0; v < tl.v1; ++v) {
-              for (int u = tl.u0; u < tl.u1; ++u, rh += sub_rays_) {
+              std::int64_t points = 0;
+              for (int u = tl.u0; u < tl.u1; ++u, rh += sub) {
                 const std::size_t i = static_cast<std::size_t>(v) * R + u;
+                unsigned hit_mask = 0;
                 int hits = 0;
-                int first = -1;
-                double sum = 0.0;
-                float lo = std::numeric_limits<float>::infinity();
-                float hi = -lo;
-                for (int k = 0; k < sub_rays_; ++k) {
-                  if (rh[k].hit.geomID == RTC_INVALID_GEOMETRY_ID) continue;
-                  ++hits;
-                  if (first < 0) first = k;
-                  sum += rh[k].ray.tfar;
-                  lo = std::min(lo, rh[k].ray.tfar);
-                  hi = std::max(hi, rh[k].ray.tfar);
+                for (int k = 0; k < sub; ++k) {
+                  const bool hit = rh[k].hit.geomID != RTC_INVALID_GEOMETRY_ID;
+                  hit_mask |= static_cast<unsigned>(hit) << k;
+                  hits += hit;
                 }
-                c_mixed += hits > 0 && (hits < sub_rays_ || hi - lo > jump);
                 if (hits < need) {
+                  c_mixed += hits > 0;  // some but not all sub-rays hit
                   range[i] = std::numeric_limits<float>::infinity();
-                  status[i] = kMiss;
+                  status[i] = Px::kMiss;
                   ++c_miss;
                   continue;
                 }
+                const int first = std::countr_zero(hit_mask);
                 const RTCRayHit& h = rh[first];
-                const Eigen::Vector3f d(h.ray.dir_x, h.ray.dir_y, h.ray.dir_z);
-                const float raw = hits == 1 ? h.ray.tfar : static_cast<float>(sum / hits);
+                float raw = h.ray.tfar;
+                if (hits > 1) {
+                  double sum = 0.0;
+                  float lo = raw, hi = raw;
+                  for (unsigned m = hit_mask; m != 0; m &= m - 1) {
+                    const float tk = rh[std::countr_zero(m)].ray.tfar;
+                    sum += tk;
+                    lo = std::min(lo, tk);
+                    hi = std::max(hi, tk);
+                  }
+                  raw = static_cast<float>(sum / hits);
+                  c_mixed += hits < sub || hi - lo > jump;
+                } else {
+                  c_mixed += hits < sub;
+                }
                 range[i] = raw;
+                const Eigen::Vector3f d(h.ray.dir_x, h.ray.dir_y, h.ray.dir_z);
                 const Eigen::Vector3f ng(h.hit.Ng_x, h.hit.Ng_y, h.hit.Ng_z);
                 const float len = ng.norm();
                 const float cos_incidence =
                     len > 0.0f ? std::min(1.0f, std::abs(ng.dot(d)) / len) : 0.0f;
                 if (cos_incidence < cos_max) {
-                  status[i] = kGrazing;
+                  status[i] = Px::kGrazing;
                   ++c_grazing;
                   continue;
                 }
                 if (raw < range_lo || raw > range_hi) {
-                  status[i] = kOutOfRange;
+                  status[i] = Px::kOutOfRange;
                   ++c_range;
                   continue;
                 }
-                status[i] = kPoint;
+                status[i] = Px::kPoint;
                 clean[i] = cam.origin + h.ray.tfar * d;
                 const double sigma =
-                    diag_ *
-                    (p_.noise_sigma + p_.noise_range_slope * static_cast<double>(raw) / diag_ +
-                     p_.noise_incidence_slope *
-                         (1.0 / std::max(static_cast<double>(cos_incidence), 0.01) - 1.0));
+                    noise_a + noise_b * static_cast<double>(raw) +
+                    noise_c * (1.0 / std::max(static_cast<double>(cos_incidence), 0.01) - 1.0);
                 float noisy = raw;
                 if (sigma > 0.0) noisy += static_cast<float>(sigma * standard_normal(rng));
                 // Along the beam axis: sub-ray 0.
@@ -541,7 +568,10 @@ Scan ScannerEngine::run(RunContext& ctx) const {
                     ++n_out;
                 }
                 outliers[i] = n_out;
+                points += 1 + n_out;
               }
+              segment_points[(static_cast<std::size_t>(lv) * R + v) * tiles_x_ + t % tiles_x_] =
+                  points;
             }
           }
           counters.misses += c_miss;
@@ -552,8 +582,31 @@ Scan ScannerEngine::run(RunContext& ctx) const {
     const auto t1 = Clock::now();
     t_rays += std::chrono::duration<double>(t1 - t0).count();
 
-    // Pass B, row by row: flying pixels (they replace the noisy point; no range noise), per-row
-    // point counts and sums of surface points (reduced below in fixed order).
+    // Serial: the output offsets of the rows (point counts do not depend on flying pixels).
+    const Eigen::Index base = cloud.size();
+    row_start[0] = 0;
+    for (std::size_t gr = 0; gr < static_cast<std::size_t>(rows_g); ++gr) {
+      std::int64_t n_row = 0;
+      for (int tx = 0; tx < tiles_x_; ++tx)
+        n_row += segment_points[gr * tiles_x_ + tx];
+      row_start[gr + 1] = row_start[gr] + n_row;
+    }
+    const Eigen::Index n_group = row_start[static_cast<std::size_t>(rows_g)];
+    const Eigen::Index total = base + n_group;
+    cloud.positions.conservativeResize(3, total);
+    cloud.scan_ids.conservativeResize(total);
+    cx.conservativeResize(total);
+    cy.conservativeResize(total);
+    cz.conservativeResize(total);
+    flag.conservativeResize(total);
+    if (static_cast<std::size_t>(n_group) > kind_size) {
+      kind_size = static_cast<std::size_t>(n_group);
+      kind.reset(new Px[kind_size]);
+    }
+
+    // Pass B, row by row: flying pixels (they replace the noisy point; no range noise), then the
+    // row's points in pixel order, each followed by its uniform outliers, in the true frame; per-
+    // row sums of surface points (reduced below in fixed order).
     tbb::parallel_for(
         tbb::blocked_range<int>(0, rows_g, 1), [&](const tbb::blocked_range<int>& rows) {
           std::int64_t c_flying = 0, c_uniform = 0, c_returned = 0;
@@ -562,19 +615,26 @@ Scan ScannerEngine::run(RunContext& ctx) const {
             const int v = gr % R;
             const int view = g0 + lv;
             const Camera& cam = cameras_[static_cast<std::size_t>(view)];
-            const std::size_t base = static_cast<std::size_t>(lv) * npix;
-            const float* range = image.range.get() + base;
-            std::uint8_t* status = image.status.get() + base;
-            Eigen::Vector3f* position = image.position.get() + base;
-            const std::int32_t* outliers = image.outliers.get() + base;
+            const std::size_t img_base = static_cast<std::size_t>(lv) * npix;
+            const float* range = image.range.get() + img_base;
+            const Px* status = image.status.get() + img_base;
+            const Eigen::Vector3f* position = image.position.get() + img_base;
+            const Eigen::Vector3f* clean = image.clean.get() + img_base;
+            const std::int32_t* outliers = image.outliers.get() + img_base;
             const std::uint64_t view_flying_seed =
                 derive_seed(flying_seed, static_cast<std::uint64_t>(view));
-            std::int64_t count = 0, surface = 0, n_outliers = 0;
+            const std::uint64_t view_outlier_seed =
+                derive_seed(outlier_seed, static_cast<std::uint64_t>(view));
+            const Eigen::Index row_first = base + row_start[static_cast<std::size_t>(gr)];
+            Eigen::Index j = row_first;
+            std::int64_t surface = 0, n_outliers = 0;
             Eigen::Vector3d sum = Eigen::Vector3d::Zero();
             for (int u = 0; u < R; ++u) {
               const std::size_t i = static_cast<std::size_t>(v) * R + u;
-              if (status[i] != kPoint) continue;
+              if (status[i] != Px::kPoint) continue;
               ++c_returned;
+              Eigen::Vector3f p = position[i];
+              bool flying = false;
               if (flying_prob > 0.0) {
                 // The 4-neighbour with the largest range difference; behind a silhouette (no hit)
                 // the far end is range + flying_spread.
@@ -607,23 +667,43 @@ Scan ScannerEngine::run(RunContext& ctx) const {
                   Rng frng(derive_seed(view_flying_seed, i));
                   if (frng.uniform() < flying_prob) {
                     const float depth = r0 + static_cast<float>(frng.uniform()) * (target - r0);
-                    position[i] = cam.origin + depth * axis_dir(cam, u, v);
-                    status[i] = kFlying;
+                    p = cam.origin + depth * axis_dir(cam, u, v);
+                    flying = true;
                     ++c_flying;
                   }
                 }
               }
-              if (status[i] == kPoint) {
-                sum += position[i].cast<double>();
-                ++surface;
-              } else {
+              if (flying) {
                 ++n_outliers;
+              } else {
+                sum += p.cast<double>();
+                ++surface;
               }
-              n_outliers += outliers[i];
-              c_uniform += outliers[i];
-              count += 1 + outliers[i];
+              cloud.positions.col(j) = p;
+              cx[j] = clean[i].x();
+              cy[j] = clean[i].y();
+              cz[j] = clean[i].z();
+              flag[j] = flying ? 1.0f : 0.0f;
+              cloud.scan_ids[j] = view;
+              kind[static_cast<std::size_t>(j - base)] = flying ? Px::kFlying : Px::kPoint;
+              ++j;
+              const std::int32_t n_out = outliers[i];
+              if (n_out == 0) continue;
+              n_outliers += n_out;
+              c_uniform += n_out;
+              Rng orng(derive_seed(view_outlier_seed, i));
+              for (int o = 0; o < n_out; ++o, ++j) {
+                for (int k = 0; k < 3; ++k)
+                  cloud.positions(k, j) =
+                      static_cast<float>(orng.uniform(obox.min[k], obox.max[k]));
+                cx[j] = cloud.positions(0, j);
+                cy[j] = cloud.positions(1, j);
+                cz[j] = cloud.positions(2, j);
+                flag[j] = 1.0f;
+                cloud.scan_ids[j] = view;
+                kind[static_cast<std::size_t>(j - base)] = Px::kUniform;
+              }
             }
-            row_start[static_cast<std::size_t>(gr) + 1] = count;
             row_surface[static_cast<std::size_t>(gr)] = surface;
             row_outliers[static_cast<std::size_t>(gr)] = n_outliers;
             row_sum[static_cast<std::size_t>(gr)] = sum;
@@ -633,14 +713,10 @@ Scan ScannerEngine::run(RunContext& ctx) const {
           counters.returned += c_returned;
         });
 
-    // Serial, fixed order: output offsets, per-scan centres of mass and misalignments.
-    const Eigen::Index base = cloud.size();
-    row_start[0] = 0;
-    for (int gr = 0; gr < rows_g; ++gr)
-      row_start[static_cast<std::size_t>(gr) + 1] += row_start[static_cast<std::size_t>(gr)];
-    const Eigen::Index n_group = row_start[static_cast<std::size_t>(rows_g)];
+    // Serial, fixed order: per-scan centres of mass and misalignments.
     std::vector<Eigen::Matrix3d> rots(static_cast<std::size_t>(gv), Eigen::Matrix3d::Identity());
     std::vector<Eigen::Vector3d> transl(static_cast<std::size_t>(gv), Eigen::Vector3d::Zero());
+    bool any_misaligned = false;
     for (int lv = 0; lv < gv; ++lv) {
       const int view = g0 + lv;
       const Camera& cam = cameras_[static_cast<std::size_t>(view)];
@@ -660,6 +736,7 @@ Scan ScannerEngine::run(RunContext& ctx) const {
       scan_rec["sensor_origin"] = vec_json(cam.origin);
       Json mis = Json(nullptr);
       if (misaligned[static_cast<std::size_t>(view)]) {
+        any_misaligned = true;
         Rng rng(derive_seed(misalign_seed, static_cast<std::uint64_t>(view)));
         auto random_unit = [&rng] {
           while (true) {
@@ -698,61 +775,24 @@ Scan ScannerEngine::run(RunContext& ctx) const {
       scans.push_back(std::move(scan_rec));
     }
 
-    // Pass C: write the group's points in pixel order (misaligned in the same step); uniform
-    // outliers after their pixel.
-    const Eigen::Index total = base + n_group;
-    cloud.positions.conservativeResize(3, total);
-    cloud.scan_ids.conservativeResize(total);
-    cx.conservativeResize(total);
-    cy.conservativeResize(total);
-    cz.conservativeResize(total);
-    flag.conservativeResize(total);
-    tbb::parallel_for(
-        tbb::blocked_range<int>(0, rows_g, 1), [&](const tbb::blocked_range<int>& rows) {
-          for (int gr = rows.begin(); gr < rows.end(); ++gr) {
-            const int lv = gr / R;
-            const int v = gr % R;
-            const int view = g0 + lv;
-            const std::size_t img_base = static_cast<std::size_t>(lv) * npix;
-            const std::uint8_t* status = image.status.get() + img_base;
-            const Eigen::Vector3f* position = image.position.get() + img_base;
-            const Eigen::Vector3f* clean = image.clean.get() + img_base;
-            const std::int32_t* outliers = image.outliers.get() + img_base;
-            const std::uint64_t view_outlier_seed =
-                derive_seed(outlier_seed, static_cast<std::uint64_t>(view));
-            const bool moved = misaligned[static_cast<std::size_t>(view)] != 0;
-            const Eigen::Matrix3d& rot = rots[static_cast<std::size_t>(lv)];
-            const Eigen::Vector3d& trans = transl[static_cast<std::size_t>(lv)];
-            Eigen::Index j = base + row_start[static_cast<std::size_t>(gr)];
-            for (int u = 0; u < R; ++u) {
-              const std::size_t i = static_cast<std::size_t>(v) * R + u;
-              if (status[i] != kPoint && status[i] != kFlying) continue;
-              if (moved) {
-                cloud.positions.col(j) = (rot * position[i].cast<double>() + trans).cast<float>();
-              } else {
-                cloud.positions.col(j) = position[i];
-              }
-              cx[j] = clean[i].x();
-              cy[j] = clean[i].y();
-              cz[j] = clean[i].z();
-              flag[j] = status[i] == kFlying ? 1.0f : 0.0f;
-              cloud.scan_ids[j] = view;
-              ++j;
-              if (outliers[i] == 0) continue;
-              Rng orng(derive_seed(view_outlier_seed, i));
-              for (int o = 0; o < outliers[i]; ++o, ++j) {
-                for (int k = 0; k < 3; ++k)
-                  cloud.positions(k, j) =
-                      static_cast<float>(orng.uniform(obox.min[k], obox.max[k]));
-                cx[j] = cloud.positions(0, j);
-                cy[j] = cloud.positions(1, j);
-                cz[j] = cloud.positions(2, j);
-                flag[j] = 1.0f;
-                cloud.scan_ids[j] = view;
+    // Pass C: misaligned scans move as a whole (surface and flying points; uniform outliers stay).
+    if (any_misaligned) {
+      tbb::parallel_for(
+          tbb::blocked_range<int>(0, rows_g, 1), [&](const tbb::blocked_range<int>& rows) {
+            for (int gr = rows.begin(); gr < rows.end(); ++gr) {
+              const int lv = gr / R;
+              if (!misaligned[static_cast<std::size_t>(g0 + lv)]) continue;
+              const Eigen::Matrix3d& rot = rots[static_cast<std::size_t>(lv)];
+              const Eigen::Vector3d& trans = transl[static_cast<std::size_t>(lv)];
+              const Eigen::Index end = base + row_start[static_cast<std::size_t>(gr) + 1];
+              for (Eigen::Index j = base + row_start[static_cast<std::size_t>(gr)]; j < end; ++j) {
+                if (kind[static_cast<std::size_t>(j - base)] == Px::kUniform) continue;
+                cloud.positions.col(j) =
+                    (rot * cloud.positions.col(j).cast<double>() + trans).cast<float>();
               }
             }
-          }
-        });
+          });
+    }
     t_artifacts += std::chrono::duration<double>(Clock::now() - t1).count();
   }
   ctx.add_phase_time("scan.rays", t_rays);

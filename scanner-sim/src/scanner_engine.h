@@ -46,9 +46,6 @@ class ScannerEngine {
   };
   Tile tile(int t) const;
   int tile_ray_count(const Tile& t) const { return (t.u1 - t.u0) * (t.v1 - t.v0) * sub_rays_; }
-  /// Image-plane coordinates of pixel centres (tangent-plane units).
-  float image_x(const Camera& cam, int u) const;
-  float image_y(const Camera& cam, int v) const;
   /// The unit direction of pixel (u, v)'s beam axis, bit-identical to its cast sub-ray 0.
   Eigen::Vector3f axis_dir(const Camera& cam, int u, int v) const;
   /// Every ray of tile `t` (pixel rows, pixels, sub-rays), ready for rtcIntersect1M.
