@@ -68,8 +68,11 @@ DistanceBenchmarkResult measure_distance_paths(const GroundTruth& gt, const Eige
   r.exact_over_field = r.exact_median / r.field_median;
   // Which queries the field answers itself (the others fell back to the exact path).
   Eigen::VectorXf unused;
-  std::vector<std::uint8_t> inside;
-  gt.field().distances(q, unused, inside);
+  std::vector<Eigen::Index> outside;
+  gt.field().distances(q, unused, outside);
+  std::vector<std::uint8_t> inside(static_cast<std::size_t>(q.cols()), 1);
+  for (const Eigen::Index i : outside)
+    inside[static_cast<std::size_t>(i)] = 0;
   double sum = 0.0, sum_in = 0.0, mx = 0.0;
   Eigen::Index in_band = 0;
   for (Eigen::Index i = 0; i < q.cols(); ++i) {

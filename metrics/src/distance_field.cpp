@@ -5,9 +5,11 @@
 #include <openvdb/tools/LevelSetUtil.h>
 #include <openvdb/tools/MeshToVolume.h>
 #include <tbb/parallel_for.h>
-#include <tbb/parallel_sort.h>
 
+#include <algorithm>
+#include <bit>
 #include <cmath>
+#include <cstdint>
 #include <mutex>
 
 #include "scanbench/core/errors.h"
@@ -22,56 +24,141 @@ void init_openvdb() {
 }
 
 using Accessor = openvdb::FloatGrid::ConstAccessor;
+using Leaf = openvdb::FloatTree::LeafNodeType;
+static_assert(Leaf::LOG2DIM == 3, "the stencil and mask arithmetic assume 8^3 leaves");
 
-// Trilinear interpolation over the 8 voxels around q (index space); false when any is inactive.
-bool sample(const Accessor& acc, const openvdb::math::Transform& xf, const Eigen::Vector3f& q,
-            float& value) {
-  const openvdb::Vec3d ip = xf.worldToIndex(openvdb::Vec3d(q.x(), q.y(), q.z()));
-  const openvdb::Coord base(static_cast<int>(std::floor(ip.x())),
-                            static_cast<int>(std::floor(ip.y())),
-                            static_cast<int>(std::floor(ip.z())));
-  const double fx = ip.x() - base.x();
-  const double fy = ip.y() - base.y();
-  const double fz = ip.z() - base.z();
-  double v[2][2][2];
-  // Fast path: the whole stencil inside one leaf node (8^3 voxels), read without 8 tree walks.
-  using Leaf = openvdb::FloatGrid::TreeType::LeafNodeType;
-  const openvdb::Coord local = base - (base & ~(Leaf::DIM - 1));
-  const Leaf* leaf = nullptr;
-  if (local.x() < static_cast<int>(Leaf::DIM) - 1 && local.y() < static_cast<int>(Leaf::DIM) - 1 &&
-      local.z() < static_cast<int>(Leaf::DIM) - 1)
-    leaf = acc.probeConstLeaf(base);
-  if (leaf) {
-    for (int dx = 0; dx < 2; ++dx)
-      for (int dy = 0; dy < 2; ++dy)
-        for (int dz = 0; dz < 2; ++dz) {
-          const openvdb::Index off = Leaf::coordToOffset(base.offsetBy(dx, dy, dz));
-          if (!leaf->isValueOn(off)) return false;
-          v[dx][dy][dz] = leaf->getValue(off);
-        }
-  } else {
-    for (int dx = 0; dx < 2; ++dx)
-      for (int dy = 0; dy < 2; ++dy)
-        for (int dz = 0; dz < 2; ++dz) {
-          float s = 0.0f;
-          if (!acc.probeValue(base.offsetBy(dx, dy, dz), s)) return false;
-          v[dx][dy][dz] = s;
-        }
+// Index coordinates beyond this are never inside a grid (OpenVDB coordinates are int32).
+constexpr double kMaxIndex = 1 << 30;
+
+// Trilinear sampling over the 8 voxels around a query (index space), false when any of them is
+// inactive. One sampler per thread or chunk: it holds an unregistered accessor (the tree is
+// read-only while queries run) and the leaves of the last 2x2x2 block of leaves, so sorted
+// queries rarely walk the tree.
+class Sampler {
+ public:
+  Sampler(const openvdb::FloatGrid& grid, double inv_voxel)
+      : acc_(grid.tree()), inv_voxel_(inv_voxel) {}
+
+  bool sample(float qx, float qy, float qz, float& value) {
+    // The grid map is a uniform scale with the lattice at the origin: index = world / voxel,
+    // computed exactly as openvdb::math::UniformScaleMap::applyInverseMap does.
+    const double x = static_cast<double>(qx) * inv_voxel_;
+    const double y = static_cast<double>(qy) * inv_voxel_;
+    const double z = static_cast<double>(qz) * inv_voxel_;
+    if (!(std::abs(x) < kMaxIndex && std::abs(y) < kMaxIndex && std::abs(z) < kMaxIndex))
+      return false;
+    const double x0 = std::floor(x), y0 = std::floor(y), z0 = std::floor(z);
+    const openvdb::Coord base(static_cast<int>(x0), static_cast<int>(y0), static_cast<int>(z0));
+    const double fx = x - x0, fy = y - y0, fz = z - z0;
+    double v[2][2][2];
+    const int lx = base.x() & 7, ly = base.y() & 7, lz = base.z() & 7;
+    const Leaf* leaf = nullptr;
+    if (lx < 7 && ly < 7 && lz < 7) leaf = leaf_at(base);
+    if (leaf) {
+      // Stencil inside one leaf: offsets x*64 + y*8 + z; the value mask is 8 words, one per x,
+      // bit y*8 + z, so the 4 (y, z) corners of an x slice are bits b, b+1, b+8, b+9.
+      const unsigned bit = static_cast<unsigned>((ly << 3) | lz);
+      const auto& mask = leaf->getValueMask();
+      constexpr std::uint64_t kCorners = 0x303;
+      if (((mask.getWord<std::uint64_t>(static_cast<openvdb::Index>(lx)) >> bit) & kCorners) !=
+              kCorners ||
+          ((mask.getWord<std::uint64_t>(static_cast<openvdb::Index>(lx + 1)) >> bit) & kCorners) !=
+              kCorners)
+        return false;
+      const float* d = leaf->buffer().data() + ((lx << 6) | static_cast<int>(bit));
+      v[0][0][0] = d[0];
+      v[0][0][1] = d[1];
+      v[0][1][0] = d[8];
+      v[0][1][1] = d[9];
+      v[1][0][0] = d[64];
+      v[1][0][1] = d[65];
+      v[1][1][0] = d[72];
+      v[1][1][1] = d[73];
+    } else {
+      for (int dx = 0; dx < 2; ++dx)
+        for (int dy = 0; dy < 2; ++dy)
+          for (int dz = 0; dz < 2; ++dz) {
+            const openvdb::Coord c = base.offsetBy(dx, dy, dz);
+            float s = 0.0f;
+            if (const Leaf* l = leaf_at(c)) {
+              const openvdb::Index off = Leaf::coordToOffset(c);
+              if (!l->isValueOn(off)) return false;
+              s = l->getValue(off);
+            } else if (!acc_.probeValue(c, s)) {  // a tile or the background
+              return false;
+            }
+            v[dx][dy][dz] = s;
+          }
+    }
+    const double c00 = v[0][0][0] * (1 - fx) + v[1][0][0] * fx;
+    const double c01 = v[0][0][1] * (1 - fx) + v[1][0][1] * fx;
+    const double c10 = v[0][1][0] * (1 - fx) + v[1][1][0] * fx;
+    const double c11 = v[0][1][1] * (1 - fx) + v[1][1][1] * fx;
+    const double c0 = c00 * (1 - fy) + c10 * fy;
+    const double c1 = c01 * (1 - fy) + c11 * fy;
+    value = static_cast<float>(c0 * (1 - fz) + c1 * fz);
+    return true;
   }
-  const double c00 = v[0][0][0] * (1 - fx) + v[1][0][0] * fx;
-  const double c01 = v[0][0][1] * (1 - fx) + v[1][0][1] * fx;
-  const double c10 = v[0][1][0] * (1 - fx) + v[1][1][0] * fx;
-  const double c11 = v[0][1][1] * (1 - fx) + v[1][1][1] * fx;
-  const double c0 = c00 * (1 - fy) + c10 * fy;
-  const double c1 = c01 * (1 - fy) + c11 * fy;
-  value = static_cast<float>(c0 * (1 - fz) + c1 * fz);
-  return true;
+
+ private:
+  // The leaf holding voxel c (nullptr if none). The 8 leaves a stencil can touch form a 2x2x2
+  // block, so the parity of the leaf coordinates gives each a cache slot of its own.
+  const Leaf* leaf_at(const openvdb::Coord& c) {
+    const int slot = ((c.x() >> 3) & 1) | (((c.y() >> 3) & 1) << 1) | (((c.z() >> 3) & 1) << 2);
+    const openvdb::Coord origin(c.x() & ~7, c.y() & ~7, c.z() & ~7);
+    if (!filled_[slot] || origin_[slot] != origin) {
+      leaf_[slot] = acc_.probeConstLeaf(c);
+      origin_[slot] = origin;
+      filled_[slot] = true;
+    }
+    return leaf_[slot];
+  }
+
+  openvdb::tree::ValueAccessor<const openvdb::FloatTree, false> acc_;
+  double inv_voxel_;
+  openvdb::Coord origin_[8];
+  const Leaf* leaf_[8] = {};
+  bool filled_[8] = {};
+};
+
+// Spreads the low 21 bits of v to every third bit (Morton interleave).
+std::uint64_t spread3(std::uint64_t v) {
+  v &= 0x1fffff;
+  v = (v | v << 32) & 0x1f00000000ffffULL;
+  v = (v | v << 16) & 0x1f0000ff0000ffULL;
+  v = (v | v << 8) & 0x100f00f00f00f00fULL;
+  v = (v | v << 4) & 0x10c30c30c30c30c3ULL;
+  v = (v | v << 2) & 0x1249249249249249ULL;
+  return v;
+}
+
+// Stable LSD radix sort of a by bits [lo_bit, hi_bit) (the bits below lo_bit keep their input
+// order, so a starting in index order with the index in the low bits ends totally sorted).
+void radix_sort(std::vector<std::uint64_t>& a, int lo_bit, int hi_bit) {
+  constexpr int kDigit = 11;
+  std::vector<std::uint64_t> tmp(a.size());
+  std::vector<std::size_t> count;
+  for (int shift = lo_bit; shift < hi_bit; shift += kDigit) {
+    const int width = std::min(kDigit, hi_bit - shift);
+    const std::uint64_t mask = (std::uint64_t{1} << width) - 1;
+    count.assign((std::size_t{1} << width) + 1, 0);
+    for (const std::uint64_t v : a)
+      ++count[((v >> shift) & mask) + 1];
+    for (std::size_t k = 1; k < count.size(); ++k)
+      count[k] += count[k - 1];
+    for (const std::uint64_t v : a)
+      tmp[count[(v >> shift) & mask]++] = v;
+    a.swap(tmp);
+  }
 }
 
 }  // namespace
 
 struct DistanceField::Impl {
   openvdb::FloatGrid::Ptr grid;
+  double inv_voxel = 0.0;           // world -> index scale of the grid's uniform-scale map
+  bool empty = true;                // no active voxel
+  openvdb::Coord leaf_lo, leaf_hi;  // leaf coordinates (voxel >> 3) spanned by the active voxels
 };
 
 DistanceField::DistanceField(const TriangleMesh& mesh, float voxel, float band_voxels, Kind kind)
@@ -100,6 +187,16 @@ DistanceField::DistanceField(const TriangleMesh& mesh, float voxel, float band_v
     impl_->grid = openvdb::tools::meshToUnsignedDistanceField<openvdb::FloatGrid>(
         *xf, points, tris, std::vector<openvdb::Vec4I>(), band_voxels);
   }
+  const auto& map = *impl_->grid->transform().baseMap();
+  if (map.type() != openvdb::math::UniformScaleMap::mapType())
+    throw Error("distance field: unexpected grid transform " + map.type());
+  impl_->inv_voxel = 1.0 / impl_->grid->transform().voxelSize()[0];
+  openvdb::CoordBBox box;
+  impl_->empty = !impl_->grid->tree().evalActiveVoxelBoundingBox(box);
+  if (!impl_->empty) {
+    impl_->leaf_lo = openvdb::Coord(box.min().x() >> 3, box.min().y() >> 3, box.min().z() >> 3);
+    impl_->leaf_hi = openvdb::Coord(box.max().x() >> 3, box.max().y() >> 3, box.max().z() >> 3);
+  }
 }
 
 DistanceField::~DistanceField() = default;
@@ -111,9 +208,9 @@ std::uint64_t DistanceField::active_voxels() const {
 }
 
 std::optional<float> DistanceField::value(const Eigen::Vector3f& q) const {
-  const Accessor acc = impl_->grid->getConstAccessor();
+  Sampler sampler(*impl_->grid, impl_->inv_voxel);
   float v = 0.0f;
-  if (!sample(acc, impl_->grid->transform(), q, v)) return std::nullopt;
+  if (!sampler.sample(q.x(), q.y(), q.z(), v)) return std::nullopt;
   return v;
 }
 
@@ -124,43 +221,76 @@ std::optional<float> DistanceField::distance(const Eigen::Vector3f& q) const {
 }
 
 void DistanceField::distances(const Eigen::Matrix3Xf& q, Eigen::VectorXf& out,
-                              std::vector<std::uint8_t>& inside) const {
+                              std::vector<Eigen::Index>& outside) const {
   const Eigen::Index n = q.cols();
   out.resize(n);
-  inside.assign(static_cast<std::size_t>(n), 0);
-  const auto& xf = impl_->grid->transform();
-  // Visit the queries leaf by leaf (sorted by the Morton code of their 8^3 leaf, then by index:
-  // a total order, so the visiting order is deterministic) for cache locality; every result is
-  // written to its own index, so the order never changes a value.
-  std::vector<std::pair<std::uint64_t, Eigen::Index>> order(static_cast<std::size_t>(n));
+  outside.clear();
+  const Impl& m = *impl_;
+  if (m.empty) {
+    for (Eigen::Index i = 0; i < n; ++i)
+      outside.push_back(i);
+    return;
+  }
+  // Visit the queries leaf by leaf for cache locality: key = Morton code of the 8^3 leaf
+  // (clamped to the grid's leaf bounds, coarsened only if it would not fit) above the query
+  // index, so the order is total and depends on q alone. Every value is written to its own
+  // index: the order never changes a result.
+  const auto bits = [](std::uint64_t v) { return static_cast<int>(std::bit_width(v)); };
+  const int idx_bits = bits(static_cast<std::uint64_t>(std::max<Eigen::Index>(n - 1, 0)));
+  int axis_bits = 0;
+  for (int k = 0; k < 3; ++k)
+    axis_bits = std::max(axis_bits, bits(static_cast<std::uint64_t>(m.leaf_hi[k] - m.leaf_lo[k])));
+  int coarsen = 0;
+  while (axis_bits - coarsen > 21 || 3 * (axis_bits - coarsen) + idx_bits > 64)
+    ++coarsen;
+  std::vector<std::uint64_t> order(static_cast<std::size_t>(n));
   tbb::parallel_for(
-      tbb::blocked_range<Eigen::Index>(0, n, 4096), [&](const tbb::blocked_range<Eigen::Index>& r) {
+      tbb::blocked_range<Eigen::Index>(0, n, 8192), [&](const tbb::blocked_range<Eigen::Index>& r) {
         for (Eigen::Index i = r.begin(); i < r.end(); ++i) {
-          const openvdb::Vec3d ip = xf.worldToIndex(openvdb::Vec3d(q(0, i), q(1, i), q(2, i)));
           std::uint64_t key = 0;
           for (int k = 0; k < 3; ++k) {
-            // 21 bits per axis of the leaf coordinate (offset to stay positive).
-            const auto c = static_cast<std::uint64_t>(
-                (static_cast<std::int64_t>(std::floor(ip[k])) >> 3) + (1 << 20));
-            for (int b = 0; b < 21; ++b)
-              key |= ((c >> b) & 1u) << (3 * b + k);
+            const double c = std::floor(static_cast<double>(q(k, i)) * m.inv_voxel / 8.0);
+            const int lo = m.leaf_lo[k], hi = m.leaf_hi[k];
+            // NaN fails both comparisons and lands on lo.
+            const int l = c > hi ? hi : (c >= lo ? static_cast<int>(c) : lo);
+            key |= spread3(static_cast<std::uint64_t>(l - lo) >> coarsen) << k;
           }
-          order[static_cast<std::size_t>(i)] = {key, i};
+          order[static_cast<std::size_t>(i)] = key << idx_bits | static_cast<std::uint64_t>(i);
         }
       });
-  tbb::parallel_sort(order.begin(), order.end());
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, order.size(), 4096),
-                    [&](const tbb::blocked_range<std::size_t>& r) {
-                      const Accessor acc = impl_->grid->getConstAccessor();
-                      for (std::size_t k = r.begin(); k < r.end(); ++k) {
-                        const Eigen::Index i = order[k].second;
-                        float v = 0.0f;
-                        if (sample(acc, xf, q.col(i), v)) {
-                          out[i] = std::abs(v);
-                          inside[static_cast<std::size_t>(i)] = 1;
-                        }
-                      }
-                    });
+  radix_sort(order, idx_bits, idx_bits + 3 * (axis_bits - coarsen));
+
+  // Fixed chunks of the sorted order, each with its own sampler; the outside lists are joined
+  // in chunk order, so they do not depend on the thread count either.
+  constexpr std::size_t kChunk = 4096;
+  constexpr std::size_t kPrefetch = 16;
+  const std::size_t chunks = (order.size() + kChunk - 1) / kChunk;
+  std::vector<std::vector<Eigen::Index>> chunk_outside(chunks);
+  const std::uint64_t idx_mask =
+      idx_bits >= 64 ? ~std::uint64_t{0} : (std::uint64_t{1} << idx_bits) - 1;
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, chunks, 1), [&](const tbb::blocked_range<std::size_t>& r) {
+        for (std::size_t c = r.begin(); c < r.end(); ++c) {
+          Sampler sampler(*m.grid, m.inv_voxel);
+          const std::size_t end = std::min(order.size(), (c + 1) * kChunk);
+          for (std::size_t k = c * kChunk; k < end; ++k) {
+            // The queries are visited out of index order: fetch ahead.
+            if (k + kPrefetch < order.size()) {
+              const auto j = static_cast<Eigen::Index>(order[k + kPrefetch] & idx_mask);
+              __builtin_prefetch(&q(0, j));
+              __builtin_prefetch(&out[j], 1);
+            }
+            const auto i = static_cast<Eigen::Index>(order[k] & idx_mask);
+            float v = 0.0f;
+            if (sampler.sample(q(0, i), q(1, i), q(2, i), v))
+              out[i] = std::abs(v);
+            else
+              chunk_outside[c].push_back(i);
+          }
+        }
+      });
+  for (const auto& co : chunk_outside)
+    outside.insert(outside.end(), co.begin(), co.end());
 }
 
 void DistanceField::write_vdb(const std::filesystem::path& path,

@@ -206,12 +206,11 @@ Eigen::VectorXf GroundTruth::distances(const Eigen::Matrix3Xf& q, DistancePath p
     if (fallbacks) *fallbacks = 0;
     return out;
   }
-  std::vector<std::uint8_t> inside;
-  field().distances(q, out, inside);
+  // The field answers the queries inside its band; the rest take the exact path, in the field's
+  // spatially sorted order (coherent BVH and kd-tree walks; each result has its own slot).
   std::vector<Eigen::Index> outside;
-  for (Eigen::Index i = 0; i < q.cols(); ++i)
-    if (!inside[static_cast<std::size_t>(i)]) outside.push_back(i);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, outside.size(), 64),
+  field().distances(q, out, outside);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, outside.size(), 32),
                     [&](const tbb::blocked_range<std::size_t>& r) {
                       for (std::size_t k = r.begin(); k < r.end(); ++k)
                         out[outside[k]] = closest_point(q.col(outside[k])).distance;

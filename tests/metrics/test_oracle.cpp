@@ -5,6 +5,8 @@
 
 #include <filesystem>
 
+#include <tbb/task_arena.h>
+
 #include "scanbench/core/errors.h"
 #include "scanbench/metrics/closest_point.h"
 #include "scanbench/metrics/distance_field.h"
@@ -169,6 +171,115 @@ TEST(DistanceField, UnsignedForOpenMeshes) {
     EXPECT_NEAR(*d, std::abs(z) * voxel, 0.02 * voxel);
   }
   EXPECT_FALSE(gt.field().distance(Eigen::Vector3f(0.5f, 0.5f, 0.5f)).has_value());
+}
+
+// The batch path (sorted by leaf, per-chunk samplers, in-leaf fast path) against single queries,
+// on points that straddle leaf boundaries (multiples of 8 voxels, on both signs of every axis),
+// lie on lattice points, far away, or beyond the grid's coordinate range; and the same results
+// and outside order with 1 and 2 threads.
+TEST(DistanceField, BatchMatchesSingleQueriesAndIgnoresThreadCount) {
+  const float voxel = 0.02f;
+  const DistanceField f(icosphere(4), voxel, 3.0f, DistanceField::Kind::Signed);
+  Rng rng(11);
+  const Eigen::Index n = 30000;
+  Eigen::Matrix3Xf q(3, n);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    Eigen::Vector3f u(rng.normal(0, 1), rng.normal(0, 1), rng.normal(0, 1));
+    q.col(i) = u.normalized() * static_cast<float>(1.0 + rng.uniform(-4, 4) * voxel);
+    if (i % 5 == 1)  // snap one axis to a leaf boundary (8 voxels), just below or on it
+      q(i % 3, i) = std::round(q(i % 3, i) / (8 * voxel)) * 8 * voxel - (i % 2 ? 0.5f * voxel : 0);
+    if (i % 7 == 2) q.col(i) = (q.col(i) / voxel).array().round().matrix() * voxel;  // lattice
+    if (i % 97 == 3) q.col(i) *= 3.0f;                                               // far
+    if (i % 997 == 4) q(0, i) = (i % 2 ? 1e30f : -1e30f);  // beyond int32 index coordinates
+  }
+  auto batch = [&](int threads, Eigen::VectorXf& out, std::vector<Eigen::Index>& outside) {
+    tbb::task_arena arena(threads);
+    arena.execute([&] { f.distances(q, out, outside); });
+  };
+  Eigen::VectorXf out1, out2;
+  std::vector<Eigen::Index> outside1, outside2;
+  batch(1, out1, outside1);
+  batch(2, out2, outside2);
+  EXPECT_EQ(outside1, outside2);
+  std::vector<char> is_outside(static_cast<std::size_t>(n), 0);
+  for (const Eigen::Index i : outside1) {
+    ASSERT_EQ(is_outside[static_cast<std::size_t>(i)], 0) << "index listed twice: " << i;
+    is_outside[static_cast<std::size_t>(i)] = 1;
+  }
+  Eigen::Index inside = 0;
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const auto d = f.distance(q.col(i));
+    ASSERT_EQ(d.has_value(), !is_outside[static_cast<std::size_t>(i)]) << i;
+    if (!d) continue;
+    ++inside;
+    ASSERT_EQ(out1[i], *d) << i;
+    ASSERT_EQ(out2[i], *d) << i;
+  }
+  EXPECT_GT(inside, n / 2);
+  EXPECT_GT(static_cast<Eigen::Index>(outside1.size()), n / 100);
+}
+
+// A flat open mesh, with its normal along each axis in turn: away from the kink the unsigned
+// distance is linear along the normal, and trilinear interpolation of a linear function is
+// exact, also for stencils across leaf boundaries. A stencil reaching the band's last layer
+// (4 voxels: inactive) must report "outside".
+TEST(DistanceField, BatchIsExactOnALinearFieldAcrossLeaves) {
+  const float voxel = 0.01f;
+  for (int axis = 0; axis < 3; ++axis) {
+    TriangleMesh m = grid(20);
+    for (Eigen::Index v = 0; v < m.num_vertices(); ++v) {
+      const Eigen::Vector3f p = m.vertices.col(v);
+      m.vertices.col(v) = Eigen::Vector3f(p[(2 - axis) % 3], p[(3 - axis) % 3], p[(4 - axis) % 3]);
+    }
+    const DistanceField f(m, voxel, 4.0f, DistanceField::Kind::Unsigned);
+    Rng rng(12);
+    Eigen::Matrix3Xf q(3, 6000);
+    Eigen::VectorXf t(q.cols());  // offset along the normal, in voxels
+    for (Eigen::Index i = 0; i < q.cols(); ++i) {
+      t[i] = static_cast<float>(i % 3 == 0 ? rng.uniform(3.05, 3.95) : rng.uniform(1.1, 2.9));
+      Eigen::Vector3f p(rng.uniform(0.1, 0.9), rng.uniform(0.1, 0.9), rng.uniform(0.1, 0.9));
+      p[axis] = (i % 2 ? 1.0f : -1.0f) * t[i] * voxel;
+      q.col(i) = p;
+    }
+    Eigen::VectorXf out;
+    std::vector<Eigen::Index> outside;
+    f.distances(q, out, outside);
+    std::vector<char> is_outside(static_cast<std::size_t>(q.cols()), 0);
+    for (const Eigen::Index i : outside)
+      is_outside[static_cast<std::size_t>(i)] = 1;
+    for (Eigen::Index i = 0; i < q.cols(); ++i) {
+      ASSERT_EQ(is_outside[static_cast<std::size_t>(i)], i % 3 == 0) << axis << " " << t[i];
+      if (i % 3) {
+        ASSERT_NEAR(out[i], t[i] * voxel, 0.02 * voxel) << axis << " " << i;
+      }
+    }
+  }
+}
+
+// The field path is deterministic: the same distances with 1 and 2 threads, and the fallback
+// answers equal the exact path bit for bit.
+TEST(DistanceField, FieldPathIgnoresThreadCount) {
+  GroundTruth gt(icosphere(3), 3, GroundTruthOptions{1.0 / 150.0, 3.0f});
+  Rng rng(13);
+  Eigen::Matrix3Xf q(3, 8000);
+  for (Eigen::Index i = 0; i < q.cols(); ++i) {
+    Eigen::Vector3f u(rng.normal(0, 1), rng.normal(0, 1), rng.normal(0, 1));
+    q.col(i) = u.normalized() *
+               static_cast<float>(i % 10 ? rng.uniform(0.98, 1.02) : rng.uniform(0.0, 2.0));
+  }
+  Eigen::VectorXf a, b;
+  Eigen::Index fa = 0, fb = 0;
+  tbb::task_arena(1).execute([&] { a = gt.distances(q, DistancePath::Field, &fa); });
+  tbb::task_arena(2).execute([&] { b = gt.distances(q, DistancePath::Field, &fb); });
+  EXPECT_EQ(fa, fb);
+  EXPECT_GT(fa, 0);
+  EXPECT_TRUE(a == b);
+  const Eigen::VectorXf exact = gt.distances(q, DistancePath::Exact);
+  for (Eigen::Index i = 0; i < q.cols(); ++i) {
+    if (!gt.field().distance(q.col(i))) {
+      ASSERT_EQ(a[i], exact[i]) << i;
+    }
+  }
 }
 
 TEST(DistanceField, CompareAndVdbRoundTrip) {

@@ -46,10 +46,12 @@ class DistanceField {
   std::optional<float> distance(const Eigen::Vector3f& q) const;
   /// Signed (Kind::Signed) or unsigned value at q, or nullopt outside the band.
   std::optional<float> value(const Eigen::Vector3f& q) const;
-  /// Batch form of distance(): out[i] = |d(q_i)| and inside[i] = 1, or inside[i] = 0 (out[i]
-  /// undefined) outside the band. Parallel (TBB), per-item results.
+  /// Batch form of distance(): out[i] = |d(q_i)| for the queries inside the band; `outside`
+  /// receives the indices of the others (out[i] undefined for them) in the order the field
+  /// visited them: sorted by the Morton code of their 8^3 leaf, then by index, so spatially
+  /// coherent and a function of q alone (not of the thread count). Parallel (TBB).
   void distances(const Eigen::Matrix3Xf& q, Eigen::VectorXf& out,
-                 std::vector<std::uint8_t>& inside) const;
+                 std::vector<Eigen::Index>& outside) const;
 
   /// Writes the grid to a .vdb file as a FloatGrid named `grid_name` with metadata
   /// (voxel size, band, kind). Throws IoError.
