@@ -279,14 +279,20 @@ struct CameraLanes {
   __m128 fx, fy, fz, rx, ry, rz, ux, uy, uz;
 };
 
-/// normalise(forward + xs right + ys up) in four lanes. SSE is part of baseline x86-64, and each
+/// normalise(forward + xs right + ys up) in four lanes, in two steps: the part that depends on xs
+/// only (shared by the rows of a tile), then the rest. SSE is part of baseline x86-64, and each
 /// lane performs exactly the scalar IEEE operations in a fixed order (no FMA contraction of
-/// intrinsics), so a direction does not depend on the lane it was computed in.
-inline void unit_dirs4(const CameraLanes& c, __m128 xs, __m128 ys, __m128& dx, __m128& dy,
-                       __m128& dz) {
-  dx = _mm_add_ps(_mm_add_ps(c.fx, _mm_mul_ps(xs, c.rx)), _mm_mul_ps(ys, c.ux));
-  dy = _mm_add_ps(_mm_add_ps(c.fy, _mm_mul_ps(xs, c.ry)), _mm_mul_ps(ys, c.uy));
-  dz = _mm_add_ps(_mm_add_ps(c.fz, _mm_mul_ps(xs, c.rz)), _mm_mul_ps(ys, c.uz));
+/// intrinsics), so a direction does not depend on the lane or the step it was computed in.
+inline void dirs4_x(const CameraLanes& c, __m128 xs, __m128& ax, __m128& ay, __m128& az) {
+  ax = _mm_add_ps(c.fx, _mm_mul_ps(xs, c.rx));
+  ay = _mm_add_ps(c.fy, _mm_mul_ps(xs, c.ry));
+  az = _mm_add_ps(c.fz, _mm_mul_ps(xs, c.rz));
+}
+inline void dirs4_y(const CameraLanes& c, __m128 ax, __m128 ay, __m128 az, __m128 ys, __m128& dx,
+                    __m128& dy, __m128& dz) {
+  dx = _mm_add_ps(ax, _mm_mul_ps(ys, c.ux));
+  dy = _mm_add_ps(ay, _mm_mul_ps(ys, c.uy));
+  dz = _mm_add_ps(az, _mm_mul_ps(ys, c.uz));
   const __m128 len2 =
       _mm_add_ps(_mm_add_ps(_mm_mul_ps(dx, dx), _mm_mul_ps(dy, dy)), _mm_mul_ps(dz, dz));
   const __m128 s = _mm_div_ps(_mm_set1_ps(1.0f), _mm_sqrt_ps(len2));
@@ -316,16 +322,19 @@ static_assert(offsetof(RTCRay, tnear) == 12 && offsetof(RTCRay, time) == 28 &&
 Eigen::Vector3f ScannerEngine::axis_dir(const Camera& cam, int u, int v) const {
   // The operations of make_tile_rays for sub-ray 0, so the direction is bit-identical to the
   // cast ray's.
+  const CameraLanes lanes(cam);
   const Eigen::Vector2f& o = beam_offsets_[0];
-  __m128 dx, dy, dz;
-  unit_dirs4(CameraLanes(cam), _mm_set1_ps(image_x(cam, resolution_, u) + o.x()),
-             _mm_set1_ps(image_y(cam, resolution_, v) + o.y()), dx, dy, dz);
+  __m128 ax, ay, az, dx, dy, dz;
+  dirs4_x(lanes, _mm_set1_ps(image_x(cam, resolution_, u) + o.x()), ax, ay, az);
+  dirs4_y(lanes, ax, ay, az,
+          _mm_add_ps(_mm_set1_ps(image_y(cam, resolution_, v)), _mm_set1_ps(o.y())), dx, dy, dz);
   return {_mm_cvtss_f32(dx), _mm_cvtss_f32(dy), _mm_cvtss_f32(dz)};
 }
 
 void ScannerEngine::make_tile_rays(const Camera& cam, const Tile& t, RTCRayHit* out) const {
-  // Runs for every ray: image-plane offsets of one tile row, then four directions per step,
-  // transposed into the AoS stream with three 16-byte stores per ray.
+  // Runs for every ray. The rays of a tile row are (pixel, sub-ray) pairs in the same order in
+  // every row, so the x-dependent half of the directions is computed once per tile; then four
+  // directions per step, transposed into the AoS stream (four stores per ray).
   const CameraLanes lanes(cam);
   const __m128 org_tnear = _mm_setr_ps(cam.origin.x(), cam.origin.y(), cam.origin.z(), 0.0f);
   const float tfar = static_cast<float>(p_.range_max) * diag_;
@@ -336,26 +345,34 @@ void ScannerEngine::make_tile_rays(const Camera& cam, const Tile& t, RTCRayHit* 
   constexpr std::uint64_t invalid_ids =
       std::uint64_t{RTC_INVALID_GEOMETRY_ID} | (std::uint64_t{RTC_INVALID_GEOMETRY_ID} << 32);
   const int n = (t.u1 - t.u0) * sub_rays_;
-  alignas(16) float xs[kTile * kMaxSubRays + 4];
-  alignas(16) float ys[kTile * kMaxSubRays + 4];
+  constexpr int kRow = kTile * kMaxSubRays + 4;
+  alignas(16) float xs[kRow], oy[kRow], ax[kRow], ay[kRow], az[kRow];
+  int j = 0;
+  for (int u = t.u0; u < t.u1; ++u) {
+    const float x = image_x(cam, resolution_, u);
+    for (int k = 0; k < sub_rays_; ++k, ++j) {
+      const Eigen::Vector2f& o = beam_offsets_[static_cast<std::size_t>(k)];
+      xs[j] = x + o.x();
+      oy[j] = o.y();
+    }
+  }
+  for (; j % 4 != 0; ++j) {
+    xs[j] = 0.0f;
+    oy[j] = 0.0f;
+  }
+  for (int j0 = 0; j0 < n; j0 += 4) {
+    __m128 px, py, pz;
+    dirs4_x(lanes, _mm_load_ps(xs + j0), px, py, pz);
+    _mm_store_ps(ax + j0, px);
+    _mm_store_ps(ay + j0, py);
+    _mm_store_ps(az + j0, pz);
+  }
   for (int v = t.v0; v < t.v1; ++v) {
-    const float y = image_y(cam, resolution_, v);
-    int j = 0;
-    for (int u = t.u0; u < t.u1; ++u) {
-      const float x = image_x(cam, resolution_, u);
-      for (int k = 0; k < sub_rays_; ++k, ++j) {
-        const Eigen::Vector2f& o = beam_offsets_[static_cast<std::size_t>(k)];
-        xs[j] = x + o.x();
-        ys[j] = y + o.y();
-      }
-    }
-    for (; j % 4 != 0; ++j) {
-      xs[j] = 0.0f;
-      ys[j] = 0.0f;
-    }
+    const __m128 y = _mm_set1_ps(image_y(cam, resolution_, v));
     for (int j0 = 0; j0 < n; j0 += 4) {
       __m128 dx, dy, dz;
-      unit_dirs4(lanes, _mm_load_ps(xs + j0), _mm_load_ps(ys + j0), dx, dy, dz);
+      dirs4_y(lanes, _mm_load_ps(ax + j0), _mm_load_ps(ay + j0), _mm_load_ps(az + j0),
+              _mm_add_ps(y, _mm_load_ps(oy + j0)), dx, dy, dz);
       __m128 time = _mm_setzero_ps();
       _MM_TRANSPOSE4_PS(dx, dy, dz, time);
       const __m128 dir_time[4] = {dx, dy, dz, time};
