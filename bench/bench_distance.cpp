@@ -7,6 +7,7 @@
 
 #include <cstdlib>
 #include <memory>
+#include <vector>
 
 #include "scanbench/core/datasets.h"
 #include "scanbench/core/io.h"
@@ -54,6 +55,19 @@ void BM_DistanceField(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations() * q.cols());
 }
 
+// The field's own part of the field path: leaf sort and trilinear samples, no exact fallback.
+void BM_FieldSampling(benchmark::State& state) {
+  const Fixture& f = fixture();
+  const Eigen::Matrix3Xf q = f.queries.leftCols(state.range(0));
+  Eigen::VectorXf out;
+  std::vector<Eigen::Index> outside;
+  for (auto _ : state) {
+    f.gt->field().distances(q, out, outside);
+    benchmark::DoNotOptimize(out.data());
+  }
+  state.SetItemsProcessed(state.iterations() * q.cols());
+}
+
 void BM_FieldBuild(benchmark::State& state) {
   const Fixture& f = fixture();
   const float voxel = f.gt->field().voxel_size();
@@ -74,6 +88,11 @@ BENCHMARK(BM_DistanceExact)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 BENCHMARK(BM_DistanceField)
+    ->Arg(100000)
+    ->Arg(1000000)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+BENCHMARK(BM_FieldSampling)
     ->Arg(100000)
     ->Arg(1000000)
     ->Unit(benchmark::kMillisecond)

@@ -62,9 +62,15 @@ DistanceBenchmarkResult measure_distance_paths(const GroundTruth& gt, const Eige
     t0 = std::chrono::steady_clock::now();
     field = gt.distances(q, DistancePath::Field, &r.fallbacks);
     r.field_seconds.push_back(seconds_since(t0));
+    Eigen::VectorXf sampled;
+    std::vector<Eigen::Index> outside;
+    t0 = std::chrono::steady_clock::now();
+    gt.field().distances(q, sampled, outside);
+    r.sampling_seconds.push_back(seconds_since(t0));
   }
   r.exact_median = median(r.exact_seconds);
   r.field_median = median(r.field_seconds);
+  r.sampling_median = median(r.sampling_seconds);
   r.exact_over_field = r.exact_median / r.field_median;
   // Which queries the field answers itself (the others fell back to the exact path).
   Eigen::VectorXf unused;
