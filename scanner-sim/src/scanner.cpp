@@ -522,13 +522,10 @@ Scan ScannerEngine::run(RunContext& ctx) const {
               std::int64_t points = 0;
               for (int u = tl.u0; u < tl.u1; ++u, rh += sub) {
                 const std::size_t i = static_cast<std::size_t>(v) * R + u;
-                unsigned hit_mask = 0;
+                // Hit counts first: the sub-rays of most pixels all hit or all miss.
                 int hits = 0;
-                for (int k = 0; k < sub; ++k) {
-                  const bool hit = rh[k].hit.geomID != RTC_INVALID_GEOMETRY_ID;
-                  hit_mask |= static_cast<unsigned>(hit) << k;
-                  hits += hit;
-                }
+                for (int k = 0; k < sub; ++k)
+                  hits += rh[k].hit.geomID != RTC_INVALID_GEOMETRY_ID;
                 if (hits < need) {
                   c_mixed += hits > 0;  // some but not all sub-rays hit
                   range[i] = std::numeric_limits<float>::infinity();
@@ -536,14 +533,19 @@ Scan ScannerEngine::run(RunContext& ctx) const {
                   ++c_miss;
                   continue;
                 }
-                const int first = std::countr_zero(hit_mask);
+                int first = 0;
+                if (hits < sub) {
+                  while (rh[first].hit.geomID == RTC_INVALID_GEOMETRY_ID)
+                    ++first;
+                }
                 const RTCRayHit& h = rh[first];
                 float raw = h.ray.tfar;
                 if (hits > 1) {
                   double sum = 0.0;
                   float lo = raw, hi = raw;
-                  for (unsigned m = hit_mask; m != 0; m &= m - 1) {
-                    const float tk = rh[std::countr_zero(m)].ray.tfar;
+                  for (int k = first; k < sub; ++k) {
+                    if (rh[k].hit.geomID == RTC_INVALID_GEOMETRY_ID) continue;
+                    const float tk = rh[k].ray.tfar;
                     sum += tk;
                     lo = std::min(lo, tk);
                     hi = std::max(hi, tk);
@@ -554,12 +556,13 @@ Scan ScannerEngine::run(RunContext& ctx) const {
                   c_mixed += hits < sub;
                 }
                 range[i] = raw;
+                // Incidence between the ray and the unoriented face normal, without dividing:
+                // cos = |n.d| / |n|; grazing when cos < cos_max; 1 / max(cos, 0.01) for the noise.
                 const Eigen::Vector3f d(h.ray.dir_x, h.ray.dir_y, h.ray.dir_z);
                 const Eigen::Vector3f ng(h.hit.Ng_x, h.hit.Ng_y, h.hit.Ng_z);
                 const float len = ng.norm();
-                const float cos_incidence =
-                    len > 0.0f ? std::min(1.0f, std::abs(ng.dot(d)) / len) : 0.0f;
-                if (cos_incidence < cos_max) {
+                const float dot = std::abs(ng.dot(d));
+                if (dot < cos_max * len || (len == 0.0f && cos_max > 0.0f)) {
                   status[i] = Px::kGrazing;
                   ++c_grazing;
                   continue;
@@ -571,9 +574,10 @@ Scan ScannerEngine::run(RunContext& ctx) const {
                 }
                 status[i] = Px::kPoint;
                 clean[i] = cam.origin + h.ray.tfar * d;
-                const double sigma =
-                    noise_a + noise_b * static_cast<double>(raw) +
-                    noise_c * (1.0 / std::max(static_cast<double>(cos_incidence), 0.01) - 1.0);
+                const float inv_cos =
+                    len > 0.0f ? std::max(1.0f, len / std::max(dot, 0.01f * len)) : 100.0f;
+                const double sigma = noise_a + noise_b * static_cast<double>(raw) +
+                                     noise_c * (static_cast<double>(inv_cos) - 1.0);
                 float noisy = raw;
                 if (sigma > 0.0) noisy += static_cast<float>(sigma * standard_normal(rng));
                 // Along the beam axis: sub-ray 0.
