@@ -17,6 +17,7 @@
 #include "projection_kernels.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/kdtree.h"
+#include "simd_exp.h"
 
 namespace scanbench::algorithms {
 
@@ -194,9 +195,10 @@ class PreparedMixture {
                     if (jj == 0) break;
                     continue;
                   }
-                  const Packet w = ei::pand(ei::pexp(ei::padd(ei::ploadu<Packet>(a + 6 * np + t),
-                                                              ei::pmul(minus_half, quad))),
-                                            in);
+                  const Packet w =
+                      ei::pand(detail::fast_pexp(ei::padd(ei::ploadu<Packet>(a + 6 * np + t),
+                                                          ei::pmul(minus_half, quad))),
+                               in);
                   const Packet ws = ei::pmul(w, ei::pset1<Packet>(s2_[j0 + jj]));
                   sw = ei::padd(sw, w);
                   sx = ei::padd(sx, ei::pmul(ws, tx));

@@ -1,4 +1,5 @@
 #include "projection_kernels.h"
+#include "simd_exp.h"
 
 #include <fmt/format.h>
 #include <tbb/blocked_range.h>
@@ -118,9 +119,9 @@ std::pair<float, Eigen::Vector3f> kernel_sums(const detail::NeighborGrid& g,
       Packet k;
       if constexpr (Alpha) {
         const Packet rc2 = ei::pmax(r2, floor2);
-        k = ei::pdiv(ei::pexp(ei::pmul(kk, rc2)), ei::psqrt(rc2));
+        k = ei::pdiv(detail::fast_pexp(ei::pmul(kk, rc2)), ei::psqrt(rc2));
       } else {
-        k = ei::pexp(ei::pmul(kk, r2));
+        k = detail::fast_pexp(ei::pmul(kk, r2));
       }
       k = ei::pand(ei::pmul(k, ei::ploadu<Packet>(pw + t)), inside);
       sw = ei::padd(sw, k);

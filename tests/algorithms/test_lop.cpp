@@ -13,6 +13,7 @@
 #include "scanbench/core/errors.h"
 #include "scanbench/core/kdtree.h"
 #include "scanbench/core/rng.h"
+#include "simd_exp.h"
 
 namespace scanbench::algorithms {
 namespace {
@@ -224,6 +225,26 @@ TEST(NeighborGrid, RangesHoldEveryPointWithinTheRadius) {
         EXPECT_EQ(k, 1);
     }
   }
+}
+
+// The kernels' exp is Eigen's pexp with a faster ldexp: bit-identical on the range it is used.
+TEST(ProjectionKernels, FastExpIsBitIdenticalToEigenExp) {
+  using Packet = Eigen::internal::packet_traits<float>::type;
+  constexpr int lanes = Eigen::internal::packet_traits<float>::size;
+  float in[lanes], a[lanes], b[lanes];
+  int mismatches = 0;
+  for (int k = -870000; k <= 880000; k += lanes) {
+    for (int l = 0; l < lanes; ++l)
+      in[l] = static_cast<float>(k + l) * 1e-4f + 1.37e-5f * static_cast<float>(l);
+    const Packet x = Eigen::internal::ploadu<Packet>(in);
+    Eigen::internal::pstoreu(a, detail::fast_pexp(x));
+    Eigen::internal::pstoreu(b, Eigen::internal::pexp(x));
+    for (int l = 0; l < lanes; ++l)
+      mismatches += std::memcmp(&a[l], &b[l], sizeof(float)) != 0;
+  }
+  EXPECT_EQ(mismatches, 0);
+  Eigen::internal::pstoreu(a, detail::fast_pexp(Eigen::internal::pset1<Packet>(-200.0f)));
+  EXPECT_EQ(a[0], 0.0f);
 }
 
 TEST(ProjectionKernels, ParticleCount) {
