@@ -7,6 +7,7 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <memory>
@@ -34,13 +35,16 @@ struct Precomputed {
 
 using Packet = Eigen::internal::packet_traits<float>::type;
 constexpr int kLanes = Eigen::internal::packet_traits<float>::size;
+constexpr int kShells = 8;
 
 // Per-thread scratch of one cell of particles: the candidate components in structure-of-arrays
 // form, field by field (mean x, y, z, then per kernel the six entries of Lambda^-1 and the log
 // prefactor), each field padded to a multiple of the packet size.
 struct CellScratch {
   std::vector<std::pair<Index, float>> hits;
-  std::vector<Index> ids;
+  std::vector<Index> ids, sorted;
+  std::vector<float> d2;
+  std::vector<int> shell;
   std::vector<float> soa;
   std::vector<float> valid;  // all-ones bit pattern for real candidates, 0 for the padding
 };
@@ -138,6 +142,30 @@ class PreparedMixture {
             sc.ids.clear();
             index_.for_each_near(center, radii, sc.hits, [&](Index s) { sc.ids.push_back(s); });
             const auto m = static_cast<Index>(sc.ids.size());
+            // Candidates ordered by distance shell around the cell centre (a stable counting
+            // sort), so that the terms out of reach of a particle, above all those of the
+            // narrow kernels, fill whole packets that are skipped.
+            {
+              float far2 = 0.0f;
+              sc.d2.resize(sc.ids.size());
+              for (std::size_t k = 0; k < sc.ids.size(); ++k) {
+                sc.d2[k] = (means_.col(sc.ids[k]) - center).squaredNorm();
+                far2 = std::max(far2, sc.d2[k]);
+              }
+              std::array<std::size_t, kShells + 1> next{};
+              const float scale = far2 > 0.0f ? kShells / std::sqrt(far2) : 0.0f;
+              sc.shell.resize(sc.ids.size());
+              for (std::size_t k = 0; k < sc.ids.size(); ++k) {
+                sc.shell[k] = std::min(kShells - 1, static_cast<int>(std::sqrt(sc.d2[k]) * scale));
+                ++next[static_cast<std::size_t>(sc.shell[k]) + 1];
+              }
+              for (int b = 0; b < kShells; ++b)
+                next[static_cast<std::size_t>(b) + 1] += next[static_cast<std::size_t>(b)];
+              sc.sorted.resize(sc.ids.size());
+              for (std::size_t k = 0; k < sc.ids.size(); ++k)
+                sc.sorted[next[static_cast<std::size_t>(sc.shell[k])]++] = sc.ids[k];
+              sc.ids.swap(sc.sorted);
+            }
             const Index padded = (m + kLanes - 1) / kLanes * kLanes;
             const auto np = static_cast<std::size_t>(padded);
             sc.soa.assign(nf * np, 0.0f);
