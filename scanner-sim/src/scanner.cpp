@@ -650,7 +650,20 @@ Scan ScannerEngine::run(RunContext& ctx) const {
             Eigen::Index j = row_first;
             std::int64_t surface = 0, n_outliers = 0;
             Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+            float* out_pos = cloud.positions.data();
+            float* out_cx = cx.data();
+            float* out_cy = cy.data();
+            float* out_cz = cz.data();
+            float* out_flag = flag.data();
+            int* out_id = cloud.scan_ids.data();
+            Px* out_kind = kind.get();  // indexed from the group's first point
+            const std::int64_t* segments =
+                segment_points.data() + static_cast<std::size_t>(gr) * tiles_x_;
             for (int u = 0; u < R; ++u) {
+              if (u % kTile == 0 && segments[u / kTile] == 0) {
+                u += kTile - 1;  // no point in this tile's part of the row
+                continue;
+              }
               const std::size_t i = static_cast<std::size_t>(v) * R + u;
               if (status[i] != Px::kPoint) continue;
               ++c_returned;
@@ -700,13 +713,15 @@ Scan ScannerEngine::run(RunContext& ctx) const {
                 sum += p.cast<double>();
                 ++surface;
               }
-              cloud.positions.col(j) = p;
-              cx[j] = clean[i].x();
-              cy[j] = clean[i].y();
-              cz[j] = clean[i].z();
-              flag[j] = flying ? 1.0f : 0.0f;
-              cloud.scan_ids[j] = view;
-              kind[static_cast<std::size_t>(j - base)] = flying ? Px::kFlying : Px::kPoint;
+              out_pos[3 * j] = p.x();
+              out_pos[3 * j + 1] = p.y();
+              out_pos[3 * j + 2] = p.z();
+              out_cx[j] = clean[i].x();
+              out_cy[j] = clean[i].y();
+              out_cz[j] = clean[i].z();
+              out_flag[j] = flying ? 1.0f : 0.0f;
+              out_id[j] = view;
+              out_kind[j - base] = flying ? Px::kFlying : Px::kPoint;
               ++j;
               const std::int32_t n_out = outliers[i];
               if (n_out == 0) continue;
@@ -714,15 +729,15 @@ Scan ScannerEngine::run(RunContext& ctx) const {
               c_uniform += n_out;
               Rng orng(derive_seed(view_outlier_seed, i));
               for (int o = 0; o < n_out; ++o, ++j) {
+                float q[3];
                 for (int k = 0; k < 3; ++k)
-                  cloud.positions(k, j) =
-                      static_cast<float>(orng.uniform(obox.min[k], obox.max[k]));
-                cx[j] = cloud.positions(0, j);
-                cy[j] = cloud.positions(1, j);
-                cz[j] = cloud.positions(2, j);
-                flag[j] = 1.0f;
-                cloud.scan_ids[j] = view;
-                kind[static_cast<std::size_t>(j - base)] = Px::kUniform;
+                  q[k] = static_cast<float>(orng.uniform(obox.min[k], obox.max[k]));
+                out_pos[3 * j] = out_cx[j] = q[0];
+                out_pos[3 * j + 1] = out_cy[j] = q[1];
+                out_pos[3 * j + 2] = out_cz[j] = q[2];
+                out_flag[j] = 1.0f;
+                out_id[j] = view;
+                out_kind[j - base] = Px::kUniform;
               }
             }
             row_surface[static_cast<std::size_t>(gr)] = surface;
