@@ -65,8 +65,11 @@ class GroundTruth {
   /// Exact closest points of every column of q, in parallel; out has q.cols() entries.
   std::vector<ClosestPoint> closest_points(const Eigen::Matrix3Xf& q) const;
 
-  /// Unsigned distances of every column of q by the chosen path. With DistancePath::Field,
-  /// queries outside the band use the exact path; *fallbacks (if given) receives their count.
+  /// Unsigned distances of every column of q by the chosen path. Exact: every query through
+  /// closest_point, in input order. Field: DistanceField::distances (queries visited in leaf
+  /// Morton order), then the queries outside the band through closest_point in that spatial
+  /// order; *fallbacks (if given) receives their count. Both are independent of the thread
+  /// count; the fallback answers equal the exact path's bit for bit.
   Eigen::VectorXf distances(const Eigen::Matrix3Xf& q, DistancePath path,
                             Eigen::Index* fallbacks = nullptr) const;
 
