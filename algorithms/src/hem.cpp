@@ -104,6 +104,7 @@ Eigen::SelfAdjointEigenSolver<Matrix3d> eigen_decomposition(const Matrix3d& a) {
 // block's contiguous ranges of the sorted coordinates.
 struct Grid {
   double width = 0.0;
+  Vector3d origin = Vector3d::Zero();   // cell (i, j, k) spans origin + width * [i, i + 1) x ...
   std::vector<Index> order;             // point indices in grid order
   std::vector<float> x, y, z;           // their coordinates (structure of arrays)
   std::vector<std::uint64_t> key;       // coarse cells, ascending
@@ -143,6 +144,41 @@ struct Grid {
                            start[static_cast<std::size_t>(last - key.begin())]);
       }
   }
+
+  struct Cell {
+    std::size_t begin, end;  // positions
+    Vector3d lo;             // lower corner of the cube (upper: lo + width)
+  };
+  // The existing cells of the block around cell c, cell c first, then in key order.
+  void block_cells(std::size_t c, std::vector<Cell>& out) const {
+    out.clear();
+    constexpr std::uint64_t kMask = (std::uint64_t{1} << 21) - 1;
+    auto corner = [&](std::uint64_t k) {
+      return Vector3d(origin.x() + width * static_cast<double>(k >> 42),
+                      origin.y() + width * static_cast<double>((k >> 21) & kMask),
+                      origin.z() + width * static_cast<double>(k & kMask));
+    };
+    out.push_back({start[c], start[c + 1], corner(key[c])});
+    std::vector<Range> columns;
+    block(c, columns);
+    for (const auto& [b, e] : columns)
+      for (std::size_t pos = b; pos < e;) {
+        const auto ci = static_cast<std::size_t>(std::upper_bound(start.begin(), start.end(), pos) -
+                                                 start.begin() - 1);
+        if (ci != c) out.push_back({start[ci], start[ci + 1], corner(key[ci])});
+        pos = start[ci + 1];
+      }
+  }
+
+  // A lower bound of the squared distance from q to the points of `cell`: the distance to its
+  // cube grown by 1e-9 width (points sit in their cube up to the rounding of the cell index),
+  // shrunk by 1e-6 relative (the float distances it is compared with).
+  double box_distance2(const Vector3d& q, const Cell& cell) const {
+    const double hair = 1e-9 * width;
+    const Vector3d below = cell.lo - q - Vector3d::Constant(hair);
+    const Vector3d above = q - (cell.lo + Vector3d::Constant(width + hair));
+    return below.cwiseMax(above).cwiseMax(0.0).squaredNorm() * (1.0 - 1e-6);
+  }
 };
 
 Grid make_grid(const Eigen::Matrix3Xf& pts, double width, int split) {
@@ -153,6 +189,7 @@ Grid make_grid(const Eigen::Matrix3Xf& pts, double width, int split) {
   Grid g;
   g.width = std::max(width, static_cast<double>((hi - lo).maxCoeff()) / kAxisCells);
   if (!(g.width > 0.0) || !std::isfinite(g.width)) g.width = 1.0;
+  g.origin = lo.cast<double>();
   const double fine = g.width / split;
   struct Entry {
     std::uint64_t key;
@@ -245,6 +282,20 @@ inline Float4 exp_nonpositive(Float4 x) {
   return y * reinterpret_cast<Float4>(bits);
 }
 
+inline Float4 load4(const float* p) {
+  Float4 v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+
+// Whether any lane of a comparison result is set.
+inline bool any_lane(Int4 mask) {
+  std::uint64_t lo = 0, hi = 0;
+  std::memcpy(&lo, &mask, sizeof lo);
+  std::memcpy(&hi, reinterpret_cast<const char*>(&mask) + sizeof lo, sizeof hi);
+  return (lo | hi) != 0;
+}
+
 // Candidate coordinates padded to whole vectors with points at infinity, and their grid positions.
 struct Candidates {
   std::vector<float> x, y, z;
@@ -274,14 +325,8 @@ struct Candidates {
   }
 };
 
-inline Float4 load4(const float* p) {
-  Float4 v;
-  std::memcpy(&v, p, sizeof v);
-  return v;
-}
-
 // WLOP density v_j = 1 + sum_{j' != j, |p_j - p_j'| <= h} exp(-16 |p_j - p_j'|^2 / h^2) of every
-// point, on a grid of coarse width >= h split into fine cells of width h/4. Each pair is
+// point, on a grid of coarse width >= h split into fine cells of width h/3. Each pair is
 // evaluated once: within a fine cell both ways, across fine cells by the earlier cell (its
 // candidates: the later points of its block within h + reach of its centre), adding the term to
 // both points. Partial sums are added in 2^-b fixed point: integer sums are exact and
@@ -294,7 +339,9 @@ std::vector<double> density_weights(const Grid& g, double h) {
   // v <= n: 2^b n < 2^62.
   const int bits = 62 - static_cast<int>(std::ceil(std::log2(static_cast<double>(n) + 1.0)));
   const double scale = std::ldexp(1.0, bits);
-  auto fixed = [&](float x) { return std::llround(static_cast<double>(x) * scale); };
+  auto fixed = [&](float x) {  // x >= 0; rounding to nearest (any fixed rule is deterministic)
+    return static_cast<long long>(static_cast<double>(x) * scale + 0.5);
+  };
   tbb::enumerable_thread_specific<std::vector<long long>> sums(
       [n] { return std::vector<long long>(n, 0); });
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, g.cells(), 1), [&](const auto& rr) {
@@ -313,13 +360,29 @@ std::vector<double> density_weights(const Grid& g, double h) {
         const Vector3f centre = g.fine_centre[f];
         const float reach = hf * (1.0f + kSlack) + g.fine_reach[f];
         const float reach2 = reach * reach;
-        cand.clear();
+        // Branch-free compaction into arrays sized for the whole block.
+        std::size_t bound = 4;
+        for (const auto& [b, e] : ranges)
+          bound += e - std::min(e, std::max(b, own_e));
+        cand.x.resize(bound);
+        cand.y.resize(bound);
+        cand.z.resize(bound);
+        cand.pos.resize(bound);
+        std::size_t m = 0;
         for (const auto& [b, e] : ranges)
           for (std::size_t k = std::max(b, own_e); k < e; ++k) {
             const float dx = g.x[k] - centre.x(), dy = g.y[k] - centre.y(),
                         dz = g.z[k] - centre.z();
-            if (dx * dx + dy * dy + dz * dz <= reach2) cand.add(g.x, g.y, g.z, k);
+            cand.x[m] = g.x[k];
+            cand.y[m] = g.y[k];
+            cand.z[m] = g.z[k];
+            cand.pos[m] = k;
+            m += dx * dx + dy * dy + dz * dz <= reach2 ? 1 : 0;
           }
+        cand.x.resize(m);
+        cand.y.resize(m);
+        cand.z.resize(m);
+        cand.pos.resize(m);
         cand.pad();
         col.assign(cand.x.size(), 0.0f);
         // theta for 4 candidates; beyond h the exponent is -80, a term under 2e-35 that
@@ -409,17 +472,27 @@ std::vector<Component> initial_mixture(const Eigen::Matrix3Xf& pts, const HemPar
   auto set_initial = [&](Index j, double r, auto&& for_each) {
     const double r2 = r * r;
     const Vector3d pj = pts.col(j).cast<double>();
-    Vector3d sum = Vector3d::Zero();
-    Matrix3d sum2 = Matrix3d::Zero();
-    double count = 0.0;
-    for_each([&](const Vector3d& q) {
-      const Vector3d dlt = q - pj;  // centred at p_j for precision
-      if (dlt.squaredNorm() <= r2) {
-        sum += dlt;
-        sum2 += dlt * dlt.transpose();
+    // Moments centred at p_j for precision (six scalars: no temporaries in the hot loop).
+    double sx = 0.0, sy = 0.0, sz = 0.0, sxx = 0.0, sxy = 0.0, sxz = 0.0, syy = 0.0, syz = 0.0,
+           szz = 0.0, count = 0.0;
+    for_each([&](double qx, double qy, double qz) {
+      const double dx = qx - pj.x(), dy = qy - pj.y(), dz = qz - pj.z();
+      if (dx * dx + dy * dy + dz * dz <= r2) {
+        sx += dx;
+        sy += dy;
+        sz += dz;
+        sxx += dx * dx;
+        sxy += dx * dy;
+        sxz += dx * dz;
+        syy += dy * dy;
+        syz += dy * dz;
+        szz += dz * dz;
         count += 1.0;
       }
     });
+    const Vector3d sum(sx, sy, sz);
+    Matrix3d sum2;
+    sum2 << sxx, sxy, sxz, sxy, syy, syz, sxz, syz, szz;
     Component& comp = comps[static_cast<std::size_t>(j)];
     comp.mu = pj;
     const double bias = p.cov_bias * r2;
@@ -443,55 +516,58 @@ std::vector<Component> initial_mixture(const Eigen::Matrix3Xf& pts, const HemPar
     tree.radius(pts.col(j), static_cast<float>(r) * (1.0f + kSlack), own);
     set_initial(j, r, [&](auto&& f) {
       for (const auto& hit : own)
-        f(pts.col(hit.first).cast<double>());
+        f(pts(0, hit.first), pts(1, hit.first), pts(2, hit.first));
     });
   };
 
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, g.cells(), 4), [&](const auto& rr) {
-    std::vector<Range> ranges;
-    Candidates cand;
-    std::vector<float> d2;
-    std::vector<std::uint32_t> near;
+    std::vector<Grid::Cell> block;
     std::vector<float> best(static_cast<std::size_t>(k_nn));
     for (std::size_t c = rr.begin(); c != rr.end(); ++c) {
-      g.block(c, ranges);
-      cand.clear();
-      for (const auto& [b, e] : ranges) {
-        cand.x.insert(cand.x.end(), g.x.begin() + static_cast<std::ptrdiff_t>(b),
-                      g.x.begin() + static_cast<std::ptrdiff_t>(e));
-        cand.y.insert(cand.y.end(), g.y.begin() + static_cast<std::ptrdiff_t>(b),
-                      g.y.begin() + static_cast<std::ptrdiff_t>(e));
-        cand.z.insert(cand.z.end(), g.z.begin() + static_cast<std::ptrdiff_t>(b),
-                      g.z.begin() + static_cast<std::ptrdiff_t>(e));
-      }
-      cand.pad();
-      const std::size_t m = cand.x.size();
-      d2.resize(m);
-      near.resize(m);
+      g.block_cells(c, block);
       for (std::size_t k = g.start[c]; k < g.start[c + 1]; ++k) {
         const Index j = g.order[k];
         const float qx = g.x[k], qy = g.y[k], qz = g.z[k];
-        // Squared float distances as the kd-tree evaluates them ((dx^2 + dy^2) + dz^2).
-        for (std::size_t i = 0; i < m; ++i) {
-          const float dx = cand.x[i] - qx, dy = cand.y[i] - qy, dz = cand.z[i] - qz;
-          d2[i] = dx * dx + dy * dy + dz * dz;
-        }
+        const Vector3d q(qx, qy, qz);
+        // Squared float distances as the kd-tree evaluates them ((dx^2 + dy^2) + dz^2), four at
+        // a time: `visit(i, d2)` sees only the candidates of a group in which any passes `below`.
+        auto scan = [&](const Grid::Cell& cell, auto&& below, auto&& visit) {
+          std::size_t i = cell.begin;
+          for (; i + 4 <= cell.end; i += 4) {
+            const Float4 dx = load4(g.x.data() + i) - qx, dy = load4(g.y.data() + i) - qy,
+                         dz = load4(g.z.data() + i) - qz;
+            const Float4 dd = dx * dx + dy * dy + dz * dz;
+            if (!any_lane(below(dd))) continue;
+            for (int l = 0; l < 4; ++l)
+              visit(i + static_cast<std::size_t>(l), dd[l]);
+          }
+          for (; i < cell.end; ++i) {
+            const float dx = g.x[i] - qx, dy = g.y[i] - qy, dz = g.z[i] - qz;
+            visit(i, dx * dx + dy * dy + dz * dz);
+          }
+        };
+        // The k_nn smallest positive distances and the zeros (duplicates, the point itself
+        // included: all in its own cell, visited first). A cell farther than the current k-th
+        // nearest is skipped.
         int zeros = 0;
         std::fill(best.begin(), best.end(), std::numeric_limits<float>::infinity());
         float worst = best.back();
-        for (std::size_t i = 0; i < cand.size; ++i) {
-          const float d = d2[i];
-          if (d < worst) {  // rare after the first few candidates
-            if (d == 0.0f) {
-              ++zeros;
-              continue;
-            }
-            auto at = best.end() - 1;
-            for (; at != best.begin() && *(at - 1) > d; --at)
-              *at = *(at - 1);
-            *at = d;
-            worst = best.back();
-          }
+        for (const Grid::Cell& cell : block) {
+          if (g.box_distance2(q, cell) > static_cast<double>(worst)) continue;
+          scan(
+              cell, [&](Float4 dd) { return dd < worst; },
+              [&](std::size_t, float d) {
+                if (!(d < worst)) return;
+                if (d == 0.0f) {
+                  ++zeros;
+                  return;
+                }
+                auto at = best.end() - 1;
+                for (; at != best.begin() && *(at - 1) > d; --at)
+                  *at = *(at - 1);
+                *at = d;
+                worst = best.back();
+              });
         }
         // The k_query nearest hold min(zeros, k_query) duplicates (the point itself included),
         // so the wanted distances are the `want` smallest positive ones.
@@ -517,14 +593,15 @@ std::vector<Component> initial_mixture(const Eigen::Matrix3Xf& pts, const HemPar
           continue;
         }
         const float pre = rf * rf * (1.0f + 4.0f * kSlack);
-        std::size_t hits = 0;
-        for (std::size_t i = 0; i < cand.size; ++i) {  // branch-free compaction
-          near[hits] = static_cast<std::uint32_t>(i);
-          hits += d2[i] <= pre ? 1 : 0;
-        }
         set_initial(j, r, [&](auto&& f) {
-          for (std::size_t i = 0; i < hits; ++i)
-            f(Vector3d(cand.x[near[i]], cand.y[near[i]], cand.z[near[i]]));
+          for (const Grid::Cell& cell : block) {
+            if (g.box_distance2(q, cell) > r * r) continue;
+            scan(
+                cell, [&](Float4 dd) { return dd <= pre; },
+                [&](std::size_t i, float d) {
+                  if (d <= pre) f(g.x[i], g.y[i], g.z[i]);
+                });
+          }
         });
       }
     }
@@ -544,7 +621,7 @@ std::vector<Component> initial_mixture(const Eigen::Matrix3Xf& pts, const HemPar
     if (!(nn[static_cast<std::size_t>(j)] > 0.0)) tree_initial(j, p.init_radius_factor * median_nn);
 
   const std::vector<double> density =
-      p.weighted ? density_weights(make_grid(pts, h_abs * (1.0 + 10.0 * kSlack), 4), h_abs)
+      p.weighted ? density_weights(make_grid(pts, h_abs * (1.0 + 10.0 * kSlack), 3), h_abs)
                  : std::vector<double>();
   double total = 0.0;  // fixed order: thread-independent
   for (std::size_t j = 0; j < comps.size(); ++j) {
