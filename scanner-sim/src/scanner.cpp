@@ -10,7 +10,6 @@
 #include <algorithm>
 #include <atomic>
 #include <bit>
-#include <boost/random/normal_distribution.hpp>
 #include <chrono>
 #include <cmath>
 #include <cstddef>
@@ -24,6 +23,7 @@
 #include "scanbench/core/errors.h"
 #include "scanbench/core/io.h"
 #include "scanner_engine.h"
+#include "ziggurat.h"
 
 namespace scanbench::scanner {
 
@@ -140,22 +140,6 @@ struct Counters {
   std::atomic<std::int64_t> misses{0}, grazing{0}, out_of_range{0}, mixed{0}, flying{0}, uniform{0},
       returned{0};
 };
-
-/// scanbench::Rng as a uniform random bit generator (full 64-bit range) for Boost.Random.
-struct RngBits {
-  using result_type = std::uint64_t;
-  static constexpr result_type min() { return 0; }
-  static constexpr result_type max() { return ~result_type{0}; }
-  result_type operator()() { return rng.next(); }
-  Rng& rng;
-};
-
-/// Standard normal deviate by the ziggurat method (Marsaglia and Tsang 2000; Boost.Random's
-/// 128-layer tables): one 64-bit draw of `rng` in about 99% of the calls.
-inline double standard_normal(Rng& rng) {
-  RngBits bits{rng};
-  return boost::random::normal_distribution<double>(0.0, 1.0)(bits);
-}
 
 }  // namespace
 
@@ -499,6 +483,7 @@ Scan ScannerEngine::run(RunContext& ctx) const {
     tbb::parallel_for(
         tbb::blocked_range<int>(0, gv * tiles_, 1), [&](const tbb::blocked_range<int>& r) {
           std::vector<RTCRayHit>& buf = buffers.local();
+          const ZigguratNormal& normal = ZigguratNormal::instance();
           const int sub = sub_rays_;
           std::int64_t c_miss = 0, c_grazing = 0, c_range = 0, c_mixed = 0;
           for (int gt = r.begin(); gt < r.end(); ++gt) {
@@ -579,7 +564,7 @@ Scan ScannerEngine::run(RunContext& ctx) const {
                 const double sigma = noise_a + noise_b * static_cast<double>(raw) +
                                      noise_c * (static_cast<double>(inv_cos) - 1.0);
                 float noisy = raw;
-                if (sigma > 0.0) noisy += static_cast<float>(sigma * standard_normal(rng));
+                if (sigma > 0.0) noisy += static_cast<float>(sigma * normal(rng));
                 // Along the beam axis: sub-ray 0.
                 const Eigen::Vector3f axis(rh[0].ray.dir_x, rh[0].ray.dir_y, rh[0].ray.dir_z);
                 position[i] = cam.origin + noisy * axis;
