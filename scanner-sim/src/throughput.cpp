@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <ctime>
 
 #include "scanbench/core/errors.h"
 #include "scanner_engine.h"
@@ -17,6 +18,11 @@ double median(std::vector<double> v) {
 }
 double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+double process_cpu_seconds() {
+  timespec t{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
 }
 }  // namespace
 
@@ -35,17 +41,22 @@ ThroughputResult measure_throughput(const TriangleMesh& mesh, const ScannerParam
   res.points = engine.run(ctx).cloud.size();
   for (int r = 0; r < repeats; ++r) {
     rays = pristine;  // untimed reset of tfar / geomID
+    double c0 = process_cpu_seconds();
     auto t0 = std::chrono::steady_clock::now();
     engine.cast_all(rays);
     res.bare_seconds.push_back(seconds_since(t0));
+    res.bare_cpu_seconds.push_back(process_cpu_seconds() - c0);
+    c0 = process_cpu_seconds();
     t0 = std::chrono::steady_clock::now();
     const Scan s = engine.run(ctx);
     res.scanner_seconds.push_back(seconds_since(t0));
+    res.scanner_cpu_seconds.push_back(process_cpu_seconds() - c0);
   }
   const double n = static_cast<double>(res.rays_per_run);
   res.scanner_rays_per_second = n / median(res.scanner_seconds);
   res.bare_rays_per_second = n / median(res.bare_seconds);
   res.ratio = res.scanner_rays_per_second / res.bare_rays_per_second;
+  res.cpu_ratio = median(res.bare_cpu_seconds) / median(res.scanner_cpu_seconds);
   return res;
 }
 
