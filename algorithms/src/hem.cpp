@@ -4,6 +4,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
 #include <tbb/parallel_sort.h>
 
 #include <Eigen/Eigenvalues>
@@ -151,22 +152,62 @@ struct Grid {
   };
   // The existing cells of the block around cell c, cell c first, then in key order.
   void block_cells(std::size_t c, std::vector<Cell>& out) const {
-    out.clear();
     constexpr std::uint64_t kMask = (std::uint64_t{1} << 21) - 1;
+    const std::uint64_t k = key[c];
+    cells_around({static_cast<std::int64_t>(k >> 42), static_cast<std::int64_t>((k >> 21) & kMask),
+                  static_cast<std::int64_t>(k & kMask)},
+                 1, out);
+    const auto own = std::find_if(out.begin(), out.end(),
+                                  [&](const Cell& cell) { return cell.begin == start[c]; });
+    std::rotate(out.begin(), own, own + 1);
+  }
+
+  // Integer cell coordinates of q (q may lie outside the grid's points).
+  std::array<std::int64_t, 3> coords(const Vector3d& q) const {
+    std::array<std::int64_t, 3> c{};
+    for (int d = 0; d < 3; ++d) {
+      const double t = std::floor((q(d) - origin(d)) / width);
+      c[static_cast<std::size_t>(d)] =
+          static_cast<std::int64_t>(std::clamp(t, -4.0 * (1 << 21), 4.0 * (1 << 21)));
+    }
+    return c;
+  }
+
+  // The existing cells within `span` cells of coordinates c on every axis, in key order: they
+  // hold every point within span * width * (1 - 1e-5) of any point of cell c.
+  void cells_around(const std::array<std::int64_t, 3>& c, std::int64_t span,
+                    std::vector<Cell>& out) const {
+    out.clear();
+    constexpr std::int64_t kMask = (std::int64_t{1} << 21) - 1;
     auto corner = [&](std::uint64_t k) {
       return Vector3d(origin.x() + width * static_cast<double>(k >> 42),
                       origin.y() + width * static_cast<double>((k >> 21) & kMask),
                       origin.z() + width * static_cast<double>(k & kMask));
     };
-    out.push_back({start[c], start[c + 1], corner(key[c])});
-    std::vector<Range> columns;
-    block(c, columns);
-    for (const auto& [b, e] : columns)
-      for (std::size_t pos = b; pos < e;) {
-        const auto ci = static_cast<std::size_t>(std::upper_bound(start.begin(), start.end(), pos) -
-                                                 start.begin() - 1);
-        if (ci != c) out.push_back({start[ci], start[ci + 1], corner(key[ci])});
-        pos = start[ci + 1];
+    auto make_key = [](std::int64_t a, std::int64_t b, std::int64_t z) {
+      return (static_cast<std::uint64_t>(a) << 42) | (static_cast<std::uint64_t>(b) << 21) |
+             static_cast<std::uint64_t>(z);
+    };
+    const std::int64_t zlo = std::max<std::int64_t>(c[2] - span, 0);
+    const std::int64_t zhi = std::min<std::int64_t>(c[2] + span, kMask);
+    if (zlo > zhi) return;
+    const double columns = (2.0 * static_cast<double>(span) + 1.0) * (2.0 * span + 1.0);
+    if (columns >= static_cast<double>(key.size())) {  // a huge span: every cell, in key order
+      for (std::size_t ci = 0; ci < key.size(); ++ci)
+        out.push_back({start[ci], start[ci + 1], corner(key[ci])});
+      return;
+    }
+    for (std::int64_t a = std::max<std::int64_t>(c[0] - span, 0);
+         a <= std::min<std::int64_t>(c[0] + span, kMask); ++a)
+      for (std::int64_t b = std::max<std::int64_t>(c[1] - span, 0);
+           b <= std::min<std::int64_t>(c[1] + span, kMask); ++b) {
+        // The cells (a, b, zlo .. zhi) are consecutive keys: one search.
+        const std::uint64_t last_key = make_key(a, b, zhi);
+        for (auto it = std::lower_bound(key.begin(), key.end(), make_key(a, b, zlo));
+             it != key.end() && *it <= last_key; ++it) {
+          const auto ci = static_cast<std::size_t>(it - key.begin());
+          out.push_back({start[ci], start[ci + 1], corner(*it)});
+        }
       }
   }
 
@@ -425,7 +466,16 @@ std::vector<double> density_weights(const Grid& g, double h) {
 std::vector<Component> initial_mixture(const Eigen::Matrix3Xf& pts, const HemParams& p,
                                        double h_abs, double abs_floor) {
   const Index n = pts.cols();
-  const KdTree tree(pts);
+  // The kd-tree (a serial build) is built while the density weights use the other threads.
+  std::optional<KdTree> tree_storage;
+  std::vector<double> density;
+  tbb::parallel_invoke([&] { tree_storage.emplace(pts); },
+                       [&] {
+                         if (p.weighted)
+                           density = density_weights(
+                               make_grid(pts, h_abs * (1.0 + 10.0 * kSlack), 3), h_abs);
+                       });
+  const KdTree& tree = *tree_storage;
   const int k_nn = p.init_neighbors;
   const int k_query = k_nn + 8;  // the nearest k_query points, duplicates included
 
@@ -620,9 +670,6 @@ std::vector<Component> initial_mixture(const Eigen::Matrix3Xf& pts, const HemPar
   for (Index j = 0; j < n; ++j)
     if (!(nn[static_cast<std::size_t>(j)] > 0.0)) tree_initial(j, p.init_radius_factor * median_nn);
 
-  const std::vector<double> density =
-      p.weighted ? density_weights(make_grid(pts, h_abs * (1.0 + 10.0 * kSlack), 3), h_abs)
-                 : std::vector<double>();
   double total = 0.0;  // fixed order: thread-independent
   for (std::size_t j = 0; j < comps.size(); ++j) {
     comps[j].w = p.weighted ? 1.0 / density[j] : 1.0;
