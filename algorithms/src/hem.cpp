@@ -511,9 +511,11 @@ std::vector<Component> initial_mixture(const Eigen::Matrix3Xf& pts, const HemPar
   }
   if (!(spacing > 0.0)) spacing = std::max(h_abs * 0.1, std::sqrt(abs_floor) * 10.0);
 
-  // Grid cells of width W: every neighbour within W * (1 - slack) of a point is in its block.
-  // A point whose nearest neighbours or radius r reach further asks the kd-tree.
-  const Grid g = make_grid(pts, std::max(3.0, 2.0 * p.init_radius_factor) * spacing, 1);
+  // Grid cells of width W: every neighbour within W * (1 - slack) of a point is in its block
+  // (nearest neighbours), within span * W * (1 - slack) in the cells within `span` (radius r).
+  // A point whose neighbours reach further (span > kMaxSpan) asks the kd-tree.
+  const Grid g = make_grid(pts, std::max(3.0, 2.0 * p.init_radius_factor) * spacing, 2);
+  constexpr std::int64_t kMaxSpan = 4;
   const float guaranteed = static_cast<float>(g.width) * (1.0f - 4.0f * kSlack);
   std::vector<double> nn(static_cast<std::size_t>(n), 0.0);
   std::vector<Component> comps(static_cast<std::size_t>(n));
@@ -571,31 +573,33 @@ std::vector<Component> initial_mixture(const Eigen::Matrix3Xf& pts, const HemPar
   };
 
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, g.cells(), 4), [&](const auto& rr) {
-    std::vector<Grid::Cell> block;
+    std::vector<Grid::Cell> block, wide;
     std::vector<float> best(static_cast<std::size_t>(k_nn));
     for (std::size_t c = rr.begin(); c != rr.end(); ++c) {
       g.block_cells(c, block);
+      // Squared float distances from q as the kd-tree evaluates them ((dx^2 + dy^2) + dz^2),
+      // four at a time: `visit(i, d2)` sees only the groups in which any lane passes `below`.
+      auto scan = [&](const Vector3f& q, const Grid::Cell& cell, auto&& below, auto&& visit) {
+        std::size_t i = cell.begin;
+        for (; i + 4 <= cell.end; i += 4) {
+          const Float4 dx = load4(g.x.data() + i) - q.x(), dy = load4(g.y.data() + i) - q.y(),
+                       dz = load4(g.z.data() + i) - q.z();
+          const Float4 dd = dx * dx + dy * dy + dz * dz;
+          if (!any_lane(below(dd))) continue;
+          for (int l = 0; l < 4; ++l)
+            visit(i + static_cast<std::size_t>(l), dd[l]);
+        }
+        for (; i < cell.end; ++i) {
+          const float dx = g.x[i] - q.x(), dy = g.y[i] - q.y(), dz = g.z[i] - q.z();
+          visit(i, dx * dx + dy * dy + dz * dz);
+        }
+      };
+      // Nearest-neighbour distances of the cell's points from its block (span 1).
+      double r_max = 0.0;
       for (std::size_t k = g.start[c]; k < g.start[c + 1]; ++k) {
         const Index j = g.order[k];
-        const float qx = g.x[k], qy = g.y[k], qz = g.z[k];
-        const Vector3d q(qx, qy, qz);
-        // Squared float distances as the kd-tree evaluates them ((dx^2 + dy^2) + dz^2), four at
-        // a time: `visit(i, d2)` sees only the candidates of a group in which any passes `below`.
-        auto scan = [&](const Grid::Cell& cell, auto&& below, auto&& visit) {
-          std::size_t i = cell.begin;
-          for (; i + 4 <= cell.end; i += 4) {
-            const Float4 dx = load4(g.x.data() + i) - qx, dy = load4(g.y.data() + i) - qy,
-                         dz = load4(g.z.data() + i) - qz;
-            const Float4 dd = dx * dx + dy * dy + dz * dz;
-            if (!any_lane(below(dd))) continue;
-            for (int l = 0; l < 4; ++l)
-              visit(i + static_cast<std::size_t>(l), dd[l]);
-          }
-          for (; i < cell.end; ++i) {
-            const float dx = g.x[i] - qx, dy = g.y[i] - qy, dz = g.z[i] - qz;
-            visit(i, dx * dx + dy * dy + dz * dz);
-          }
-        };
+        const Vector3f qf(g.x[k], g.y[k], g.z[k]);
+        const Vector3d q = qf.cast<double>();
         // The k_nn smallest positive distances and the zeros (duplicates, the point itself
         // included: all in its own cell, visited first). A cell farther than the current k-th
         // nearest is skipped.
@@ -605,7 +609,7 @@ std::vector<Component> initial_mixture(const Eigen::Matrix3Xf& pts, const HemPar
         for (const Grid::Cell& cell : block) {
           if (g.box_distance2(q, cell) > static_cast<double>(worst)) continue;
           scan(
-              cell, [&](Float4 dd) { return dd < worst; },
+              qf, cell, [&](Float4 dd) { return dd < worst; },
               [&](std::size_t, float d) {
                 if (!(d < worst)) return;
                 if (d == 0.0f) {
@@ -635,19 +639,41 @@ std::vector<Component> initial_mixture(const Eigen::Matrix3Xf& pts, const HemPar
           }
         }
         nn[static_cast<std::size_t>(j)] = nnd;
+        r_max = std::max(r_max, p.init_radius_factor * nnd);
+      }
+      // Eq. 12 from the cells within `span` of this one: they hold every point within
+      // span * guaranteed of the cell's points; a point reaching further asks the kd-tree.
+      const std::int64_t span = std::min<std::int64_t>(
+          static_cast<std::int64_t>(std::floor(r_max / guaranteed)) + 1, kMaxSpan);
+      const std::vector<Grid::Cell>* cells = &block;
+      if (span > 1) {
+        constexpr std::uint64_t kMask = (std::uint64_t{1} << 21) - 1;
+        const std::uint64_t key = g.key[c];
+        g.cells_around(
+            {static_cast<std::int64_t>(key >> 42), static_cast<std::int64_t>((key >> 21) & kMask),
+             static_cast<std::int64_t>(key & kMask)},
+            span, wide);
+        cells = &wide;
+      }
+      const auto reach = static_cast<float>(span) * guaranteed;
+      for (std::size_t k = g.start[c]; k < g.start[c + 1]; ++k) {
+        const Index j = g.order[k];
+        const double nnd = nn[static_cast<std::size_t>(j)];
         if (!(nnd > 0.0)) continue;  // only duplicates: r needs the median, below
         const double r = p.init_radius_factor * nnd;
         const auto rf = static_cast<float>(r);
-        if (rf * (1.0f + kSlack) > guaranteed) {
+        if (rf * (1.0f + kSlack) > reach) {
           tree_initial(j, r);
           continue;
         }
+        const Vector3f qf(g.x[k], g.y[k], g.z[k]);
+        const Vector3d q = qf.cast<double>();
         const float pre = rf * rf * (1.0f + 4.0f * kSlack);
         set_initial(j, r, [&](auto&& f) {
-          for (const Grid::Cell& cell : block) {
+          for (const Grid::Cell& cell : *cells) {
             if (g.box_distance2(q, cell) > r * r) continue;
             scan(
-                cell, [&](Float4 dd) { return dd <= pre; },
+                qf, cell, [&](Float4 dd) { return dd <= pre; },
                 [&](std::size_t i, float d) {
                   if (d <= pre) f(g.x[i], g.y[i], g.z[i]);
                 });
