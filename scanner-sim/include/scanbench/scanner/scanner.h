@@ -11,8 +11,11 @@
 // field of view `fov_deg`, looking at the bbox centre (up = world z, or world y when looking
 // along z).
 //
-// One pixel, in this order (every random number from a stream derived from the run seed, the
-// view and the pixel index, so no result depends on the thread count):
+// One pixel, in this order. Every random number comes from a stream derived from the run seed and
+// the view, so no result depends on the thread count: range noise and outlier counts from the
+// stream of the pixel's 8 x 8 tile ("scan.pixels"; returned pixels in row-major order within the
+// tile), flying-pixel draws and outlier positions from per-pixel streams ("scan.flying",
+// "scan.outliers"). Normal deviates use a ziggurat (Marsaglia and Tsang 2000) on those streams.
 //  1. Beam: `sub_rays` rays in a cone of full angle `beam_divergence_deg` (sub-ray 0 on the axis,
 //     the others on a sunflower spiral over the footprint disk). The pixel returns when at least
 //     ceil(sub_rays/2) sub-rays hit; its range is the mean hit distance of those sub-rays, reported
@@ -104,8 +107,8 @@ struct Scan {
 /// Scans `mesh`. Throws InputError for an empty mesh, non-finite vertices, bad face indices or a
 /// mesh whose triangles are all degenerate (single degenerate triangles are legal geometry: they
 /// are never hit; their count is recorded), and ParamError for invalid parameters (zero views,
-/// range_max <= range_min, malformed poses). Random streams: "scan.pixels", "scan.outliers",
-/// "scan.misalign" of ctx.
+/// range_max <= range_min, malformed poses). Random streams: "scan.pixels", "scan.flying",
+/// "scan.outliers", "scan.misalign" of ctx.
 Scan scan(const TriangleMesh& mesh, const ScannerParams& p, RunContext& ctx);
 
 /// Writes the cloud as binary PLY (core write_point_cloud; deterministic bytes) and the record as
