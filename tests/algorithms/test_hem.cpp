@@ -4,9 +4,11 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Eigenvalues>
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <vector>
 
 #include "fixtures.h"
 #include "scanbench/algorithms/hem.h"
@@ -111,6 +113,136 @@ TEST(Hem, LevelZeroMatchesEq12BruteForce) {
     EXPECT_NEAR(m.weights(j), 1.0 / static_cast<double>(c.size()), 1e-7);
     EXPECT_NEAR(std::abs(m.normal_axes.col(j).cast<double>().dot(es.eigenvectors().col(0))), 1.0,
                 1e-3);
+  }
+}
+
+// A noisy plane patch, ten times denser for x < 0.3, with exact duplicates: one point with 12
+// copies (only duplicates among its 12 nearest), one with 9 copies (2 distinct wanted), a pair.
+PointCloud patch_with_duplicates(std::uint64_t seed) {
+  Rng rng(seed);
+  std::vector<Eigen::Vector3f> pts;
+  for (int i = 0; i < 900; ++i) {
+    const bool dense = i < 600;
+    const double x = dense ? rng.uniform(0.0, 0.3) : rng.uniform(0.3, 1.0);
+    pts.emplace_back(static_cast<float>(x), static_cast<float>(rng.uniform()),
+                     static_cast<float>(rng.normal(0.0, 0.002)));
+  }
+  const Eigen::Vector3f a = pts[700], b = pts[100], c = pts[800];
+  for (int k = 0; k < 12; ++k)
+    pts.push_back(a);
+  for (int k = 0; k < 9; ++k)
+    pts.push_back(b);
+  pts.push_back(c);
+  PointCloud cloud;
+  cloud.positions.resize(3, static_cast<Eigen::Index>(pts.size()));
+  for (std::size_t i = 0; i < pts.size(); ++i)
+    cloud.positions.col(static_cast<Eigen::Index>(i)) = pts[i];
+  return cloud;
+}
+
+TEST(Hem, LevelZeroNeighboursMatchBruteForceWithDuplicates) {
+  // Algorithm 1 lines 1-9 by brute force: the mean distance to the init_neighbors nearest
+  // distinct points among the init_neighbors + 8 nearest (float distances, duplicates counted),
+  // the median of those for points with only duplicates, eq. 12 within r in double.
+  const PointCloud c = patch_with_duplicates(23);
+  const Eigen::Index n = c.size();
+  HemParams p;
+  p.levels = 0;
+  p.weighted = false;
+  RunContext ctx(1);
+  const double diag = c.bbox().diagonal();
+  const GaussianMixture m = hem_mixture(c.positions, p, p.h * diag, diag, ctx);
+  ASSERT_EQ(m.size(), n);
+  std::vector<double> nn(static_cast<std::size_t>(n), 0.0);
+  for (Eigen::Index j = 0; j < n; ++j) {
+    std::vector<float> d2;
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const Eigen::Vector3f d = c.positions.col(i) - c.positions.col(j);
+      d2.push_back((d.x() * d.x() + d.y() * d.y()) + d.z() * d.z());
+    }
+    std::sort(d2.begin(), d2.end());
+    double sum = 0.0;
+    int found = 0;
+    for (int k = 0; k < p.init_neighbors + 8; ++k)
+      if (d2[static_cast<std::size_t>(k)] > 0.0f && found < p.init_neighbors) {
+        sum += std::sqrt(static_cast<double>(d2[static_cast<std::size_t>(k)]));
+        ++found;
+      }
+    nn[static_cast<std::size_t>(j)] = found > 0 ? sum / found : 0.0;
+  }
+  std::vector<double> positive;
+  for (double d : nn)
+    if (d > 0.0) positive.push_back(d);
+  std::nth_element(positive.begin(),
+                   positive.begin() + static_cast<std::ptrdiff_t>(positive.size() / 2),
+                   positive.end());
+  const double median = positive[positive.size() / 2];
+  EXPECT_EQ(nn[900], 0.0);  // the point with 12 copies
+  int checked = 0;
+  for (Eigen::Index j = 0; j < n; ++j) {
+    if (j % 7 != 0 && j < 900) continue;  // a sample, and every duplicate
+    const double nnd =
+        nn[static_cast<std::size_t>(j)] > 0.0 ? nn[static_cast<std::size_t>(j)] : median;
+    const double r = p.init_radius_factor * nnd;
+    const Eigen::Vector3d pj = c.positions.col(j).cast<double>();
+    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+    Eigen::Matrix3d m2 = Eigen::Matrix3d::Zero();
+    double cnt = 0.0;
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const Eigen::Vector3d d = c.positions.col(i).cast<double>() - pj;
+      if (d.squaredNorm() <= r * r) {
+        mean += d;
+        m2 += d * d.transpose();
+        cnt += 1.0;
+      }
+    }
+    mean /= cnt;
+    const Eigen::Matrix3d cov_r = m2 / cnt - mean * mean.transpose();
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov_r);
+    const double smax = std::sqrt(es.eigenvalues()(2));
+    const Eigen::Matrix3d expect =
+        cov_r * (r / (smax * std::cbrt(cnt))) + p.cov_bias * r * r * Eigen::Matrix3d::Identity();
+    const Eigen::Matrix3d got = m.covariance(j).cast<double>();
+    EXPECT_LT((got - expect).norm(), 1e-4 * expect.norm()) << "point " << j;
+    EXPECT_NEAR(std::abs(m.normal_axes.col(j).cast<double>().dot(es.eigenvectors().col(0))), 1.0,
+                1e-3)
+        << "point " << j;
+    ++checked;
+  }
+  EXPECT_GT(checked, 140);
+}
+
+TEST(Hem, DensityWeightsMatchBruteForce) {
+  // Eq. 26 with the WLOP density v_j = 1 + sum_{0 < |p_j - p_i| <= h} exp(-16 |p_j - p_i|^2 / h^2)
+  // (duplicates count with theta(0) = 1), summed in double over all pairs.
+  const PointCloud c = patch_with_duplicates(29);
+  const Eigen::Index n = c.size();
+  for (double h_rel : {0.03, 0.12}) {
+    HemParams p;
+    p.levels = 0;
+    p.h = h_rel;
+    RunContext ctx(1);
+    const double diag = c.bbox().diagonal();
+    const double h = p.h * diag;
+    const GaussianMixture m = hem_mixture(c.positions, p, h, diag, ctx);
+    ASSERT_EQ(m.size(), n);
+    std::vector<double> inv_v(static_cast<std::size_t>(n));
+    double total = 0.0;
+    for (Eigen::Index j = 0; j < n; ++j) {
+      double v = 0.0;  // the point itself gives the leading 1
+      for (Eigen::Index i = 0; i < n; ++i) {
+        const Eigen::Vector3f d = c.positions.col(i) - c.positions.col(j);
+        const float d2 = (d.x() * d.x() + d.y() * d.y()) + d.z() * d.z();
+        if (d2 <= static_cast<float>(h) * static_cast<float>(h))
+          v += std::exp(-16.0 * static_cast<double>(d2) / (h * h));
+      }
+      inv_v[static_cast<std::size_t>(j)] = 1.0 / v;
+      total += 1.0 / v;
+    }
+    for (Eigen::Index j = 0; j < n; ++j)
+      EXPECT_NEAR(m.weights(j), inv_v[static_cast<std::size_t>(j)] / total,
+                  2e-5 * inv_v[static_cast<std::size_t>(j)] / total)
+          << "h " << h_rel << " point " << j;
   }
 }
 
