@@ -427,6 +427,15 @@ Scan ScannerEngine::run(RunContext& ctx) const {
   const std::uint64_t flying_seed = ctx.stream_seed("scan.flying");
   const std::uint64_t outlier_seed = ctx.stream_seed("scan.outliers");
   const std::uint64_t misalign_seed = ctx.stream_seed("scan.misalign");
+  std::vector<std::uint64_t> view_pixel_seeds(static_cast<std::size_t>(views));
+  for (int view = 0; view < views; ++view) {
+    view_pixel_seeds[static_cast<std::size_t>(view)] =
+        derive_seed(pixel_seed, static_cast<std::uint64_t>(view));
+  }
+  // rng.uniform() < f_out  <=>  (rng.next() >> 11) < ceil(f_out 2^53): uniform() is
+  // (next() >> 11) 2^-53 exactly, and f_out 2^53 is exact.
+  const std::uint64_t out_threshold =
+      static_cast<std::uint64_t>(std::ceil(p_.outlier_fraction * 0x1.0p53));
 
   // Which scans are misaligned: a seeded partial Fisher-Yates shuffle.
   std::vector<char> misaligned(static_cast<std::size_t>(views), 0);
@@ -500,7 +509,7 @@ Scan ScannerEngine::run(RunContext& ctx) const {
             const Tile tl = tile(t);
             make_tile_rays(cam, tl, buf.data());
             caster.intersect(buf.data(), static_cast<unsigned>(tile_ray_count(tl)));
-            Rng rng(derive_seed(derive_seed(pixel_seed, static_cast<std::uint64_t>(view)),
+            Rng rng(derive_seed(view_pixel_seeds[static_cast<std::size_t>(view)],
                                 static_cast<std::uint64_t>(t)));
             const RTCRayHit* rh = buf.data();
             for (int v = tl.v0; v < tl.v1; ++v) {
@@ -529,7 +538,7 @@ Scan ScannerEngine::run(RunContext& ctx) const {
                   double sum = 0.0;
                   float lo = raw, hi = raw;
                   for (int k = first; k < sub; ++k) {
-                    if (rh[k].hit.geomID == RTC_INVALID_GEOMETRY_ID) continue;
+                    if (hits < sub && rh[k].hit.geomID == RTC_INVALID_GEOMETRY_ID) continue;
                     const float tk = rh[k].ray.tfar;
                     sum += tk;
                     lo = std::min(lo, tk);
@@ -570,7 +579,7 @@ Scan ScannerEngine::run(RunContext& ctx) const {
                 position[i] = cam.origin + noisy * axis;
                 std::int32_t n_out = 0;
                 if (f_out > 0.0) {
-                  while (rng.uniform() < f_out)
+                  while ((rng.next() >> 11) < out_threshold)  // rng.uniform() < f_out
                     ++n_out;
                 }
                 outliers[i] = n_out;
