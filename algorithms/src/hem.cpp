@@ -15,6 +15,7 @@
 #include <cstring>
 #include <limits>
 #include <optional>
+#include <type_traits>
 #include <utility>
 
 #include "scanbench/core/errors.h"
@@ -37,12 +38,35 @@ using Range = std::pair<std::size_t, std::size_t>;
 struct Component {
   Vector3d mu;
   Matrix3d cov;
-  double w = 0.0;
+  double w;
   Vector3d axis;
-  double spread = 0.0;
-  double lmax = 0.0;    // largest eigenvalue of cov
-  double logdet = 0.0;  // log |cov|
+  double spread;
+  double lmax;    // largest eigenvalue of cov
+  double logdet;  // log |cov|
 };
+
+// An allocator that default-initialises (leaves a Component's fields unset): every field is
+// written by the parallel loop that fills the vector, which also first-touches its pages there
+// instead of in a serial zero fill.
+template <class T>
+struct DefaultInitAllocator : std::allocator<T> {
+  template <class U>
+  struct rebind {
+    using other = DefaultInitAllocator<U>;
+  };
+  DefaultInitAllocator() = default;
+  template <class U>
+  DefaultInitAllocator(const DefaultInitAllocator<U>&) noexcept {}
+  template <class U>
+  void construct(U* ptr) noexcept(std::is_nothrow_default_constructible_v<U>) {
+    ::new (static_cast<void*>(ptr)) U;
+  }
+  template <class U, class... Args>
+  void construct(U* ptr, Args&&... args) {
+    ::new (static_cast<void*>(ptr)) U(std::forward<Args>(args)...);
+  }
+};
+using Components = std::vector<Component, DefaultInitAllocator<Component>>;
 
 constexpr double kLog2Pi = 1.8378770664093453;
 // Relative slack of float distance bounds; the exact tests decide membership.
@@ -337,32 +361,27 @@ inline bool any_lane(Int4 mask) {
   return (lo | hi) != 0;
 }
 
-// Candidate coordinates padded to whole vectors with points at infinity, and their grid positions.
+// Candidate coordinates and grid positions; `padded` rounds `size` up to whole vectors with
+// points at infinity. The arrays only grow (no zero-filling per use).
 struct Candidates {
   std::vector<float> x, y, z;
   std::vector<std::size_t> pos;
-  std::size_t size = 0;
+  std::size_t size = 0, padded = 0;
 
-  void clear() {
-    x.clear();
-    y.clear();
-    z.clear();
-    pos.clear();
-    size = 0;
-  }
-  void add(const std::vector<float>& gx, const std::vector<float>& gy, const std::vector<float>& gz,
-           std::size_t k) {
-    x.push_back(gx[k]);
-    y.push_back(gy[k]);
-    z.push_back(gz[k]);
-    pos.push_back(k);
+  void reserve(std::size_t bound) {
+    if (x.size() >= bound + 3) return;
+    x.resize(bound + 3);
+    y.resize(bound + 3);
+    z.resize(bound + 3);
+    pos.resize(bound + 3);
   }
   void pad() {
-    size = x.size();
-    const std::size_t m = (size + 3) & ~std::size_t{3};
-    x.resize(m, std::numeric_limits<float>::infinity());
-    y.resize(m, 0.0f);
-    z.resize(m, 0.0f);
+    padded = (size + 3) & ~std::size_t{3};
+    for (std::size_t i = size; i < padded; ++i) {
+      x[i] = std::numeric_limits<float>::infinity();
+      y[i] = 0.0f;
+      z[i] = 0.0f;
+    }
   }
 };
 
@@ -394,21 +413,23 @@ std::vector<double> density_weights(const Grid& g, double h) {
       g.block(c, ranges);
       for (std::size_t f = g.fine_first[c]; f < g.fine_first[c + 1]; ++f) {
         const std::size_t own_b = g.fine_start[f], own_e = g.fine_start[f + 1];
-        own.clear();
-        for (std::size_t k = own_b; k < own_e; ++k)
-          own.add(g.x, g.y, g.z, k);
+        own.reserve(own_e - own_b);
+        own.size = 0;
+        for (std::size_t k = own_b; k < own_e; ++k, ++own.size) {
+          own.x[own.size] = g.x[k];
+          own.y[own.size] = g.y[k];
+          own.z[own.size] = g.z[k];
+          own.pos[own.size] = k;
+        }
         own.pad();
         const Vector3f centre = g.fine_centre[f];
         const float reach = hf * (1.0f + kSlack) + g.fine_reach[f];
         const float reach2 = reach * reach;
-        // Branch-free compaction into arrays sized for the whole block.
-        std::size_t bound = 4;
+        // Branch-free compaction.
+        std::size_t bound = 0;
         for (const auto& [b, e] : ranges)
           bound += e - std::min(e, std::max(b, own_e));
-        cand.x.resize(bound);
-        cand.y.resize(bound);
-        cand.z.resize(bound);
-        cand.pos.resize(bound);
+        cand.reserve(bound);
         std::size_t m = 0;
         for (const auto& [b, e] : ranges)
           for (std::size_t k = std::max(b, own_e); k < e; ++k) {
@@ -420,12 +441,10 @@ std::vector<double> density_weights(const Grid& g, double h) {
             cand.pos[m] = k;
             m += dx * dx + dy * dy + dz * dz <= reach2 ? 1 : 0;
           }
-        cand.x.resize(m);
-        cand.y.resize(m);
-        cand.z.resize(m);
-        cand.pos.resize(m);
+        cand.size = m;
         cand.pad();
-        col.assign(cand.x.size(), 0.0f);
+        if (col.size() < cand.padded) col.resize(cand.padded);
+        std::fill_n(col.begin(), cand.padded, 0.0f);
         // theta for 4 candidates; beyond h the exponent is -80, a term under 2e-35 that
         // vanishes exactly next to the terms >= theta(h) = 1.1e-7 (and in the fixed point).
         auto theta = [&](const Candidates& cs, std::size_t m4, float qx, float qy, float qz) {
@@ -438,9 +457,9 @@ std::vector<double> density_weights(const Grid& g, double h) {
           const float qx = own.x[a], qy = own.y[a], qz = own.z[a];
           Float4 row = {0.0f, 0.0f, 0.0f, 0.0f};
           // The own cell, self included: theta(0) = 1 is the leading 1.
-          for (std::size_t m4 = 0; m4 < own.x.size(); m4 += 4)
+          for (std::size_t m4 = 0; m4 < own.padded; m4 += 4)
             row += theta(own, m4, qx, qy, qz);
-          for (std::size_t m4 = 0; m4 < cand.x.size(); m4 += 4) {
+          for (std::size_t m4 = 0; m4 < cand.padded; m4 += 4) {
             const Float4 t = theta(cand, m4, qx, qy, qz);
             row += t;
             const Float4 cs = load4(col.data() + m4) + t;
@@ -463,8 +482,8 @@ std::vector<double> density_weights(const Grid& g, double h) {
   return v;
 }
 
-std::vector<Component> initial_mixture(const Eigen::Matrix3Xf& pts, const HemParams& p,
-                                       double h_abs, double abs_floor) {
+Components initial_mixture(const Eigen::Matrix3Xf& pts, const HemParams& p, double h_abs,
+                           double abs_floor) {
   const Index n = pts.cols();
   // The kd-tree (a serial build) is built while the density weights use the other threads.
   std::optional<KdTree> tree_storage;
@@ -518,7 +537,7 @@ std::vector<Component> initial_mixture(const Eigen::Matrix3Xf& pts, const HemPar
   constexpr std::int64_t kMaxSpan = 4;
   const float guaranteed = static_cast<float>(g.width) * (1.0f - 4.0f * kSlack);
   std::vector<double> nn(static_cast<std::size_t>(n), 0.0);
-  std::vector<Component> comps(static_cast<std::size_t>(n));
+  Components comps(static_cast<std::size_t>(n));
 
   // Eq. 12 for point j from its neighbours within r (`for_each` calls back with indices).
   auto set_initial = [&](Index j, double r, auto&& for_each) {
@@ -712,8 +731,8 @@ struct Child {
 };
 
 // One HEM level. Returns the next level's components.
-std::vector<Component> cluster_level(const std::vector<Component>& comps, const HemParams& p,
-                                     std::uint64_t level_seed, double n_points, double abs_floor) {
+Components cluster_level(const Components& comps, const HemParams& p, std::uint64_t level_seed,
+                         double n_points, double abs_floor) {
   const Index n = static_cast<Index>(comps.size());
   std::vector<char> is_parent(comps.size(), 0);
   std::vector<Index> parents;
@@ -815,7 +834,7 @@ std::vector<Component> cluster_level(const std::vector<Component>& comps, const 
       csum[static_cast<std::size_t>(c.i)] +=
           std::exp(c.log_term - cmax[static_cast<std::size_t>(c.i)]);
 
-  std::vector<Component> next(parents.size());
+  Components next(parents.size());
   tbb::parallel_for(tbb::blocked_range<Index>(0, np, 64), [&](const tbb::blocked_range<Index>& r) {
     for (Index k = r.begin(); k < r.end(); ++k) {
       const Component& ps = comps[static_cast<std::size_t>(parents[static_cast<std::size_t>(k)])];
@@ -872,7 +891,7 @@ GaussianMixture hem_mixture(const Eigen::Matrix3Xf& points, const HemParams& p, 
   const double abs_floor = (1e-7 * diag) * (1e-7 * diag);
   const double n_points = static_cast<double>(points.cols());
 
-  std::vector<Component> comps = initial_mixture(points, p, h_abs, abs_floor);
+  Components comps = initial_mixture(points, p, h_abs, abs_floor);
   if (stats) stats->level_sizes = {static_cast<Index>(comps.size())};
   const std::uint64_t seed = ctx.stream_seed("hem");
   for (int level = 0; level < p.levels; ++level) {
