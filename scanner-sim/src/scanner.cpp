@@ -4,6 +4,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
 #include <xmmintrin.h>
 
 #include <Eigen/Geometry>
@@ -458,7 +459,8 @@ Scan ScannerEngine::run(RunContext& ctx) const {
   const std::size_t group_rows = static_cast<std::size_t>(group) * static_cast<std::size_t>(R);
   GroupImage image(static_cast<std::size_t>(group) * npix);
   // Output points per (row, tile column), then the rows' output offsets.
-  std::vector<std::int64_t> segment_points(group_rows * static_cast<std::size_t>(tiles_x_));
+  const std::unique_ptr<std::int64_t[]> segment_points(  // every entry written by pass A
+      new std::int64_t[group_rows * static_cast<std::size_t>(tiles_x_)]);
   std::vector<std::int64_t> row_start(group_rows + 1);
   std::vector<std::int64_t> row_surface(group_rows), row_outliers(group_rows);
   std::vector<Eigen::Vector3d> row_sum(group_rows);
@@ -652,7 +654,7 @@ Scan ScannerEngine::run(RunContext& ctx) const {
             int* out_id = cloud.scan_ids.data();
             Px* out_kind = kind.get();  // indexed from the group's first point
             const std::int64_t* segments =
-                segment_points.data() + static_cast<std::size_t>(gr) * tiles_x_;
+                segment_points.get() + static_cast<std::size_t>(gr) * tiles_x_;
             for (int u = 0; u < R; ++u) {
               if (u % kTile == 0 && segments[u / kTile] == 0) {
                 u += kTile - 1;  // no point in this tile's part of the row
@@ -746,25 +748,23 @@ Scan ScannerEngine::run(RunContext& ctx) const {
     // Serial, fixed order: per-scan centres of mass and misalignments.
     std::vector<Eigen::Matrix3d> rots(static_cast<std::size_t>(gv), Eigen::Matrix3d::Identity());
     std::vector<Eigen::Vector3d> transl(static_cast<std::size_t>(gv), Eigen::Vector3d::Zero());
+    std::vector<Eigen::Vector3d> centres(static_cast<std::size_t>(gv)),
+        axes(static_cast<std::size_t>(gv)), shifts(static_cast<std::size_t>(gv));
+    std::vector<std::int64_t> scan_outliers(static_cast<std::size_t>(gv), 0);
     bool any_misaligned = false;
     for (int lv = 0; lv < gv; ++lv) {
+      const auto l = static_cast<std::size_t>(lv);
       const int view = g0 + lv;
-      const Camera& cam = cameras_[static_cast<std::size_t>(view)];
-      Eigen::Matrix3d& rot = rots[static_cast<std::size_t>(lv)];
-      Eigen::Vector3d& trans = transl[static_cast<std::size_t>(lv)];
-      std::int64_t n_surface = 0, n_outliers = 0;
+      std::int64_t n_surface = 0;
       Eigen::Vector3d centre = Eigen::Vector3d::Zero();
       for (int v = 0; v < R; ++v) {
-        const std::size_t gr = static_cast<std::size_t>(lv) * R + v;
+        const std::size_t gr = l * R + v;
         n_surface += row_surface[gr];
-        n_outliers += row_outliers[gr];
+        scan_outliers[l] += row_outliers[gr];
         centre += row_sum[gr];
       }
       if (n_surface > 0) centre /= static_cast<double>(n_surface);
-      Json scan_rec = Json::object();
-      scan_rec["id"] = view;
-      scan_rec["sensor_origin"] = vec_json(cam.origin);
-      Json mis = Json(nullptr);
+      centres[l] = centre;
       if (misaligned[static_cast<std::size_t>(view)]) {
         any_misaligned = true;
         Rng rng(derive_seed(misalign_seed, static_cast<std::uint64_t>(view)));
@@ -775,38 +775,20 @@ Scan ScannerEngine::run(RunContext& ctx) const {
             if (n > 1e-6) return Eigen::Vector3d(a / n);
           }
         };
-        const Eigen::Vector3d axis = random_unit();
-        const Eigen::Vector3d shift = random_unit() * (p_.misalign_shift * diag_);
-        rot = Eigen::AngleAxisd(p_.misalign_deg * M_PI / 180.0, axis).toRotationMatrix();
-        trans = centre - rot * centre + shift;
-        mis = Json::object();
-        mis["center"] = vec_json(centre);
-        mis["axis"] = vec_json(axis);
-        mis["angle_deg"] = p_.misalign_deg;
-        mis["shift"] = vec_json(shift);
-        Json rows = Json::array();
-        for (int a = 0; a < 3; ++a)
-          rows.push_back(Json::array({rot(a, 0), rot(a, 1), rot(a, 2)}));
-        mis["rotation"] = rows;
-        mis["translation"] = vec_json(trans);
+        axes[l] = random_unit();
+        shifts[l] = random_unit() * (p_.misalign_shift * diag_);
+        rots[l] = Eigen::AngleAxisd(p_.misalign_deg * M_PI / 180.0, axes[l]).toRotationMatrix();
+        transl[l] = centre - rots[l] * centre + shifts[l];
       }
-      const Eigen::Vector3d reg_origin = rot * cam.origin.cast<double>() + trans;
+      const Eigen::Vector3d reg_origin =
+          rots[l] * cameras_[static_cast<std::size_t>(view)].origin.cast<double>() + transl[l];
       origins.col(view) = reg_origin.cast<float>();
-      scan_rec["registered_origin"] = vec_json(reg_origin);
-      scan_rec["forward"] = vec_json(cam.forward);
-      scan_rec["up"] = vec_json(cam.up);
-      scan_rec["fov_deg"] = static_cast<double>(cam.fov_deg);
-      scan_rec["resolution"] = R;
-      scan_rec["points"] = row_start[static_cast<std::size_t>(lv + 1) * R] -
-                           row_start[static_cast<std::size_t>(lv) * R];
-      scan_rec["outliers"] = n_outliers;
-      scan_rec["misaligned"] = misaligned[static_cast<std::size_t>(view)] != 0;
-      scan_rec["misalignment"] = mis;
-      scans.push_back(std::move(scan_rec));
     }
 
-    // Pass C: misaligned scans move as a whole (surface and flying points; uniform outliers stay).
-    if (any_misaligned) {
+    // Pass C: misaligned scans move as a whole (surface and flying points; uniform outliers
+    // stay), while the scans' records are written.
+    auto move_misaligned = [&] {
+      if (!any_misaligned) return;
       tbb::parallel_for(
           tbb::blocked_range<int>(0, rows_g, 1), [&](const tbb::blocked_range<int>& rows) {
             for (int gr = rows.begin(); gr < rows.end(); ++gr) {
@@ -822,7 +804,43 @@ Scan ScannerEngine::run(RunContext& ctx) const {
               }
             }
           });
-    }
+    };
+    auto write_records = [&] {
+      for (int lv = 0; lv < gv; ++lv) {
+        const auto l = static_cast<std::size_t>(lv);
+        const int view = g0 + lv;
+        const Camera& cam = cameras_[static_cast<std::size_t>(view)];
+        Json scan_rec = Json::object();
+        scan_rec["id"] = view;
+        scan_rec["sensor_origin"] = vec_json(cam.origin);
+        Json mis = Json(nullptr);
+        if (misaligned[static_cast<std::size_t>(view)]) {
+          mis = Json::object();
+          mis["center"] = vec_json(centres[l]);
+          mis["axis"] = vec_json(axes[l]);
+          mis["angle_deg"] = p_.misalign_deg;
+          mis["shift"] = vec_json(shifts[l]);
+          Json rows = Json::array();
+          for (int a = 0; a < 3; ++a)
+            rows.push_back(Json::array({rots[l](a, 0), rots[l](a, 1), rots[l](a, 2)}));
+          mis["rotation"] = rows;
+          mis["translation"] = vec_json(transl[l]);
+        }
+        scan_rec["registered_origin"] =
+            vec_json(Eigen::Vector3d(rots[l] * cam.origin.cast<double>() + transl[l]));
+        scan_rec["forward"] = vec_json(cam.forward);
+        scan_rec["up"] = vec_json(cam.up);
+        scan_rec["fov_deg"] = static_cast<double>(cam.fov_deg);
+        scan_rec["resolution"] = R;
+        scan_rec["points"] = row_start[static_cast<std::size_t>(lv + 1) * R] -
+                             row_start[static_cast<std::size_t>(lv) * R];
+        scan_rec["outliers"] = scan_outliers[l];
+        scan_rec["misaligned"] = misaligned[static_cast<std::size_t>(view)] != 0;
+        scan_rec["misalignment"] = mis;
+        scans.push_back(std::move(scan_rec));
+      }
+    };
+    tbb::parallel_invoke(move_misaligned, write_records);
     t_artifacts += std::chrono::duration<double>(Clock::now() - t1).count();
   }
   ctx.add_phase_time("scan.rays", t_rays);
