@@ -12,7 +12,7 @@
 namespace scanbench::scanner::detail {
 namespace {
 
-TEST(Ziggurat, LayersHaveEqualAreas) {
+TEST(ScannerZiggurat, LayersHaveEqualAreas) {
   const ZigguratNormal& z = ZigguratNormal::instance();
   constexpr double v = ZigguratNormal::kV;
   EXPECT_EQ(z.x(1), ZigguratNormal::kR);
@@ -27,7 +27,7 @@ TEST(Ziggurat, LayersHaveEqualAreas) {
   }
 }
 
-TEST(Ziggurat, DeviatesFollowTheStandardNormal) {
+TEST(ScannerZiggurat, DeviatesFollowTheStandardNormal) {
   const ZigguratNormal& z = ZigguratNormal::instance();
   Rng rng(derive_seed(2024, "ziggurat"));
   const int n = 1000000;
@@ -62,7 +62,7 @@ TEST(Ziggurat, DeviatesFollowTheStandardNormal) {
   EXPECT_LT(d, 1.95 / std::sqrt(m));
 }
 
-TEST(Ziggurat, SameStreamSameDeviates) {
+TEST(ScannerZiggurat, SameStreamSameDeviates) {
   const ZigguratNormal& z = ZigguratNormal::instance();
   Rng a(7), b(7);
   for (int i = 0; i < 1000; ++i)
