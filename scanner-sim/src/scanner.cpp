@@ -4,7 +4,6 @@
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
-#include <tbb/parallel_invoke.h>
 #include <xmmintrin.h>
 
 #include <Eigen/Geometry>
@@ -624,135 +623,133 @@ Scan ScannerEngine::run(RunContext& ctx) const {
     // Pass B, row by row: flying pixels (they replace the noisy point; no range noise), then the
     // row's points in pixel order, each followed by its uniform outliers, in the true frame; per-
     // row sums of surface points (reduced below in fixed order).
-    tbb::parallel_for(
-        tbb::blocked_range<int>(0, rows_g, 1), [&](const tbb::blocked_range<int>& rows) {
-          std::int64_t c_flying = 0, c_uniform = 0, c_returned = 0;
-          for (int gr = rows.begin(); gr < rows.end(); ++gr) {
-            const int lv = gr / R;
-            const int v = gr % R;
-            const int view = g0 + lv;
-            const Camera& cam = cameras_[static_cast<std::size_t>(view)];
-            const std::size_t img_base = static_cast<std::size_t>(lv) * npix;
-            const float* range = image.range.get() + img_base;
-            const Px* status = image.status.get() + img_base;
-            const Eigen::Vector3f* position = image.position.get() + img_base;
-            const Eigen::Vector3f* clean = image.clean.get() + img_base;
-            const std::int32_t* outliers = image.outliers.get() + img_base;
-            const std::uint64_t view_flying_seed =
-                derive_seed(flying_seed, static_cast<std::uint64_t>(view));
-            const std::uint64_t view_outlier_seed =
-                derive_seed(outlier_seed, static_cast<std::uint64_t>(view));
-            const Eigen::Index row_first = base + row_start[static_cast<std::size_t>(gr)];
-            Eigen::Index j = row_first;
-            std::int64_t surface = 0, n_outliers = 0;
-            Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-            float* out_pos = cloud.positions.data();
-            float* out_cx = cx.data();
-            float* out_cy = cy.data();
-            float* out_cz = cz.data();
-            float* out_flag = flag.data();
-            int* out_id = cloud.scan_ids.data();
-            Px* out_kind = kind.get();  // indexed from the group's first point
-            const std::int64_t* segments =
-                segment_points.get() + static_cast<std::size_t>(gr) * tiles_x_;
-            for (int u = 0; u < R; ++u) {
-              if (u % kTile == 0 && segments[u / kTile] == 0) {
-                u += kTile - 1;  // no point in this tile's part of the row
-                continue;
-              }
-              const std::size_t i = static_cast<std::size_t>(v) * R + u;
-              if (status[i] != Px::kPoint) continue;
-              ++c_returned;
-              Eigen::Vector3f p = position[i];
-              bool flying = false;
-              if (flying_prob > 0.0) {
-                // The 4-neighbour with the largest range difference; behind a silhouette (no hit)
-                // the far end is range + flying_spread.
-                const float r0 = range[i];
-                float target = r0;
-                float best = 0.0f;
-                bool edge = false;
-                auto look = [&](int nu, int nv) {
-                  if (nu < 0 || nv < 0 || nu >= R || nv >= R) return;
-                  const float nr = range[static_cast<std::size_t>(nv) * R + nu];
-                  float cand;
-                  if (!std::isfinite(nr)) {
-                    cand = r0 + spread;
-                  } else if (std::abs(nr - r0) > jump) {
-                    cand = nr;
-                  } else {
-                    return;
-                  }
-                  edge = true;
-                  if (std::abs(cand - r0) > best) {
-                    best = std::abs(cand - r0);
-                    target = cand;
-                  }
-                };
-                look(u - 1, v);
-                look(u + 1, v);
-                look(u, v - 1);
-                look(u, v + 1);
-                if (edge) {
-                  Rng frng(derive_seed(view_flying_seed, i));
-                  if (frng.uniform() < flying_prob) {
-                    const float depth = r0 + static_cast<float>(frng.uniform()) * (target - r0);
-                    p = cam.origin + depth * axis_dir(cam, u, v);
-                    flying = true;
-                    ++c_flying;
-                  }
-                }
-              }
-              if (flying) {
-                ++n_outliers;
+    auto pass_b = [&](const tbb::blocked_range<int>& rows) {
+      std::int64_t c_flying = 0, c_uniform = 0, c_returned = 0;
+      for (int gr = rows.begin(); gr < rows.end(); ++gr) {
+        const int lv = gr / R;
+        const int v = gr % R;
+        const int view = g0 + lv;
+        const Camera& cam = cameras_[static_cast<std::size_t>(view)];
+        const std::size_t img_base = static_cast<std::size_t>(lv) * npix;
+        const float* range = image.range.get() + img_base;
+        const Px* status = image.status.get() + img_base;
+        const Eigen::Vector3f* position = image.position.get() + img_base;
+        const Eigen::Vector3f* clean = image.clean.get() + img_base;
+        const std::int32_t* outliers = image.outliers.get() + img_base;
+        const std::uint64_t view_flying_seed =
+            derive_seed(flying_seed, static_cast<std::uint64_t>(view));
+        const std::uint64_t view_outlier_seed =
+            derive_seed(outlier_seed, static_cast<std::uint64_t>(view));
+        const Eigen::Index row_first = base + row_start[static_cast<std::size_t>(gr)];
+        Eigen::Index j = row_first;
+        std::int64_t surface = 0, n_outliers = 0;
+        Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+        float* out_pos = cloud.positions.data();
+        float* out_cx = cx.data();
+        float* out_cy = cy.data();
+        float* out_cz = cz.data();
+        float* out_flag = flag.data();
+        int* out_id = cloud.scan_ids.data();
+        Px* out_kind = kind.get();  // indexed from the group's first point
+        const std::int64_t* segments =
+            segment_points.get() + static_cast<std::size_t>(gr) * tiles_x_;
+        for (int u = 0; u < R; ++u) {
+          if (u % kTile == 0 && segments[u / kTile] == 0) {
+            u += kTile - 1;  // no point in this tile's part of the row
+            continue;
+          }
+          const std::size_t i = static_cast<std::size_t>(v) * R + u;
+          if (status[i] != Px::kPoint) continue;
+          ++c_returned;
+          Eigen::Vector3f p = position[i];
+          bool flying = false;
+          if (flying_prob > 0.0) {
+            // The 4-neighbour with the largest range difference; behind a silhouette (no hit)
+            // the far end is range + flying_spread.
+            const float r0 = range[i];
+            float target = r0;
+            float best = 0.0f;
+            bool edge = false;
+            auto look = [&](int nu, int nv) {
+              if (nu < 0 || nv < 0 || nu >= R || nv >= R) return;
+              const float nr = range[static_cast<std::size_t>(nv) * R + nu];
+              float cand;
+              if (!std::isfinite(nr)) {
+                cand = r0 + spread;
+              } else if (std::abs(nr - r0) > jump) {
+                cand = nr;
               } else {
-                sum += p.cast<double>();
-                ++surface;
+                return;
               }
-              out_pos[3 * j] = p.x();
-              out_pos[3 * j + 1] = p.y();
-              out_pos[3 * j + 2] = p.z();
-              out_cx[j] = clean[i].x();
-              out_cy[j] = clean[i].y();
-              out_cz[j] = clean[i].z();
-              out_flag[j] = flying ? 1.0f : 0.0f;
-              out_id[j] = view;
-              out_kind[j - base] = flying ? Px::kFlying : Px::kPoint;
-              ++j;
-              const std::int32_t n_out = outliers[i];
-              if (n_out == 0) continue;
-              n_outliers += n_out;
-              c_uniform += n_out;
-              Rng orng(derive_seed(view_outlier_seed, i));
-              for (int o = 0; o < n_out; ++o, ++j) {
-                float q[3];
-                for (int k = 0; k < 3; ++k)
-                  q[k] = static_cast<float>(orng.uniform(obox.min[k], obox.max[k]));
-                out_pos[3 * j] = out_cx[j] = q[0];
-                out_pos[3 * j + 1] = out_cy[j] = q[1];
-                out_pos[3 * j + 2] = out_cz[j] = q[2];
-                out_flag[j] = 1.0f;
-                out_id[j] = view;
-                out_kind[j - base] = Px::kUniform;
+              edge = true;
+              if (std::abs(cand - r0) > best) {
+                best = std::abs(cand - r0);
+                target = cand;
+              }
+            };
+            look(u - 1, v);
+            look(u + 1, v);
+            look(u, v - 1);
+            look(u, v + 1);
+            if (edge) {
+              Rng frng(derive_seed(view_flying_seed, i));
+              if (frng.uniform() < flying_prob) {
+                const float depth = r0 + static_cast<float>(frng.uniform()) * (target - r0);
+                p = cam.origin + depth * axis_dir(cam, u, v);
+                flying = true;
+                ++c_flying;
               }
             }
-            row_surface[static_cast<std::size_t>(gr)] = surface;
-            row_outliers[static_cast<std::size_t>(gr)] = n_outliers;
-            row_sum[static_cast<std::size_t>(gr)] = sum;
           }
-          counters.flying += c_flying;
-          counters.uniform += c_uniform;
-          counters.returned += c_returned;
-        });
+          if (flying) {
+            ++n_outliers;
+          } else {
+            sum += p.cast<double>();
+            ++surface;
+          }
+          out_pos[3 * j] = p.x();
+          out_pos[3 * j + 1] = p.y();
+          out_pos[3 * j + 2] = p.z();
+          out_cx[j] = clean[i].x();
+          out_cy[j] = clean[i].y();
+          out_cz[j] = clean[i].z();
+          out_flag[j] = flying ? 1.0f : 0.0f;
+          out_id[j] = view;
+          out_kind[j - base] = flying ? Px::kFlying : Px::kPoint;
+          ++j;
+          const std::int32_t n_out = outliers[i];
+          if (n_out == 0) continue;
+          n_outliers += n_out;
+          c_uniform += n_out;
+          Rng orng(derive_seed(view_outlier_seed, i));
+          for (int o = 0; o < n_out; ++o, ++j) {
+            float q[3];
+            for (int k = 0; k < 3; ++k)
+              q[k] = static_cast<float>(orng.uniform(obox.min[k], obox.max[k]));
+            out_pos[3 * j] = out_cx[j] = q[0];
+            out_pos[3 * j + 1] = out_cy[j] = q[1];
+            out_pos[3 * j + 2] = out_cz[j] = q[2];
+            out_flag[j] = 1.0f;
+            out_id[j] = view;
+            out_kind[j - base] = Px::kUniform;
+          }
+        }
+        row_surface[static_cast<std::size_t>(gr)] = surface;
+        row_outliers[static_cast<std::size_t>(gr)] = n_outliers;
+        row_sum[static_cast<std::size_t>(gr)] = sum;
+      }
+      counters.flying += c_flying;
+      counters.uniform += c_uniform;
+      counters.returned += c_returned;
+    };
 
-    // Serial, fixed order: per-scan centres of mass and misalignments.
+    // Per scan, in fixed row order: centre of mass and misalignment.
     std::vector<Eigen::Matrix3d> rots(static_cast<std::size_t>(gv), Eigen::Matrix3d::Identity());
     std::vector<Eigen::Vector3d> transl(static_cast<std::size_t>(gv), Eigen::Vector3d::Zero());
     std::vector<Eigen::Vector3d> centres(static_cast<std::size_t>(gv)),
         axes(static_cast<std::size_t>(gv)), shifts(static_cast<std::size_t>(gv));
     std::vector<std::int64_t> scan_outliers(static_cast<std::size_t>(gv), 0);
-    bool any_misaligned = false;
-    for (int lv = 0; lv < gv; ++lv) {
+    auto settle = [&](int lv) {
       const auto l = static_cast<std::size_t>(lv);
       const int view = g0 + lv;
       std::int64_t n_surface = 0;
@@ -766,7 +763,6 @@ Scan ScannerEngine::run(RunContext& ctx) const {
       if (n_surface > 0) centre /= static_cast<double>(n_surface);
       centres[l] = centre;
       if (misaligned[static_cast<std::size_t>(view)]) {
-        any_misaligned = true;
         Rng rng(derive_seed(misalign_seed, static_cast<std::uint64_t>(view)));
         auto random_unit = [&rng] {
           while (true) {
@@ -783,64 +779,71 @@ Scan ScannerEngine::run(RunContext& ctx) const {
       const Eigen::Vector3d reg_origin =
           rots[l] * cameras_[static_cast<std::size_t>(view)].origin.cast<double>() + transl[l];
       origins.col(view) = reg_origin.cast<float>();
-    }
-
-    // Pass C: misaligned scans move as a whole (surface and flying points; uniform outliers
-    // stay), while the scans' records are written.
-    auto move_misaligned = [&] {
-      if (!any_misaligned) return;
-      tbb::parallel_for(
-          tbb::blocked_range<int>(0, rows_g, 1), [&](const tbb::blocked_range<int>& rows) {
-            for (int gr = rows.begin(); gr < rows.end(); ++gr) {
-              const int lv = gr / R;
-              if (!misaligned[static_cast<std::size_t>(g0 + lv)]) continue;
-              const Eigen::Matrix3d& rot = rots[static_cast<std::size_t>(lv)];
-              const Eigen::Vector3d& trans = transl[static_cast<std::size_t>(lv)];
-              const Eigen::Index end = base + row_start[static_cast<std::size_t>(gr) + 1];
-              for (Eigen::Index j = base + row_start[static_cast<std::size_t>(gr)]; j < end; ++j) {
-                if (kind[static_cast<std::size_t>(j - base)] == Px::kUniform) continue;
-                cloud.positions.col(j) =
-                    (rot * cloud.positions.col(j).cast<double>() + trans).cast<float>();
-              }
-            }
-          });
     };
-    auto write_records = [&] {
-      for (int lv = 0; lv < gv; ++lv) {
-        const auto l = static_cast<std::size_t>(lv);
-        const int view = g0 + lv;
-        const Camera& cam = cameras_[static_cast<std::size_t>(view)];
-        Json scan_rec = Json::object();
-        scan_rec["id"] = view;
-        scan_rec["sensor_origin"] = vec_json(cam.origin);
-        Json mis = Json(nullptr);
-        if (misaligned[static_cast<std::size_t>(view)]) {
-          mis = Json::object();
-          mis["center"] = vec_json(centres[l]);
-          mis["axis"] = vec_json(axes[l]);
-          mis["angle_deg"] = p_.misalign_deg;
-          mis["shift"] = vec_json(shifts[l]);
-          Json rows = Json::array();
-          for (int a = 0; a < 3; ++a)
-            rows.push_back(Json::array({rots[l](a, 0), rots[l](a, 1), rots[l](a, 2)}));
-          mis["rotation"] = rows;
-          mis["translation"] = vec_json(transl[l]);
+
+    // Pass C: misaligned scans move as a whole (surface and flying points; uniform outliers stay).
+    auto pass_c = [&](const tbb::blocked_range<int>& rows) {
+      for (int gr = rows.begin(); gr < rows.end(); ++gr) {
+        const int lv = gr / R;
+        if (!misaligned[static_cast<std::size_t>(g0 + lv)]) continue;
+        const Eigen::Matrix3d& rot = rots[static_cast<std::size_t>(lv)];
+        const Eigen::Vector3d& trans = transl[static_cast<std::size_t>(lv)];
+        const Eigen::Index end = base + row_start[static_cast<std::size_t>(gr) + 1];
+        for (Eigen::Index j = base + row_start[static_cast<std::size_t>(gr)]; j < end; ++j) {
+          if (kind[static_cast<std::size_t>(j - base)] == Px::kUniform) continue;
+          cloud.positions.col(j) =
+              (rot * cloud.positions.col(j).cast<double>() + trans).cast<float>();
         }
-        scan_rec["registered_origin"] =
-            vec_json(Eigen::Vector3d(rots[l] * cam.origin.cast<double>() + transl[l]));
-        scan_rec["forward"] = vec_json(cam.forward);
-        scan_rec["up"] = vec_json(cam.up);
-        scan_rec["fov_deg"] = static_cast<double>(cam.fov_deg);
-        scan_rec["resolution"] = R;
-        scan_rec["points"] = row_start[static_cast<std::size_t>(lv + 1) * R] -
-                             row_start[static_cast<std::size_t>(lv) * R];
-        scan_rec["outliers"] = scan_outliers[l];
-        scan_rec["misaligned"] = misaligned[static_cast<std::size_t>(view)] != 0;
-        scan_rec["misalignment"] = mis;
-        scans.push_back(std::move(scan_rec));
       }
     };
-    tbb::parallel_invoke(move_misaligned, write_records);
+    std::vector<Json> view_records(static_cast<std::size_t>(gv));
+    auto write_record = [&](int lv) {
+      const auto l = static_cast<std::size_t>(lv);
+      const int view = g0 + lv;
+      const Camera& cam = cameras_[static_cast<std::size_t>(view)];
+      Json scan_rec = Json::object();
+      scan_rec["id"] = view;
+      scan_rec["sensor_origin"] = vec_json(cam.origin);
+      Json mis = Json(nullptr);
+      if (misaligned[static_cast<std::size_t>(view)]) {
+        mis = Json::object();
+        mis["center"] = vec_json(centres[l]);
+        mis["axis"] = vec_json(axes[l]);
+        mis["angle_deg"] = p_.misalign_deg;
+        mis["shift"] = vec_json(shifts[l]);
+        Json rows = Json::array();
+        for (int a = 0; a < 3; ++a)
+          rows.push_back(Json::array({rots[l](a, 0), rots[l](a, 1), rots[l](a, 2)}));
+        mis["rotation"] = rows;
+        mis["translation"] = vec_json(transl[l]);
+      }
+      scan_rec["registered_origin"] =
+          vec_json(Eigen::Vector3d(rots[l] * cam.origin.cast<double>() + transl[l]));
+      scan_rec["forward"] = vec_json(cam.forward);
+      scan_rec["up"] = vec_json(cam.up);
+      scan_rec["fov_deg"] = static_cast<double>(cam.fov_deg);
+      scan_rec["resolution"] = R;
+      scan_rec["points"] = row_start[static_cast<std::size_t>(lv + 1) * R] -
+                           row_start[static_cast<std::size_t>(lv) * R];
+      scan_rec["outliers"] = scan_outliers[l];
+      scan_rec["misaligned"] = misaligned[static_cast<std::size_t>(view)] != 0;
+      scan_rec["misalignment"] = mis;
+      view_records[l] = std::move(scan_rec);
+    };
+
+    // Passes B and C per scan (C depends on the scan's centre of mass only), scans in parallel:
+    // a thread waiting for the rows of one scan runs other scans' rows.
+    tbb::parallel_for(tbb::blocked_range<int>(0, gv, 1), [&](const tbb::blocked_range<int>& vr) {
+      for (int lv = vr.begin(); lv < vr.end(); ++lv) {
+        const tbb::blocked_range<int> rows(lv * R, (lv + 1) * R, 1);
+        tbb::parallel_for(rows, pass_b);
+        settle(lv);
+        if (misaligned[static_cast<std::size_t>(g0 + lv)]) tbb::parallel_for(rows, pass_c);
+        write_record(lv);
+      }
+    });
+    for (Json& rec : view_records)
+      scans.push_back(std::move(rec));
     t_artifacts += std::chrono::duration<double>(Clock::now() - t1).count();
   }
   ctx.add_phase_time("scan.rays", t_rays);
