@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
@@ -114,7 +115,7 @@ class PreparedMixture {
         keys[static_cast<std::size_t>(i)] = {key, i};
       }
     });
-    std::sort(keys.begin(), keys.end());
+    tbb::parallel_sort(keys.begin(), keys.end());
     std::vector<std::size_t> starts;
     for (std::size_t i = 0; i < keys.size(); ++i)
       if (i == 0 || keys[i].first != keys[i - 1].first) starts.push_back(i);

@@ -16,6 +16,7 @@
 // never on the thread count or on the other queries.
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
 #include <Eigen/Core>
 
 #include <algorithm>
@@ -120,7 +121,7 @@ void NeighborGrid::for_each_query(const Eigen::Matrix3Xf& queries, float radius,
       return std::tie(a.first.x, a.first.y, a.first.z, a.second) <
              std::tie(b.first.x, b.first.y, b.first.z, b.second);
     };
-    std::sort(cells.begin(), cells.end(), less);
+    tbb::parallel_sort(cells.begin(), cells.end(), less);
     order.resize(cells.size());
     for (std::size_t k = 0; k < cells.size(); ++k) {
       order[k] = {0, cells[k].second};
