@@ -282,6 +282,34 @@ TEST(DistanceField, FieldPathIgnoresThreadCount) {
   }
 }
 
+// The fallback starts its exact search from a coarse lattice's vertex (far from the mesh), the
+// kd-tree (near it) or outside the lattice: every start must give the exact path's answer bit
+// for bit, and that answer must match brute force.
+TEST(DistanceField, FallbackEqualsExactAndBruteForce) {
+  for (const bool closed : {true, false}) {
+    const TriangleMesh m = closed ? icosphere(3) : random_soup(300, 4);
+    GroundTruth gt(m, 0, GroundTruthOptions{1.0 / 100.0, 3.0f});
+    Rng rng(14);
+    Eigen::Matrix3Xf q(3, 3000);
+    for (Eigen::Index i = 0; i < q.cols(); ++i) {
+      const double s = i % 3 == 0 ? 3.0 : 1.3;  // a third beyond 1.5 x the bounding box
+      q.col(i) = Eigen::Vector3f(rng.uniform(-s, s), rng.uniform(-s, s), rng.uniform(-s, s));
+    }
+    Eigen::Index fallbacks = 0;
+    const Eigen::VectorXf field = gt.distances(q, DistancePath::Field, &fallbacks);
+    const Eigen::VectorXf exact = gt.distances(q, DistancePath::Exact);
+    EXPECT_GT(fallbacks, q.cols() / 2);
+    for (Eigen::Index i = 0; i < q.cols(); ++i) {
+      if (gt.field().distance(q.col(i))) continue;
+      ASSERT_EQ(field[i], exact[i]) << closed << " " << i;
+      if (i % 10 == 0) {
+        const Brute b = brute_mesh(m, q.col(i));
+        ASSERT_NEAR(field[i], std::sqrt(b.d2), 1e-6 * (1 + std::sqrt(b.d2))) << i;
+      }
+    }
+  }
+}
+
 TEST(DistanceField, CompareAndVdbRoundTrip) {
   const TriangleMesh a = icosphere(4, 1.0f);
   const TriangleMesh b = icosphere(4, 1.05f);

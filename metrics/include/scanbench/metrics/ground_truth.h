@@ -9,7 +9,10 @@
 //  - Field path: an OpenVDB narrow-band distance field (distance_field.h), signed when the mesh
 //    is closed and consistently oriented, unsigned otherwise, voxel size = field_voxel x bbox
 //    diagonal, band half-width band_voxels. Distance only; queries outside the band fall back to
-//    the exact path. Built lazily on first use (thread-safe).
+//    the exact path. Built lazily on first use (thread-safe), together with a coarse lattice
+//    (1/64 of the diagonal over 1.5 x the bbox) of nearest mesh vertices: a fallback query far
+//    from the mesh starts its exact search from its node's vertex instead of a kd-tree search
+//    (any upper bound gives the same answer; this one is cheaper to get).
 //  - Surface samples: count uniform area-weighted samples seeded from sample_seed
 //    (surface_sampling.h), cached per count, so completeness and recall use the same samples in
 //    every run.
