@@ -69,6 +69,15 @@ void add_bench_scanner(CLI::App* bench, Cli& cli) {
         c["scanner_rays_per_second"] = r.scanner_rays_per_second;
         c["ratio"] = r.ratio;
         c["cpu_ratio"] = r.cpu_ratio;
+        // Same rays on both sides: the bare hits give the scanner's returned beams.
+        c["beams_returned_bare"] = r.bare_beams_returned;
+        c["beams_returned_scanner"] = r.scanner_beams_returned;
+        if (r.bare_beams_returned != r.scanner_beams_returned) {
+          throw Error(
+              fmt::format("bench scanner: {} triangles: the bare loop returned {} beams, "
+                          "the scanner {}: not the same rays",
+                          r.triangles, r.bare_beams_returned, r.scanner_beams_returned));
+        }
         c["bare_seconds"] = r.bare_seconds;
         c["scanner_seconds"] = r.scanner_seconds;
         c["bare_cpu_seconds"] = r.bare_cpu_seconds;

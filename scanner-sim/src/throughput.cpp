@@ -38,7 +38,20 @@ ThroughputResult measure_throughput(const TriangleMesh& mesh, const ScannerParam
   // One untimed warm-up of each side.
   rays = pristine;
   engine.cast_all(rays);
-  res.points = engine.run(ctx).cloud.size();
+  {
+    const Scan s = engine.run(ctx);
+    res.points = s.cloud.size();
+    res.scanner_beams_returned = s.record["counts"]["pixels"].get<std::int64_t>() -
+                                 s.record["counts"]["misses"].get<std::int64_t>();
+    const int sub = p.sub_rays;
+    for (std::size_t b = 0; b + static_cast<std::size_t>(sub) <= rays.size();
+         b += static_cast<std::size_t>(sub)) {
+      int hits = 0;
+      for (int k = 0; k < sub; ++k)
+        hits += rays[b + static_cast<std::size_t>(k)].hit.geomID != RTC_INVALID_GEOMETRY_ID;
+      res.bare_beams_returned += hits >= (sub + 1) / 2;
+    }
+  }
   for (int r = 0; r < repeats; ++r) {
     rays = pristine;  // untimed reset of tfar / geomID
     double c0 = process_cpu_seconds();

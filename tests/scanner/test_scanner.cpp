@@ -576,6 +576,9 @@ TEST(ScannerThroughput, BareAndScannerCastTheSameRays) {
   const ThroughputResult r = measure_throughput(uv_sphere(1000), p, 1, ctx);
   EXPECT_EQ(r.rays_per_run, 2 * 32 * 32 * 4);
   EXPECT_GT(r.points, 100);
+  // The bare loop's hits give the scanner's returned beams pixel for pixel.
+  EXPECT_GT(r.bare_beams_returned, 100);
+  EXPECT_EQ(r.bare_beams_returned, r.scanner_beams_returned);
   EXPECT_EQ(r.scanner_seconds.size(), 1u);
   EXPECT_GT(r.ratio, 0.0);
   const TriangleMesh s = uv_sphere(1000);

@@ -21,8 +21,12 @@ namespace scanbench::scanner {
 
 struct ThroughputResult {
   std::int64_t triangles = 0;
-  std::int64_t rays_per_run = 0;            ///< views * resolution^2 * sub_rays
-  std::int64_t points = 0;                  ///< points of one scan
+  std::int64_t rays_per_run = 0;  ///< views * resolution^2 * sub_rays
+  std::int64_t points = 0;        ///< points of one scan
+  /// Pixels whose beam returned (at least ceil(sub_rays / 2) sub-rays hit), from the bare loop's
+  /// hits and from the scan's record (pixels - misses): equal when both cast the same rays.
+  std::int64_t bare_beams_returned = 0;
+  std::int64_t scanner_beams_returned = 0;
   std::vector<double> scanner_seconds;      ///< wall, every repeat
   std::vector<double> bare_seconds;         ///< wall, every repeat
   std::vector<double> scanner_cpu_seconds;  ///< process CPU, every repeat
