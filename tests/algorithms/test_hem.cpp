@@ -339,6 +339,25 @@ TEST(Hem, OutlierStaysAnOrphan) {
   EXPECT_EQ(found, 1);  // never merged into (or merging) surface components
 }
 
+TEST(Hem, TinyAndDegenerateInputs) {
+  // One point, a few points, all-parent levels and identical points: valid mixtures, no crash.
+  for (int n : {1, 2, 5}) {
+    for (double prob : {1.0 / 3.0, 0.99}) {
+      PointCloud c = noisy_sphere(n, 1.0f, 0.0f, 31);
+      HemParams p;
+      p.parent_probability = prob;
+      RunContext ctx(4);
+      const GaussianMixture m = *hem(c, p, ctx).mixture;
+      expect_valid_mixture(m);
+      EXPECT_LE(m.size(), n);
+    }
+  }
+  PointCloud same;
+  same.positions = Eigen::Matrix3Xf::Constant(3, 40, 0.25f);
+  RunContext ctx(4);
+  expect_valid_mixture(*hem(same, HemParams{}, ctx).mixture);
+}
+
 TEST(Hem, BadInputThrows) {
   HemParams p;
   RunContext ctx(1);
