@@ -517,11 +517,14 @@ Components initial_mixture(const Eigen::Matrix3Xf& pts, const HemParams& p, doub
   // Typical spacing from a fixed subset: sizes the grid of the neighbour searches.
   double spacing = 0.0;
   {
+    std::vector<double> all((static_cast<std::size_t>(n) + 60) / 61);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, all.size(), 16), [&](const auto& r) {
+      for (std::size_t k = r.begin(); k != r.end(); ++k)
+        all[k] = tree_nn(static_cast<Index>(k) * 61);
+    });
     std::vector<double> sample;
-    for (Index j = 0; j < n; j += 61) {
-      const double d = tree_nn(j);
+    for (double d : all)
       if (d > 0.0) sample.push_back(d);
-    }
     if (!sample.empty()) {
       auto mid = sample.begin() + static_cast<std::ptrdiff_t>(sample.size() / 2);
       std::nth_element(sample.begin(), mid, sample.end());
@@ -737,15 +740,14 @@ Components cluster_level(const Components& comps, const HemParams& p, std::uint6
   std::vector<char> is_parent(comps.size(), 0);
   std::vector<Index> parents;
   std::vector<Index> others;  // the components that are not parents, in index order
-  for (Index i = 0; i < n; ++i) {
-    Rng rng(derive_seed(level_seed, static_cast<std::uint64_t>(i)));
-    if (rng.uniform() < p.parent_probability) {
-      is_parent[static_cast<std::size_t>(i)] = 1;
-      parents.push_back(i);
-    } else {
-      others.push_back(i);
+  tbb::parallel_for(tbb::blocked_range<Index>(0, n, 4096), [&](const tbb::blocked_range<Index>& r) {
+    for (Index i = r.begin(); i < r.end(); ++i) {
+      Rng rng(derive_seed(level_seed, static_cast<std::uint64_t>(i)));
+      is_parent[static_cast<std::size_t>(i)] = rng.uniform() < p.parent_probability ? 1 : 0;
     }
-  }
+  });
+  for (Index i = 0; i < n; ++i)
+    (is_parent[static_cast<std::size_t>(i)] ? parents : others).push_back(i);
   if (parents.empty()) return comps;
 
   // Candidate children of a parent: itself, and the non-parents (other parents are never
