@@ -37,6 +37,7 @@ struct Precomputed {
 using Packet = Eigen::internal::packet_traits<float>::type;
 constexpr int kLanes = Eigen::internal::packet_traits<float>::size;
 constexpr int kShells = 8;
+constexpr double kMinOccupancy = 6.0;
 
 // Per-thread scratch of one cell of particles: the candidate components in structure-of-arrays
 // form, field by field (mean x, y, z, then per kernel the six entries of Lambda^-1 and the log
@@ -134,26 +135,38 @@ class PreparedMixture {
     const Index n = q.cols();
     if (n == 0) return;
     const Eigen::Vector3f lo = q.rowwise().minCoeff();
-    const float inv_cell = 1.0f / cell_;
+    // Cells of side h/4; where the particles are spread thinly (noise thicker than the cell,
+    // fewer than kMinOccupancy per occupied cell on average) the side doubles, up to h, so that
+    // one gather serves several particles. The terms kept do not depend on the cell (every term
+    // within reach is gathered, the rest is masked out), only their summation order does.
+    float cell = cell_;
     std::vector<std::pair<std::uint64_t, Index>> keys(static_cast<std::size_t>(n));
-    auto coord = [&](float v, float l) {
-      return static_cast<std::uint64_t>(
-          std::clamp(std::floor((v - l) * inv_cell), 0.0f, static_cast<float>((1 << 21) - 1)));
-    };
-    tbb::parallel_for(tbb::blocked_range<Index>(0, n, 4096), [&](const auto& r) {
-      for (Index i = r.begin(); i != r.end(); ++i) {
-        const std::uint64_t key = (coord(q(0, i), lo.x()) << 42) | (coord(q(1, i), lo.y()) << 21) |
-                                  coord(q(2, i), lo.z());
-        keys[static_cast<std::size_t>(i)] = {key, i};
-      }
-    });
-    tbb::parallel_sort(keys.begin(), keys.end());
     std::vector<std::size_t> starts;
-    for (std::size_t i = 0; i < keys.size(); ++i)
-      if (i == 0 || keys[i].first != keys[i - 1].first) starts.push_back(i);
-    starts.push_back(keys.size());
+    for (;;) {
+      const float inv_cell = 1.0f / cell;
+      auto coord = [&](float v, float l) {
+        return static_cast<std::uint64_t>(
+            std::clamp(std::floor((v - l) * inv_cell), 0.0f, static_cast<float>((1 << 21) - 1)));
+      };
+      tbb::parallel_for(tbb::blocked_range<Index>(0, n, 4096), [&](const auto& r) {
+        for (Index i = r.begin(); i != r.end(); ++i) {
+          const std::uint64_t key = (coord(q(0, i), lo.x()) << 42) |
+                                    (coord(q(1, i), lo.y()) << 21) | coord(q(2, i), lo.z());
+          keys[static_cast<std::size_t>(i)] = {key, i};
+        }
+      });
+      tbb::parallel_sort(keys.begin(), keys.end());
+      starts.clear();
+      for (std::size_t i = 0; i < keys.size(); ++i)
+        if (i == 0 || keys[i].first != keys[i - 1].first) starts.push_back(i);
+      starts.push_back(keys.size());
+      const double occupancy =
+          static_cast<double>(n) / static_cast<double>(std::max<std::size_t>(starts.size() - 1, 1));
+      if (occupancy >= kMinOccupancy || cell >= 4.0f * cell_) break;
+      cell *= 2.0f;
+    }
     std::vector<float> radii = kInitial ? r_initial_ : r_attraction_;
-    const float half_diag = 0.5f * std::sqrt(3.0f) * cell_;
+    const float half_diag = 0.5f * std::sqrt(3.0f) * cell;
     for (float& r : radii)
       r += half_diag;
 
@@ -168,10 +181,10 @@ class PreparedMixture {
           for (std::size_t c = rr.begin(); c != rr.end(); ++c) {
             const std::uint64_t key = keys[starts[c]].first;
             const Eigen::Vector3f center =
-                lo + cell_ * (Eigen::Vector3f(static_cast<float>(key >> 42),
-                                              static_cast<float>((key >> 21) & ((1u << 21) - 1)),
-                                              static_cast<float>(key & ((1u << 21) - 1))) +
-                              Eigen::Vector3f::Constant(0.5f));
+                lo + cell * (Eigen::Vector3f(static_cast<float>(key >> 42),
+                                             static_cast<float>((key >> 21) & ((1u << 21) - 1)),
+                                             static_cast<float>(key & ((1u << 21) - 1))) +
+                             Eigen::Vector3f::Constant(0.5f));
             sc.ids.clear();
             index_.for_each_near(center, radii, sc.hits, [&](Index s) { sc.ids.push_back(s); });
             const auto m = static_cast<Index>(sc.ids.size());
