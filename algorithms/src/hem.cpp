@@ -21,6 +21,7 @@
 #include "scanbench/core/errors.h"
 #include "scanbench/core/kdtree.h"
 #include "scanbench/core/rng.h"
+#include "simd_exp.h"
 
 namespace scanbench::algorithms {
 
@@ -328,23 +329,16 @@ Grid make_grid(const Eigen::Matrix3Xf& pts, double width, int split) {
 using Float4 = float __attribute__((vector_size(16)));
 using Int4 = std::int32_t __attribute__((vector_size(16)));
 
-// exp(x) for x <= 0, about 1.4 ulp (Cephes expf: Cody-Waite reduction, degree-5 polynomial);
-// x below -80 gives exp(-80). Eigen's exp on SSE2 emulates floor and costs four times this.
+// exp of 4 lanes through the kernels' shared SIMD exp (Eigen's polynomial, simd_exp.h); the
+// argument is at least -80 here, inside its bit-exact range.
 inline Float4 exp_nonpositive(Float4 x) {
-  const Float4 lo = Float4{} - 80.0f;
-  x = x < lo ? lo : x;
-  const Float4 n = (x * 1.44269504088896341f + 12582912.0f) - 12582912.0f;  // round(x / ln 2)
-  Float4 r = x - n * 0.693359375f;
-  r = r + n * 2.12194440e-4f;
-  Float4 y = Float4{} + 1.9875691500e-4f;
-  y = y * r + 1.3981999507e-3f;
-  y = y * r + 8.3334519073e-3f;
-  y = y * r + 4.1665795894e-2f;
-  y = y * r + 1.6666665459e-1f;
-  y = y * r + 5.0000001201e-1f;
-  y = y * (r * r) + r + 1.0f;
-  const Int4 bits = (__builtin_convertvector(n, Int4) + 127) << 23;  // 2^n
-  return y * reinterpret_cast<Float4>(bits);
+  using Packet = Eigen::internal::packet_traits<float>::type;
+  static_assert(sizeof(Packet) == sizeof(Float4));
+  Packet p;
+  std::memcpy(&p, &x, sizeof p);
+  p = detail::fast_pexp(p);
+  std::memcpy(&x, &p, sizeof x);
+  return x;
 }
 
 inline Float4 load4(const float* p) {
