@@ -18,6 +18,7 @@
 #include <limits>
 #include <memory>
 #include <numeric>
+#include <optional>
 #include <sstream>
 
 #include "scanbench/core/errors.h"
@@ -510,8 +511,15 @@ Scan ScannerEngine::run(RunContext& ctx) const {
             const Tile tl = tile(t);
             make_tile_rays(cam, tl, buf.data());
             caster.intersect(buf.data(), static_cast<unsigned>(tile_ray_count(tl)));
-            Rng rng(derive_seed(view_pixel_seeds[static_cast<std::size_t>(view)],
-                                static_cast<std::uint64_t>(t)));
+            // The tile's stream, seeded at its first returned point (most tiles have none).
+            std::optional<Rng> tile_rng;
+            auto rng = [&]() -> Rng& {
+              if (!tile_rng) {
+                tile_rng.emplace(derive_seed(view_pixel_seeds[static_cast<std::size_t>(view)],
+                                             static_cast<std::uint64_t>(t)));
+              }
+              return *tile_rng;
+            };
             const RTCRayHit* rh = buf.data();
             for (int v = tl.v0; v < tl.v1; ++v) {
               std::int64_t points = 0;
@@ -574,13 +582,13 @@ Scan ScannerEngine::run(RunContext& ctx) const {
                 const double sigma = noise_a + noise_b * static_cast<double>(raw) +
                                      noise_c * (static_cast<double>(inv_cos) - 1.0);
                 float noisy = raw;
-                if (sigma > 0.0) noisy += static_cast<float>(sigma * normal(rng));
+                if (sigma > 0.0) noisy += static_cast<float>(sigma * normal(rng()));
                 // Along the beam axis: sub-ray 0.
                 const Eigen::Vector3f axis(rh[0].ray.dir_x, rh[0].ray.dir_y, rh[0].ray.dir_z);
                 position[i] = cam.origin + noisy * axis;
                 std::int32_t n_out = 0;
                 if (f_out > 0.0) {
-                  while ((rng.next() >> 11) < out_threshold)  // rng.uniform() < f_out
+                  while ((rng().next() >> 11) < out_threshold)  // rng.uniform() < f_out
                     ++n_out;
                 }
                 outliers[i] = n_out;
