@@ -65,9 +65,12 @@ Json execute_job(const Job& job, const fs::path& out) {
 
   const TriangleMesh mesh = load_dataset(job.dataset, job.dataset_params);
 
-  // Scan, cached by content: the mesh bytes, the effective scanner parameters and the seed.
-  const Json scan_key = {
-      {"mesh", mesh_hash(mesh)}, {"scanner", job.scanner_params}, {"seed", job.seed}};
+  // Scan, cached by content: the mesh bytes, the effective scanner parameters, the seed and the
+  // scan model version.
+  const Json scan_key = {{"mesh", mesh_hash(mesh)},
+                         {"scanner", job.scanner_params},
+                         {"seed", job.seed},
+                         {"scan_model", scanner::kScanModelVersion}};
   const std::string scan_hash = content_hash(scan_key.dump());
   const fs::path ply = out / "scans" / (scan_hash + ".ply");
   const auto t_scan = Clock::now();

@@ -58,6 +58,11 @@
 
 namespace scanbench::scanner {
 
+/// Version of the scan model: bumped whenever the same parameters and seed give different points
+/// (random streams, artifact model). Part of the harness's scan cache key, so a resumed
+/// experiment never mixes scans of two models. 2: per-tile noise streams, ziggurat normals.
+inline constexpr int kScanModelVersion = 2;
+
 /// Every parameter of the virtual scanner. Lengths are fractions of the bbox diagonal ("diag"),
 /// angles in degrees. Defaults: a clean scanner (8 views of 256 x 256 pixels, no artifacts).
 struct ScannerParams {
