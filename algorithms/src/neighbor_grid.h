@@ -22,6 +22,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <stdexcept>
 #include <tuple>
 #include <utility>
 #include <vector>
@@ -100,6 +101,8 @@ template <class F>
 void NeighborGrid::for_each_query(const Eigen::Matrix3Xf& queries, float radius,
                                   bool queries_are_points, F&& f) const {
   const Eigen::Index nq = queries.cols();
+  if (queries_are_points && nq != n_)
+    throw std::logic_error("NeighborGrid::for_each_query: the queries are not the grid's points");
   if (nq == 0) return;
   // Group the queries by grid cell (for points: the grid's own order), then by index.
   std::vector<std::pair<std::uint64_t, Eigen::Index>> order;
