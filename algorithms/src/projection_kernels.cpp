@@ -3,13 +3,11 @@
 
 #include <fmt/format.h>
 #include <tbb/blocked_range.h>
-#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <cstdlib>
 #include <cstring>
 #include <numeric>
 
@@ -150,8 +148,8 @@ float alpha(float r, float h) {
 }
 
 float grid_cell(float radius) {
-  static const float div = std::getenv("SB_DIV") ? std::atof(std::getenv("SB_DIV")) : 2.0f;
-  return radius / div;
+  // Measured on the camel case: radius, radius/3 and radius/4 were 2-30% slower.
+  return 0.5f * radius;
 }
 
 Eigen::VectorXf density_weights(const detail::NeighborGrid& grid, const Eigen::Matrix3Xf& points,
