@@ -82,9 +82,10 @@ const LaneMasks kMasks;
 
 // Sums over the grid points within `radius` of q (vectorised, fixed order: range by range):
 //   s = sum_t g_t, d = sum_t g_t (p_t - q),  g_t = kernel(r_t^2) * weight_t
-// where kernel is theta (Alpha = false) or alpha with the eps*h clamp (Alpha = true).
+// where kernel is theta (Alpha = false) or alpha with the eps*h clamp (Alpha = true), and weight_t
+// the grid's weight of the point (1 when not Weighted).
 // The point at sorted position `self` (or none, -1) is left out.
-template <bool Alpha>
+template <bool Alpha, bool Weighted = true>
 std::pair<float, Eigen::Vector3f> kernel_sums(const detail::NeighborGrid& g,
                                               const Eigen::Vector3f& q, float radius, float h,
                                               Eigen::Index self, const detail::GridRange* ranges,
@@ -121,7 +122,8 @@ std::pair<float, Eigen::Vector3f> kernel_sums(const detail::NeighborGrid& g,
       } else {
         k = detail::fast_pexp(ei::pmul(kk, r2));
       }
-      k = ei::pand(ei::pmul(k, ei::ploadu<Packet>(pw + t)), inside);
+      if constexpr (Weighted) k = ei::pmul(k, ei::ploadu<Packet>(pw + t));
+      k = ei::pand(k, inside);
       sw = ei::padd(sw, k);
       sx = ei::padd(sx, ei::pmul(k, dx));
       sy = ei::padd(sy, ei::pmul(k, dy));
@@ -158,7 +160,8 @@ Eigen::VectorXf density_weights(const detail::NeighborGrid& grid, const Eigen::M
   grid.for_each_query(
       points, cutoff, true,
       [&](Eigen::Index j, Eigen::Index self, const detail::GridRange* r, std::size_t count) {
-        v[j] = 1.0f + kernel_sums<false>(grid, points.col(j), cutoff, h, self, r, count).first;
+        v[j] =
+            1.0f + kernel_sums<false, false>(grid, points.col(j), cutoff, h, self, r, count).first;
       });
   return v;
 }
@@ -168,7 +171,8 @@ Eigen::Matrix3Xf l2_means(const Eigen::Matrix3Xf& q, const detail::NeighborGrid&
   grid.for_each_query(
       q, h, false,
       [&](Eigen::Index i, Eigen::Index, const detail::GridRange* r, std::size_t count) {
-        out.col(i) = mean_or_stay(q.col(i), kernel_sums<false>(grid, q.col(i), h, h, -1, r, count));
+        out.col(i) =
+            mean_or_stay(q.col(i), kernel_sums<false, false>(grid, q.col(i), h, h, -1, r, count));
       });
   return out;
 }

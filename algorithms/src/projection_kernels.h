@@ -79,7 +79,7 @@ Eigen::Vector3f repulsion(Eigen::Index i, const Eigen::Matrix3Xf& particles, con
 float grid_cell(float radius);
 /// Density weights 1 + sum_{j' != j, |p_j - p_j'| <= cutoff} theta(|p_j - p_j'|) of every point
 /// (WLOP's v_j for input points, computed once; w_i for particles, every iteration; CLOP eq. 25
-/// with the section 8 cutoff). `grid` was built from `points`.
+/// with the section 8 cutoff). `grid` was built from `points` (its weights are ignored).
 Eigen::VectorXf density_weights(const detail::NeighborGrid& grid, const Eigen::Matrix3Xf& points,
                                 float h, float cutoff);
 /// l2_mean() of every column of q (grid over the input points; its weights are ignored).
