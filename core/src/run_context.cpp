@@ -1,11 +1,10 @@
 #include "scanbench/core/run_context.h"
 
-#include <ctime>
-
 #include <fmt/format.h>
 #include <tbb/global_control.h>
 
 #include "scanbench/core/errors.h"
+#include "scanbench/core/timing.h"
 
 namespace scanbench {
 
@@ -18,16 +17,6 @@ RunContext::RunContext(std::uint64_t seed, int threads) : seed_(seed), threads_(
 }
 
 RunContext::~RunContext() = default;
-
-namespace {
-
-double process_cpu_seconds() {
-  timespec t{};
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
-  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
-}
-
-}  // namespace
 
 RunContext::PhaseTimer::PhaseTimer(RunContext& ctx, std::string name)
     : ctx_(ctx),

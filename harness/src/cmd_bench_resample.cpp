@@ -10,7 +10,6 @@
 // case (h N^1/2 fixed, as for a surface sampled N times), since at a fixed h every LOP-family
 // operator does O(N) work per particle and grows as N^2 by definition.
 #include <fmt/format.h>
-#include <sys/resource.h>
 
 #include <algorithm>
 #include <chrono>
@@ -26,6 +25,7 @@
 #include "scanbench/core/datasets.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/run_context.h"
+#include "scanbench/core/timing.h"
 #include "scanbench/harness/records.h"
 #include "scanbench/metrics/evaluate.h"
 #include "scanbench/metrics/ground_truth.h"
@@ -37,14 +37,6 @@ namespace {
 
 double now_seconds() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
-
-// CPU seconds (user + system, every thread) of this process so far.
-double cpu_seconds() {
-  rusage u{};
-  getrusage(RUSAGE_SELF, &u);
-  return static_cast<double>(u.ru_utime.tv_sec + u.ru_stime.tv_sec) +
-         1e-6 * static_cast<double>(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
 }
 
 // kB value of a /proc/self/status field ("VmRSS", "VmHWM"), or -1 when unavailable.
@@ -111,10 +103,10 @@ CaseResult run_case(const std::string& name, const std::string& algorithm, const
   for (int i = 0; i < repeats; ++i) {
     RunContext ctx(seed, threads);
     const double t0 = now_seconds();
-    const double c0 = cpu_seconds();
+    const double c0 = process_cpu_seconds();
     r.output = entry.fn(input, r.params, ctx);
     r.seconds.push_back(now_seconds() - t0);
-    r.cpu.push_back(cpu_seconds() - c0);
+    r.cpu.push_back(process_cpu_seconds() - c0);
     r.phases = ctx.phase_seconds();
     r.phases_cpu = ctx.phase_cpu_seconds();
   }

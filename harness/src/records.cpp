@@ -185,14 +185,6 @@ std::vector<Json> load_records(const fs::path& dir) {
   return out;
 }
 
-double median(std::vector<double> v) {
-  std::erase_if(v, [](double x) { return std::isnan(x); });
-  if (v.empty()) return std::nan("");
-  std::sort(v.begin(), v.end());
-  const std::size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
-
 std::vector<double> record_samples(const Json& r, const std::string& q) {
   std::vector<double> out;
   auto from_array = [&](const Json& a) {

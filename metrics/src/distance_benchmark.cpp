@@ -5,6 +5,7 @@
 
 #include "scanbench/core/errors.h"
 #include "scanbench/core/rng.h"
+#include "scanbench/core/timing.h"
 #include "scanbench/metrics/distance_field.h"
 #include "scanbench/metrics/surface_sampling.h"
 
@@ -14,12 +15,6 @@ namespace {
 
 double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
-
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  const std::size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
 // The columns of q ordered by the Morton code of their position on a 2^21 lattice over the

@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "scanbench/core/params.h"
+#include "scanbench/core/timing.h"  // median
 
 namespace scanbench::harness {
 
@@ -49,9 +50,6 @@ std::vector<Json> load_job_records(const std::filesystem::path& dir);
 void write_merged(const std::filesystem::path& dir, const std::vector<Json>& records);
 /// The CSV text of the records (header + one line per record).
 std::string records_csv(const std::vector<Json>& records);
-
-/// Median of the values (NaN when empty).
-double median(std::vector<double> v);
 
 /// Reads a numeric quantity of a record: "time.total" (median of total_s), "time.cpu",
 /// "time.<phase>", "peak_rss_mb", "sizes.<key>", or a metric key. NaN when absent.
