@@ -85,12 +85,7 @@ void add_bench_distance(CLI::App* bench, Cli& cli) {
           "    of which field   {:.3f} s median  (leaf sort + samples; the rest is the exact "
           "fallback)\n",
           r.sampling_median);
-      fmt::print("  exact path, queries pre-sorted by Morton code (sort untimed) {:.3f} s median\n",
-                 r.exact_presorted_median);
-      fmt::print(
-          "  exact_over_field   {:.2f}x (target >= 5); against the pre-sorted exact pass "
-          "{:.2f}x\n",
-          r.exact_over_field, r.exact_presorted_over_field);
+      fmt::print("  exact_over_field   {:.2f}x (target >= 5)\n", r.exact_over_field);
       fmt::print(
           "  mean deviation     {:.4f} voxel over all, {:.4f} in band, max {:.3f} "
           "(target < 0.05)\n",
@@ -117,17 +112,13 @@ void add_bench_distance(CLI::App* bench, Cli& cli) {
         out["field_median_seconds"] = r.field_median;
         out["field_sampling_seconds"] = r.sampling_seconds;
         out["field_sampling_median_seconds"] = r.sampling_median;
-        out["exact_presorted_seconds"] = r.exact_presorted_seconds;
-        out["exact_presorted_median_seconds"] = r.exact_presorted_median;
         out["timed"] =
-            "exact: GroundTruth distances, exact path; field: field path = leaf sort + trilinear "
-            "samples + exact fallback outside the band; field_sampling: the field's part alone; "
-            "exact_presorted: the exact path on the queries pre-sorted by Morton code (the "
-            "field path sorts, the exact path does not; the sort itself is not timed); "
-            "not timed in either: field build (field_build_seconds), Embree and kd-tree builds";
+            "exact: GroundTruth distances, exact path = Morton sort + kd-tree bound + Embree "
+            "walk per query; field: field path = leaf sort + trilinear samples + exact fallback "
+            "outside the band; field_sampling: the field's part alone; not timed in either: "
+            "field build (field_build_seconds), Embree and kd-tree builds";
         Json rat = Json::object();
         rat["exact_over_field"] = r.exact_over_field;
-        rat["exact_presorted_over_field"] = r.exact_presorted_over_field;
         out["ratios"] = rat;
         out["field_mean_deviation_voxels"] = r.mean_deviation_voxels;
         out["field_mean_deviation_in_band_voxels"] = r.mean_deviation_in_band_voxels;

@@ -5,13 +5,21 @@
 
 namespace scanbench::metrics {
 
-Eigen::Vector3d closest_point_on_triangle(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
-                                          const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
+PreparedTriangle::PreparedTriangle(const Eigen::Vector3d& a_in, const Eigen::Vector3d& b_in,
+                                   const Eigen::Vector3d& c_in)
+    : a(a_in), b(b_in), c(c_in) {
   const Eigen::Vector3d ab = b - a;
   const Eigen::Vector3d ac = c - a;
+  abab = ab.dot(ab);
+  abac = ab.dot(ac);
+  acac = ac.dot(ac);
   // Degenerate (collinear or repeated) vertices break the region tests (a zero edge makes two
   // regions coincide): the nearest point of the three edges is the answer then.
-  if (ab.cross(ac).squaredNorm() <= 1e-20 * ab.squaredNorm() * ac.squaredNorm()) {
+  degenerate = ab.cross(ac).squaredNorm() <= 1e-20 * abab * acac;
+}
+
+Eigen::Vector3d PreparedTriangle::closest_point(const Eigen::Vector3d& p) const {
+  if (degenerate) {
     auto on_segment = [&](const Eigen::Vector3d& s, const Eigen::Vector3d& e) {
       const Eigen::Vector3d d = e - s;
       const double l2 = d.squaredNorm();
@@ -23,14 +31,17 @@ Eigen::Vector3d closest_point_on_triangle(const Eigen::Vector3d& p, const Eigen:
       if ((q - p).squaredNorm() < (best - p).squaredNorm()) best = q;
     return best;
   }
+  const Eigen::Vector3d ab = b - a;
+  const Eigen::Vector3d ac = c - a;
   const Eigen::Vector3d ap = p - a;
+  // With bp = ap - ab and cp = ap - ac, the six dot products of Ericson's routine need only two
+  // per query: d3 = ab.bp, d4 = ac.bp, d5 = ab.cp, d6 = ac.cp.
   const double d1 = ab.dot(ap);
   const double d2 = ac.dot(ap);
   if (d1 <= 0.0 && d2 <= 0.0) return a;  // vertex region A
 
-  const Eigen::Vector3d bp = p - b;
-  const double d3 = ab.dot(bp);
-  const double d4 = ac.dot(bp);
+  const double d3 = d1 - abab;
+  const double d4 = d2 - abac;
   if (d3 >= 0.0 && d4 <= d3) return b;  // vertex region B
 
   const double vc = d1 * d4 - d3 * d2;
@@ -39,9 +50,8 @@ Eigen::Vector3d closest_point_on_triangle(const Eigen::Vector3d& p, const Eigen:
     return denom > 0.0 ? Eigen::Vector3d(a + (d1 / denom) * ab) : a;
   }
 
-  const Eigen::Vector3d cp = p - c;
-  const double d5 = ab.dot(cp);
-  const double d6 = ac.dot(cp);
+  const double d5 = d1 - abac;
+  const double d6 = d2 - acac;
   if (d6 >= 0.0 && d5 <= d6) return c;  // vertex region C
 
   const double vb = d5 * d2 - d1 * d6;
@@ -60,6 +70,11 @@ Eigen::Vector3d closest_point_on_triangle(const Eigen::Vector3d& p, const Eigen:
   const double v = vb * denom;
   const double w = vc * denom;
   return a + ab * v + ac * w;
+}
+
+Eigen::Vector3d closest_point_on_triangle(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
+                                          const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
+  return PreparedTriangle(a, b, c).closest_point(p);
 }
 
 }  // namespace scanbench::metrics

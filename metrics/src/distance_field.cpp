@@ -13,6 +13,7 @@
 #include <mutex>
 
 #include "scanbench/core/errors.h"
+#include "spatial_order.h"
 
 namespace scanbench::metrics {
 
@@ -121,37 +122,6 @@ class Sampler {
   bool filled_[8] = {};
 };
 
-// Spreads the low 21 bits of v to every third bit (Morton interleave).
-std::uint64_t spread3(std::uint64_t v) {
-  v &= 0x1fffff;
-  v = (v | v << 32) & 0x1f00000000ffffULL;
-  v = (v | v << 16) & 0x1f0000ff0000ffULL;
-  v = (v | v << 8) & 0x100f00f00f00f00fULL;
-  v = (v | v << 4) & 0x10c30c30c30c30c3ULL;
-  v = (v | v << 2) & 0x1249249249249249ULL;
-  return v;
-}
-
-// Stable LSD radix sort of a by bits [lo_bit, hi_bit) (the bits below lo_bit keep their input
-// order, so a starting in index order with the index in the low bits ends totally sorted).
-void radix_sort(std::vector<std::uint64_t>& a, int lo_bit, int hi_bit) {
-  constexpr int kDigit = 11;
-  std::vector<std::uint64_t> tmp(a.size());
-  std::vector<std::size_t> count;
-  for (int shift = lo_bit; shift < hi_bit; shift += kDigit) {
-    const int width = std::min(kDigit, hi_bit - shift);
-    const std::uint64_t mask = (std::uint64_t{1} << width) - 1;
-    count.assign((std::size_t{1} << width) + 1, 0);
-    for (const std::uint64_t v : a)
-      ++count[((v >> shift) & mask) + 1];
-    for (std::size_t k = 1; k < count.size(); ++k)
-      count[k] += count[k - 1];
-    for (const std::uint64_t v : a)
-      tmp[count[(v >> shift) & mask]++] = v;
-    a.swap(tmp);
-  }
-}
-
 }  // namespace
 
 struct DistanceField::Impl {
@@ -236,7 +206,7 @@ void DistanceField::distances(const Eigen::Matrix3Xf& q, Eigen::VectorXf& out,
   // index, so the order is total and depends on q alone. Every value is written to its own
   // index: the order never changes a result.
   const auto bits = [](std::uint64_t v) { return static_cast<int>(std::bit_width(v)); };
-  const int idx_bits = bits(static_cast<std::uint64_t>(std::max<Eigen::Index>(n - 1, 0)));
+  const int idx_bits = detail::index_bits(n);
   int axis_bits = 0;
   for (int k = 0; k < 3; ++k)
     axis_bits = std::max(axis_bits, bits(static_cast<std::uint64_t>(m.leaf_hi[k] - m.leaf_lo[k])));
@@ -253,12 +223,12 @@ void DistanceField::distances(const Eigen::Matrix3Xf& q, Eigen::VectorXf& out,
             const int lo = m.leaf_lo[k], hi = m.leaf_hi[k];
             // NaN fails both comparisons and lands on lo.
             const int l = c > hi ? hi : (c >= lo ? static_cast<int>(c) : lo);
-            key |= spread3(static_cast<std::uint64_t>(l - lo) >> coarsen) << k;
+            key |= detail::spread3(static_cast<std::uint64_t>(l - lo) >> coarsen) << k;
           }
           order[static_cast<std::size_t>(i)] = key << idx_bits | static_cast<std::uint64_t>(i);
         }
       });
-  radix_sort(order, idx_bits, idx_bits + 3 * (axis_bits - coarsen));
+  detail::radix_sort(order, idx_bits, idx_bits + 3 * (axis_bits - coarsen));
 
   // Fixed chunks of the sorted order, each with its own sampler; the outside lists are joined
   // in chunk order, so they do not depend on the thread count either.

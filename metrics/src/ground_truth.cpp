@@ -2,6 +2,7 @@
 
 #include <embree3/rtcore.h>
 #include <tbb/parallel_for.h>
+#include <Eigen/Geometry>
 
 #include <cmath>
 #include <limits>
@@ -13,28 +14,43 @@
 #include "scanbench/metrics/closest_point.h"
 #include "scanbench/metrics/distance_field.h"
 #include "scanbench/metrics/surface_sampling.h"
+#include "spatial_order.h"
 
 namespace scanbench::metrics {
 
 namespace {
 
+// Bounding sphere of a face: centre (the centroid, rounded to float) and a radius that covers
+// every point of the face from that centre, rounded up.
+struct FaceSphere {
+  float x, y, z, r;
+};
+
 struct QueryState {
-  const Eigen::Matrix3Xd* vertices;
-  const Eigen::Matrix3Xi* faces;
+  const std::vector<PreparedTriangle>* triangles;
+  const std::vector<FaceSphere>* spheres;
   Eigen::Vector3d q;
   double best_d2 = std::numeric_limits<double>::infinity();
+  // An upper bound of sqrt(best_d2) (float rounding covered): the Embree search radius.
+  float best_r = std::numeric_limits<float>::infinity();
   std::int64_t best_face = -1;
   Eigen::Vector3d best_point = Eigen::Vector3d::Zero();
 
   void visit(std::int64_t f) {
-    const Eigen::Vector3d p =
-        closest_point_on_triangle(q, vertices->col((*faces)(0, f)), vertices->col((*faces)(1, f)),
-                                  vertices->col((*faces)(2, f)));
+    // Cheap rejection: no point of the face is nearer than |q - centre| - radius, so a face
+    // whose sphere lies beyond the best distance cannot be the answer nor tie with it.
+    const FaceSphere& b = (*spheres)[static_cast<std::size_t>(f)];
+    const double reach = (static_cast<double>(b.r) + static_cast<double>(best_r)) * (1.0 + 1e-9);
+    const double dx = q.x() - b.x, dy = q.y() - b.y, dz = q.z() - b.z;
+    if (dx * dx + dy * dy + dz * dz > reach * reach) return;
+    const Eigen::Vector3d p = (*triangles)[static_cast<std::size_t>(f)].closest_point(q);
     const double d2 = (p - q).squaredNorm();
     if (d2 < best_d2 || (d2 == best_d2 && f < best_face)) {
       best_d2 = d2;
       best_face = f;
       best_point = p;
+      // float(sqrt) is within half an ulp; the factor lifts it above the true value.
+      best_r = static_cast<float>(std::sqrt(best_d2)) * (1.0f + 1e-6f);
     }
   }
 };
@@ -54,10 +70,8 @@ bool point_query_callback(RTCPointQueryFunctionArguments* args) {
   auto* s = static_cast<QueryState*>(args->userPtr);
   s->visit(static_cast<std::int64_t>(args->primID));
   // Shrink the search sphere to the best distance, rounded up so that ties stay visited.
-  const float r = std::nextafter(static_cast<float>(std::sqrt(s->best_d2)),
-                                 std::numeric_limits<float>::infinity());
-  if (r < args->query->radius) {
-    args->query->radius = r;
+  if (s->best_r < args->query->radius) {
+    args->query->radius = s->best_r;
     return true;
   }
   return false;
@@ -67,8 +81,9 @@ bool point_query_callback(RTCPointQueryFunctionArguments* args) {
 
 struct GroundTruth::Impl {
   TriangleMesh mesh;
-  Eigen::Matrix3Xd vertices;  // double copy for the point-triangle routine
+  std::vector<PreparedTriangle> triangles;  // double precision, for the point-triangle routine
   Eigen::Matrix3Xf face_normals;
+  std::vector<FaceSphere> face_spheres;
   BoundingBox bbox;
   float diagonal = 0.0f;
   bool closed = false;
@@ -120,10 +135,25 @@ GroundTruth::GroundTruth(const TriangleMesh& mesh, std::uint64_t sample_seed,
     throw ParamError("ground truth: field_voxel must be > 0 and band_voxels >= 2");
   Impl& m = *impl_;
   m.mesh = mesh;
-  m.vertices = mesh.vertices.cast<double>();
+  const Eigen::Matrix3Xd vd = mesh.vertices.cast<double>();
   m.face_normals.resize(3, mesh.num_faces());
-  for (Eigen::Index f = 0; f < mesh.num_faces(); ++f)
+  m.face_spheres.resize(static_cast<std::size_t>(mesh.num_faces()));
+  m.triangles.resize(static_cast<std::size_t>(mesh.num_faces()));
+  for (Eigen::Index f = 0; f < mesh.num_faces(); ++f) {
     m.face_normals.col(f) = mesh.face_normal(f);
+    m.triangles[static_cast<std::size_t>(f)] = PreparedTriangle(
+        vd.col(mesh.faces(0, f)), vd.col(mesh.faces(1, f)), vd.col(mesh.faces(2, f)));
+    const Eigen::Vector3f c =
+        ((vd.col(mesh.faces(0, f)) + vd.col(mesh.faces(1, f)) + vd.col(mesh.faces(2, f))) / 3.0)
+            .cast<float>();
+    double r = 0.0;
+    for (int k = 0; k < 3; ++k)
+      r = std::max(r, (vd.col(mesh.faces(k, f)) - c.cast<double>()).norm());
+    m.face_spheres[static_cast<std::size_t>(f)] = {
+        c.x(), c.y(), c.z(),
+        std::nextafter(static_cast<float>(r * (1.0 + 1e-6)),
+                       std::numeric_limits<float>::infinity())};
+  }
   m.bbox = mesh.bbox();
   m.diagonal = m.bbox.diagonal();
   m.closed = mesh.is_closed_and_oriented();
@@ -182,7 +212,7 @@ const GroundTruthOptions& GroundTruth::options() const {
 }
 
 ClosestPoint GroundTruth::Impl::query(const Eigen::Vector3f& q, float radius) const {
-  QueryState s{&vertices, &mesh.faces, q.cast<double>()};
+  QueryState s{&triangles, &face_spheres, q.cast<double>()};
   RTCPointQuery pq;
   pq.x = q.x();
   pq.y = q.y();
@@ -191,9 +221,11 @@ ClosestPoint GroundTruth::Impl::query(const Eigen::Vector3f& q, float radius) co
   pq.radius = radius;
   RTCPointQueryContext context;
   rtcInitPointQueryContext(&context);
+  s.best_r = radius;  // faces beyond the bound are out, as for Embree's box tests
   rtcPointQuery(scene, &pq, &context, point_query_callback, &s);
   if (s.best_face < 0) {
     // Not reached in practice (the bound always holds a face); keep the oracle total anyway.
+    s.best_r = std::numeric_limits<float>::infinity();
     for (Eigen::Index f = 0; f < mesh.num_faces(); ++f)
       s.visit(f);
   }
@@ -257,10 +289,13 @@ float GroundTruth::Impl::fallback_distance(const Eigen::Vector3f& q) const {
 std::vector<ClosestPoint> GroundTruth::closest_points(const Eigen::Matrix3Xf& q) const {
   std::vector<ClosestPoint> out(static_cast<std::size_t>(q.cols()));
   if (!q.allFinite()) throw InputError("ground truth: a query point is not finite");
-  tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, q.cols(), 256),
-                    [&](const tbb::blocked_range<Eigen::Index>& r) {
-                      for (Eigen::Index i = r.begin(); i < r.end(); ++i)
-                        out[static_cast<std::size_t>(i)] = closest_point(q.col(i));
+  // In Morton order: consecutive queries walk the same BVH nodes (about 1.7x faster than input
+  // order on the distance benchmark); each answer has its own slot, so the order changes none.
+  const std::vector<Eigen::Index> order = detail::morton_order(q);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, order.size(), 256),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t k = r.begin(); k < r.end(); ++k)
+                        out[static_cast<std::size_t>(order[k])] = closest_point(q.col(order[k]));
                     });
   return out;
 }
@@ -270,11 +305,18 @@ Eigen::VectorXf GroundTruth::distances(const Eigen::Matrix3Xf& q, DistancePath p
   if (!q.allFinite()) throw InputError("ground truth: a query point is not finite");
   Eigen::VectorXf out(q.cols());
   if (path == DistancePath::Exact) {
-    tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, q.cols(), 256),
-                      [&](const tbb::blocked_range<Eigen::Index>& r) {
-                        for (Eigen::Index i = r.begin(); i < r.end(); ++i)
-                          out[i] = closest_point(q.col(i)).distance;
-                      });
+    // In Morton order (see closest_points), on a sorted copy of the queries.
+    const std::vector<Eigen::Index> order = detail::morton_order(q);
+    tbb::parallel_for(
+        tbb::blocked_range<std::size_t>(0, order.size(), 1024),
+        [&](const tbb::blocked_range<std::size_t>& r) {
+          Eigen::Matrix3Xf local(3, static_cast<Eigen::Index>(r.size()));
+          for (std::size_t k = r.begin(); k < r.end(); ++k)
+            local.col(static_cast<Eigen::Index>(k - r.begin())) = q.col(order[k]);
+          for (std::size_t k = r.begin(); k < r.end(); ++k)
+            out[order[k]] =
+                closest_point(local.col(static_cast<Eigen::Index>(k - r.begin()))).distance;
+        });
     if (fallbacks) *fallbacks = 0;
     return out;
   }

@@ -98,6 +98,63 @@ TEST(GroundTruth, ExactOracleMatchesBruteForceOnRandomMeshes) {
   }
 }
 
+TEST(ClosestPointOnTriangle, PreparedTriangleGivesTheSameBits) {
+  Rng rng(11);
+  for (int it = 0; it < 5000; ++it) {
+    const Eigen::Vector3d a(rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1));
+    const Eigen::Vector3d b(rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1));
+    const Eigen::Vector3d c =
+        it % 7 == 0 ? Eigen::Vector3d(a + 0.5 * (b - a))
+                    : Eigen::Vector3d(rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1));
+    const PreparedTriangle t(a, b, c);
+    EXPECT_EQ(t.degenerate, it % 7 == 0);
+    for (int k = 0; k < 4; ++k) {
+      const Eigen::Vector3d p(rng.uniform(-3, 3), rng.uniform(-3, 3), rng.uniform(-3, 3));
+      ASSERT_EQ(t.closest_point(p), closest_point_on_triangle(p, a, b, c)) << it;
+    }
+  }
+}
+
+// The exact path visits queries in Morton order: the answers must not depend on the order in
+// which the queries are given, nor on the thread count.
+TEST(GroundTruth, ExactPathIgnoresQueryOrderAndThreadCount) {
+  const TriangleMesh m = random_soup(400, 5);
+  GroundTruth gt(m, 0);
+  Rng rng(9);
+  const Eigen::Index n = 3000;
+  Eigen::Matrix3Xf q(3, n);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const double s = i % 10 == 0 ? 20.0 : 1.5;
+    q.col(i) = Eigen::Vector3f(rng.uniform(-s, s), rng.uniform(-s, s), rng.uniform(-s, s));
+  }
+  std::vector<Eigen::Index> perm(static_cast<std::size_t>(n));
+  for (Eigen::Index i = 0; i < n; ++i)
+    perm[static_cast<std::size_t>(i)] = (i * 7919) % n;  // 7919 is prime, n = 3000: a bijection
+  Eigen::Matrix3Xf shuffled(3, n);
+  for (Eigen::Index i = 0; i < n; ++i)
+    shuffled.col(i) = q.col(perm[static_cast<std::size_t>(i)]);
+  Eigen::VectorXf a, b;
+  std::vector<ClosestPoint> ca, cb;
+  tbb::task_arena(1).execute([&] {
+    a = gt.distances(q, DistancePath::Exact);
+    ca = gt.closest_points(q);
+  });
+  tbb::task_arena(2).execute([&] {
+    b = gt.distances(shuffled, DistancePath::Exact);
+    cb = gt.closest_points(shuffled);
+  });
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const auto j = static_cast<std::size_t>(i);
+    const Eigen::Index src = perm[j];
+    ASSERT_EQ(b[i], a[src]) << i;
+    ASSERT_EQ(cb[j].face, ca[static_cast<std::size_t>(src)].face) << i;
+    ASSERT_EQ(cb[j].point, ca[static_cast<std::size_t>(src)].point) << i;
+    const ClosestPoint one = gt.closest_point(shuffled.col(i));
+    ASSERT_EQ(one.distance, b[i]) << i;
+    ASSERT_EQ(one.face, cb[j].face) << i;
+  }
+}
+
 TEST(GroundTruth, PointsOnVerticesAndEdgesHaveZeroDistanceAndLowestFace) {
   const TriangleMesh m = icosphere(2);
   GroundTruth gt(m, 0);

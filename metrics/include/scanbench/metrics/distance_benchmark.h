@@ -17,33 +17,28 @@ namespace scanbench::metrics {
 Eigen::Matrix3Xf distance_benchmark_queries(const GroundTruth& gt, Eigen::Index n, double far_share,
                                             double near_sigma, std::uint64_t seed);
 
-/// What is timed: exact_seconds = GroundTruth::distances(q, Exact) (kd-tree bound + Embree walk
-/// per query); field_seconds = GroundTruth::distances(q, Field): the leaf sort, the trilinear
-/// samples and the exact fallback for every query outside the band. Neither includes the
-/// one-off field build (field_build_seconds, reported apart) nor the Embree/kd-tree build (done
-/// when the GroundTruth is constructed, before any timing). sampling_seconds times the field's
-/// own part alone (DistanceField::distances: sort + samples, no fallback), so the fallback costs
-/// about field - sampling. The field path visits queries in spatial (leaf Morton) order and the
-/// exact path in input order; because that order alone changes the exact path's speed (cache
-/// locality of the BVH and kd-tree), exact_presorted_seconds times the exact path on the same
-/// queries pre-sorted by Morton code (the sort untimed) and checks that it gives the same
-/// distances: exact_presorted_over_field is the ratio against an equally ordered baseline.
+/// What is timed: exact_seconds = GroundTruth::distances(q, Exact) (Morton sort of the queries,
+/// then kd-tree bound + Embree walk per query); field_seconds = GroundTruth::distances(q, Field):
+/// the leaf sort, the trilinear samples and the exact fallback for every query outside the band.
+/// Both paths sort their queries spatially, so the ratio compares equally ordered passes.
+/// Neither includes the one-off field build (field_build_seconds, reported apart) nor the
+/// Embree/kd-tree build (done when the GroundTruth is constructed, before any timing).
+/// sampling_seconds times the field's own part alone (DistanceField::distances: sort + samples,
+/// no fallback), so the fallback costs about field - sampling. Throws Error when a fallback
+/// answer differs from the exact path's (they must be equal bit for bit).
 struct DistanceBenchmarkResult {
   Eigen::Index queries = 0;
-  Eigen::Index fallbacks = 0;                   ///< queries outside the band (answered exactly)
-  double voxel = 0.0;                           ///< field voxel size (mesh units)
-  double field_build_seconds = 0.0;             ///< one-off OpenVDB build (not in the ratio)
-  std::vector<double> exact_seconds;            ///< every repeat
-  std::vector<double> field_seconds;            ///< every repeat
-  std::vector<double> sampling_seconds;         ///< every repeat
-  std::vector<double> exact_presorted_seconds;  ///< every repeat
+  Eigen::Index fallbacks = 0;            ///< queries outside the band (answered exactly)
+  double voxel = 0.0;                    ///< field voxel size (mesh units)
+  double field_build_seconds = 0.0;      ///< one-off OpenVDB build (not in the ratio)
+  std::vector<double> exact_seconds;     ///< every repeat
+  std::vector<double> field_seconds;     ///< every repeat
+  std::vector<double> sampling_seconds;  ///< every repeat
   double exact_median = 0.0;
-  double exact_presorted_median = 0.0;
   double field_median = 0.0;
   double sampling_median = 0.0;
-  double exact_over_field = 0.0;            ///< exact_median / field_median
-  double exact_presorted_over_field = 0.0;  ///< exact_presorted_median / field_median
-  double mean_deviation_voxels = 0.0;       ///< mean |d_field - d_exact| / voxel over all queries
+  double exact_over_field = 0.0;       ///< exact_median / field_median
+  double mean_deviation_voxels = 0.0;  ///< mean |d_field - d_exact| / voxel over all queries
   double mean_deviation_in_band_voxels = 0.0;  ///< the same over in-band queries only
   double max_deviation_voxels = 0.0;
 };
