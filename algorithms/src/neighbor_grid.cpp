@@ -2,6 +2,8 @@
 
 #include <tbb/parallel_sort.h>
 
+#include <algorithm>
+#include <cmath>
 #include <limits>
 
 namespace scanbench::algorithms::detail {
@@ -55,6 +57,20 @@ NeighborGrid::NeighborGrid(const Eigen::Matrix3Xf& points, float cell)
     }
   }
   cell_begin_.push_back(n_);
+  // A dense table costs 4 bytes per cell of the box: allowed up to 8 per point (32 bytes, the
+  // size of the sorted arrays) and while occupied-cell numbers fit 32 bits.
+  const double box =
+      static_cast<double>(dims_[0]) * static_cast<double>(dims_[1]) * static_cast<double>(dims_[2]);
+  if (box <= 8.0 * static_cast<double>(n_) + 4096.0 &&
+      cell_key_.size() < std::numeric_limits<std::uint32_t>::max()) {
+    dense_first_.resize(static_cast<std::size_t>(box) + 1);
+    std::size_t c = 0;
+    for (std::size_t k = 0; k < dense_first_.size(); ++k) {
+      while (c < cell_key_.size() && cell_key_[c] < k)
+        ++c;
+      dense_first_[k] = static_cast<std::uint32_t>(c);
+    }
+  }
 }
 
 void NeighborGrid::set_weights(const Eigen::VectorXf& w) {
@@ -62,11 +78,41 @@ void NeighborGrid::set_weights(const Eigen::VectorXf& w) {
     w_[static_cast<std::size_t>(k)] = w[index_[static_cast<std::size_t>(k)]];
 }
 
+void NeighborGrid::ranges_near(const Eigen::Vector3f& q, float radius,
+                               std::vector<GridRange>& out) const {
+  out.clear();
+  if (n_ == 0) return;
+  const float r2 = radius * radius;
+  const auto lo = [&](int d) {
+    return static_cast<std::int64_t>(std::floor((q[d] - radius - lo_[d]) * inv_cell_));
+  };
+  const auto hi = [&](int d) {
+    return static_cast<std::int64_t>(std::floor((q[d] + radius - lo_[d]) * inv_cell_));
+  };
+  const std::int64_t x0 = std::max<std::int64_t>(lo(0), 0), x1 = std::min(hi(0), dims_[0] - 1);
+  const std::int64_t y0 = std::max<std::int64_t>(lo(1), 0), y1 = std::min(hi(1), dims_[1] - 1);
+  const std::int64_t z0 = lo(2), z1 = hi(2);
+  for (std::int64_t cx = x0; cx <= x1; ++cx) {
+    const float cx0 = lo_.x() + static_cast<float>(cx) * cell_;
+    const float ex = std::max({cx0 - q.x(), q.x() - (cx0 + cell_), 0.0f});
+    for (std::int64_t cy = y0; cy <= y1; ++cy) {
+      const float cy0 = lo_.y() + static_cast<float>(cy) * cell_;
+      const float ey = std::max({cy0 - q.y(), q.y() - (cy0 + cell_), 0.0f});
+      if (ex * ex + ey * ey > r2) continue;
+      const auto [a, b] = column(cx, cy, z0, z1);
+      if (a != b) out.push_back({cell_begin_[a], cell_begin_[b]});
+    }
+  }
+}
+
 std::pair<std::size_t, std::size_t> NeighborGrid::column(std::int64_t cx, std::int64_t cy,
                                                          std::int64_t z0, std::int64_t z1) const {
   z0 = std::max<std::int64_t>(z0, 0);
   z1 = std::min<std::int64_t>(z1, dims_[2] - 1);
   if (z0 > z1) return {0, 0};
+  if (!dense_first_.empty())
+    return {dense_first_[static_cast<std::size_t>(key(cx, cy, z0))],
+            dense_first_[static_cast<std::size_t>(key(cx, cy, z1)) + 1]};
   const auto a = std::lower_bound(cell_key_.begin(), cell_key_.end(), key(cx, cy, z0));
   const auto b = std::upper_bound(a, cell_key_.end(), key(cx, cy, z1));
   return {static_cast<std::size_t>(a - cell_key_.begin()),

@@ -65,6 +65,10 @@ class NeighborGrid {
   void for_each_query(const Eigen::Matrix3Xf& queries, float radius, bool queries_are_points,
                       F&& f) const;
 
+  /// Replaces `out` with ranges that hold every point within `radius` of q (and some beyond it),
+  /// column by column in increasing (x, y): one query anywhere, not necessarily in the grid.
+  void ranges_near(const Eigen::Vector3f& q, float radius, std::vector<GridRange>& out) const;
+
  private:
   struct Cell {
     std::int64_t x, y, z;
@@ -95,6 +99,10 @@ class NeighborGrid {
   std::vector<std::int64_t> cell_z_;      // their z coordinate
   std::vector<Eigen::Index> cell_begin_;  // points of cell c: [cell_begin_[c], cell_begin_[c+1])
   std::vector<std::uint64_t> point_key_;  // per sorted point: its cell key
+  // When the grid's box has few enough cells: per cell key (and one past the last), the number
+  // of occupied cells with a smaller key, so that column() reads two entries instead of two
+  // binary searches. Empty otherwise.
+  std::vector<std::uint32_t> dense_first_;
 };
 
 template <class F>

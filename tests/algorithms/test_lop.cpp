@@ -187,13 +187,15 @@ TEST_F(KernelOracle, BatchedKernelsEqualPerParticleKernels) {
   }
 }
 
-// Queries off the grid (outside its bounding box, in empty cells) and coinciding points.
+// Queries off the grid (outside its bounding box, in empty cells) and coinciding points. The
+// cells radius/8 make the grid's box too large for the dense cell table (binary searches); the
+// others use the table.
 TEST(NeighborGrid, RangesHoldEveryPointWithinTheRadius) {
   const PointCloud c = noisy_sphere(800, 1.0f, 0.05f, 9);
   Eigen::Matrix3Xf pts = c.positions;
   pts.col(5) = pts.col(4);  // a duplicate
   const float radius = 0.3f;
-  for (const float cell : {radius / 2, radius, radius / 3}) {
+  for (const float cell : {radius / 2, radius, radius / 3, radius / 8}) {
     const detail::NeighborGrid grid(pts, cell);
     Eigen::Matrix3Xf queries(3, 60);
     for (Eigen::Index i = 0; i < 60; ++i)
