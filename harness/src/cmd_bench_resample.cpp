@@ -242,6 +242,30 @@ void add_bench_resample(CLI::App* bench, Cli& cli) {
       ratios["wlop_over_clop_cpu"] = med_cpu["wlop"] / med_cpu["clop"];
       fmt::print("wlop_over_clop      {:8.2f}  (target >= 6; CPU time ratio {:.2f})\n",
                  med["wlop"] / med["clop"], med_cpu["wlop"] / med_cpu["clop"]);
+      // Phase by phase (CPU seconds of the last repeat), beside the CLOP paper's Fig. 9 Camel
+      // speedups (GPU): WLOP's attraction includes its L2 first iteration (phase init), as
+      // CLOP's includes its continuous first iteration; repulsion includes the densities w_i.
+      {
+        const auto& wc = results[1].phases_cpu;
+        const auto& cc = results[0].phases_cpu;
+        auto get = [](const std::map<std::string, double>& m, const char* k) {
+          const auto it = m.find(k);
+          return it == m.end() ? 0.0 : it->second;
+        };
+        const double att = (get(wc, "init") + get(wc, "attraction")) / get(cc, "attraction");
+        const double rep = get(wc, "repulsion") / get(cc, "repulsion");
+        ratios["attraction_wlop_over_clop_cpu"] = att;
+        ratios["repulsion_wlop_over_clop_cpu"] = rep;
+        double clop_total = 0.0;
+        for (const auto& [k, v] : cc)
+          clop_total += v;
+        const double hem_share = get(cc, "hem") / clop_total;
+        ratios["hem_share_of_clop_cpu"] = hem_share;
+        fmt::print(
+            "  by phase (CPU): attraction {:.2f} (paper Fig. 9 Camel F1: 7.15), repulsion {:.2f} "
+            "(F2: 7.80); HEM is {:.0f}% of CLOP (paper: 20%)\n",
+            att, rep, 100.0 * hem_share);
+      }
       if (!o.no_cgal) {
         ratios["cgal_wlop_over_clop"] = med["cgal_wlop"] / med["clop"];
         ratios["cgal_wlop_over_wlop"] = med["cgal_wlop"] / med["wlop"];
