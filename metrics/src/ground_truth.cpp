@@ -4,6 +4,7 @@
 #include <tbb/parallel_for.h>
 #include <Eigen/Geometry>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -20,15 +21,19 @@ namespace scanbench::metrics {
 
 namespace {
 
-// Bounding sphere of a face: centre (the centroid, rounded to float) and a radius that covers
-// every point of the face from that centre, rounded up.
-struct FaceSphere {
-  float x, y, z, r;
+// What bounds a face from below cheaply: a centre c (the centroid), a radius r covering every
+// point of the face from c (rounded up), and the unit normal n (0 for slivers whose computed
+// normal is unreliable). For a point x of the face, n.(x - c) is 0 up to the normal's rounding
+// (|n.(x - c)| <= slack) and |x - c| <= r, so for a query q, with e = q - c, t = n.e and
+// w = e - t n: |q - x|^2 >= max(0, |t| - slack)^2 + max(0, |w| - r)^2. For a far query this is
+// nearly the exact distance to the face's plane patch, much tighter than |e| - r.
+struct FaceBound {
+  double cx, cy, cz, nx, ny, nz, r, slack;
 };
 
 struct QueryState {
   const std::vector<PreparedTriangle>* triangles;
-  const std::vector<FaceSphere>* spheres;
+  const std::vector<FaceBound>* bounds;
   Eigen::Vector3d q;
   double best_d2 = std::numeric_limits<double>::infinity();
   // An upper bound of sqrt(best_d2) (float rounding covered): the Embree search radius.
@@ -37,12 +42,17 @@ struct QueryState {
   Eigen::Vector3d best_point = Eigen::Vector3d::Zero();
 
   void visit(std::int64_t f) {
-    // Cheap rejection: no point of the face is nearer than |q - centre| - radius, so a face
-    // whose sphere lies beyond the best distance cannot be the answer nor tie with it.
-    const FaceSphere& b = (*spheres)[static_cast<std::size_t>(f)];
-    const double reach = (static_cast<double>(b.r) + static_cast<double>(best_r)) * (1.0 + 1e-9);
-    const double dx = q.x() - b.x, dy = q.y() - b.y, dz = q.z() - b.z;
-    if (dx * dx + dy * dy + dz * dz > reach * reach) return;
+    // Cheap rejection (FaceBound): a face whose lower bound lies beyond the best distance can
+    // neither be the answer nor tie with it. tol covers the rounding of e, t and w.
+    const FaceBound& b = (*bounds)[static_cast<std::size_t>(f)];
+    const double ex = q.x() - b.cx, ey = q.y() - b.cy, ez = q.z() - b.cz;
+    const double t = b.nx * ex + b.ny * ey + b.nz * ez;
+    const double wx = ex - t * b.nx, wy = ey - t * b.ny, wz = ez - t * b.nz;
+    const double tol = 1e-12 * (std::abs(ex) + std::abs(ey) + std::abs(ez));
+    const double along = std::max(0.0, std::abs(t) - b.slack - tol);
+    const double across = std::max(0.0, std::sqrt(wx * wx + wy * wy + wz * wz) - b.r - tol);
+    const double reach = static_cast<double>(best_r);
+    if (along * along + across * across > reach * reach * (1.0 + 1e-9)) return;
     const Eigen::Vector3d p = (*triangles)[static_cast<std::size_t>(f)].closest_point(q);
     const double d2 = (p - q).squaredNorm();
     if (d2 < best_d2 || (d2 == best_d2 && f < best_face)) {
@@ -83,7 +93,7 @@ struct GroundTruth::Impl {
   TriangleMesh mesh;
   std::vector<PreparedTriangle> triangles;  // double precision, for the point-triangle routine
   Eigen::Matrix3Xf face_normals;
-  std::vector<FaceSphere> face_spheres;
+  std::vector<FaceBound> face_bounds;
   BoundingBox bbox;
   float diagonal = 0.0f;
   bool closed = false;
@@ -137,22 +147,24 @@ GroundTruth::GroundTruth(const TriangleMesh& mesh, std::uint64_t sample_seed,
   m.mesh = mesh;
   const Eigen::Matrix3Xd vd = mesh.vertices.cast<double>();
   m.face_normals.resize(3, mesh.num_faces());
-  m.face_spheres.resize(static_cast<std::size_t>(mesh.num_faces()));
+  m.face_bounds.resize(static_cast<std::size_t>(mesh.num_faces()));
   m.triangles.resize(static_cast<std::size_t>(mesh.num_faces()));
   for (Eigen::Index f = 0; f < mesh.num_faces(); ++f) {
     m.face_normals.col(f) = mesh.face_normal(f);
     m.triangles[static_cast<std::size_t>(f)] = PreparedTriangle(
         vd.col(mesh.faces(0, f)), vd.col(mesh.faces(1, f)), vd.col(mesh.faces(2, f)));
-    const Eigen::Vector3f c =
-        ((vd.col(mesh.faces(0, f)) + vd.col(mesh.faces(1, f)) + vd.col(mesh.faces(2, f))) / 3.0)
-            .cast<float>();
-    double r = 0.0;
-    for (int k = 0; k < 3; ++k)
-      r = std::max(r, (vd.col(mesh.faces(k, f)) - c.cast<double>()).norm());
-    m.face_spheres[static_cast<std::size_t>(f)] = {
-        c.x(), c.y(), c.z(),
-        std::nextafter(static_cast<float>(r * (1.0 + 1e-6)),
-                       std::numeric_limits<float>::infinity())};
+    const Eigen::Vector3d a = vd.col(mesh.faces(0, f)), b = vd.col(mesh.faces(1, f)),
+                          c3 = vd.col(mesh.faces(2, f));
+    const Eigen::Vector3d c = (a + b + c3) / 3.0;
+    const double r = std::max({(a - c).norm(), (b - c).norm(), (c3 - c).norm()}) * (1.0 + 1e-12);
+    const Eigen::Vector3d e1 = b - a, e2 = c3 - a;
+    Eigen::Vector3d n = e1.cross(e2);
+    // The computed normal is off by about 1e-16 |e1||e2| / |n| radians: keep it only where that
+    // is far below the slack (1e-6 r); slivers fall back to the sphere bound (n = 0).
+    n = n.norm() > 1e-6 * e1.norm() * e2.norm() ? Eigen::Vector3d(n.normalized())
+                                                : Eigen::Vector3d::Zero();
+    m.face_bounds[static_cast<std::size_t>(f)] = {c.x(), c.y(), c.z(), n.x(),
+                                                  n.y(), n.z(), r,     1e-6 * r};
   }
   m.bbox = mesh.bbox();
   m.diagonal = m.bbox.diagonal();
@@ -212,7 +224,7 @@ const GroundTruthOptions& GroundTruth::options() const {
 }
 
 ClosestPoint GroundTruth::Impl::query(const Eigen::Vector3f& q, float radius) const {
-  QueryState s{&triangles, &face_spheres, q.cast<double>()};
+  QueryState s{&triangles, &face_bounds, q.cast<double>()};
   RTCPointQuery pq;
   pq.x = q.x();
   pq.y = q.y();
