@@ -155,6 +155,34 @@ TEST(GroundTruth, ExactPathIgnoresQueryOrderAndThreadCount) {
   }
 }
 
+// The per-face lower bounds (plane patch, sphere for slivers) may only reject faces that cannot
+// win: slivers, needles, nearly parallel faces and queries from very near to very far must give
+// exactly the brute-force answer (same routine, so the same bits and the same face).
+TEST(GroundTruth, FaceRejectionKeepsTheExactAnswerOnSliversAndFarQueries) {
+  Rng rng(21);
+  TriangleMesh m = random_soup(500, 21);
+  for (Eigen::Index f = 0; f < m.num_faces(); f += 3) {
+    // Every third face becomes a sliver or a needle: c almost on the line ab.
+    const Eigen::Vector3f a = m.vertices.col(m.faces(0, f)), b = m.vertices.col(m.faces(1, f));
+    const float t = static_cast<float>(rng.uniform(-0.5, 1.5));
+    const float off = static_cast<float>(std::pow(10.0, rng.uniform(-9, -3)));
+    m.vertices.col(m.faces(2, f)) = a + t * (b - a) + off * Eigen::Vector3f(0.3f, -0.7f, 0.2f);
+  }
+  GroundTruth gt(m, 0);
+  const Eigen::Index n = 1500;
+  Eigen::Matrix3Xf q(3, n);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const double s = std::pow(10.0, rng.uniform(-1, 2.5));  // from inside the soup to far away
+    q.col(i) = Eigen::Vector3f(rng.uniform(-s, s), rng.uniform(-s, s), rng.uniform(-s, s));
+  }
+  const auto cps = gt.closest_points(q);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const Brute b = brute_mesh(m, q.col(i));
+    ASSERT_EQ(cps[static_cast<std::size_t>(i)].distance, static_cast<float>(std::sqrt(b.d2))) << i;
+    ASSERT_EQ(cps[static_cast<std::size_t>(i)].face, b.face) << i;
+  }
+}
+
 TEST(GroundTruth, PointsOnVerticesAndEdgesHaveZeroDistanceAndLowestFace) {
   const TriangleMesh m = icosphere(2);
   GroundTruth gt(m, 0);
