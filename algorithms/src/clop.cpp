@@ -43,7 +43,7 @@ constexpr double kMinOccupancy = 6.0;
 // form, field by field (mean x, y, z, then per kernel the six entries of Lambda^-1 and the log
 // prefactor), each field padded to a multiple of the packet size.
 struct CellScratch {
-  std::vector<std::pair<Index, float>> hits;
+  std::vector<detail::GridRange> ranges;
   std::vector<Index> ids, sorted;
   std::vector<float> d2;
   std::vector<int> shell;
@@ -87,7 +87,8 @@ class PreparedMixture {
       : sorted_(spatially_sorted(mixture, h)),
         means_(sorted_.means),
         cell_(static_cast<float>(h / 4.0)),
-        index_(sorted_, kClopFitSigmas[0] * kClopFitSigmas[0] * h * h) {
+        index_(sorted_, kClopFitSigmas[0] * kClopFitSigmas[0] * h * h,
+               kClopFitSigmas[0] * kClopFitSigmas[0] * h * h) {
     const GaussianMixture& m = sorted_;
     const Index k = m.size();
     for (int j = 0; j < 3; ++j)
@@ -122,8 +123,9 @@ class PreparedMixture {
 
   // One projection of every particle: eq. 24 (kInitial, j = 3) or eq. 22 (j = 0..2),
   // q' = q + sum_j s2_j w_j Lambda_j^-1 (mu - q) / sum_j w_j. Particles are batched by cells of
-  // width h/4: the components near a cell are gathered once (radius + the cell's half diagonal)
-  // into structure-of-arrays form, then each particle of the cell evaluates them in SIMD packets.
+  // width h/4: the components near a cell are gathered once (radius + the cell's half diagonal,
+  // from per-size-class grids of the means, which never move) into structure-of-arrays form, then
+  // each particle of the cell evaluates them in SIMD packets.
   // A term (component s, kernel k) is dropped when its exponent is below -16: exactly the
   // truncation of the gather radius, applied per term (when the widest kernel is out of reach,
   // the narrower ones are too: Lambda_j^-1 >= Lambda_0^-1). Each particle's result depends only
@@ -186,7 +188,7 @@ class PreparedMixture {
                                              static_cast<float>(key & ((1u << 21) - 1))) +
                              Eigen::Vector3f::Constant(0.5f));
             sc.ids.clear();
-            index_.for_each_near(center, radii, sc.hits, [&](Index s) { sc.ids.push_back(s); });
+            index_.gather(center, radii, sc.ranges, sc.ids);
             const auto m = static_cast<Index>(sc.ids.size());
             // Candidates ordered by distance shell around the cell centre (a stable counting
             // sort), so that the terms out of reach of a particle, above all those of the
@@ -297,7 +299,7 @@ class PreparedMixture {
   float cell_;
   float s2_[4];
   std::vector<Precomputed> pre_;
-  detail::MixtureIndex index_;
+  detail::MixtureGrid index_;
   std::vector<float> r_attraction_, r_initial_;
 };
 

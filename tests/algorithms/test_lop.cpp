@@ -8,6 +8,7 @@
 #include <set>
 
 #include "fixtures.h"
+#include "mixture_index.h"
 #include "projection_kernels.h"
 #include "scanbench/algorithms/lop.h"
 #include "scanbench/core/errors.h"
@@ -226,6 +227,82 @@ TEST(NeighborGrid, RangesHoldEveryPointWithinTheRadius) {
       for (const int k : count)
         EXPECT_EQ(k, 1);
     }
+  }
+}
+
+// One query at a time, anywhere (outside the box, in empty cells), for both cell lookups.
+TEST(NeighborGrid, RangesNearHoldEveryPointWithinTheRadius) {
+  const PointCloud c = noisy_sphere(600, 1.0f, 0.05f, 4);
+  const Eigen::Matrix3Xf& pts = c.positions;
+  const float radius = 0.25f;
+  std::vector<detail::GridRange> ranges;
+  for (const float cell : {radius / 2, radius, radius / 8}) {
+    const detail::NeighborGrid grid(pts, cell);
+    for (int i = 0; i < 80; ++i) {
+      const Eigen::Vector3f q =
+          pts.col(i * 7) * (0.3f + 0.025f * static_cast<float>(i)) + Eigen::Vector3f(0.01f, 0, 0);
+      grid.ranges_near(q, radius, ranges);
+      std::vector<char> seen(static_cast<std::size_t>(pts.cols()), 0);
+      for (const auto& r : ranges) {
+        for (Eigen::Index t = r.begin; t < r.end; ++t) {
+          ASSERT_FALSE(seen[static_cast<std::size_t>(grid.index(t))]);
+          seen[static_cast<std::size_t>(grid.index(t))] = 1;
+        }
+      }
+      for (Eigen::Index j = 0; j < pts.cols(); ++j) {
+        if ((pts.col(j) - q).norm() <= radius) {
+          EXPECT_TRUE(seen[static_cast<std::size_t>(j)]) << "query " << i << " point " << j;
+        }
+      }
+    }
+  }
+}
+
+// The grid gather of CLOP's attraction returns exactly the components within their class radius
+// (brute force over the same size classes), each once.
+TEST(MixtureGrid, GathersExactlyTheComponentsWithinTheirClassRadius) {
+  Rng rng(17);
+  GaussianMixture m;
+  m.resize(700);
+  for (Eigen::Index s = 0; s < m.size(); ++s) {
+    m.weights[s] = 1.0f / 700.0f;
+    for (int d = 0; d < 3; ++d)
+      m.means(d, s) = static_cast<float>(rng.uniform());
+    // Sizes over four orders of magnitude: several size classes.
+    const double scale = std::pow(10.0, -5.0 + 4.0 * rng.uniform());
+    Eigen::Matrix3d a;
+    for (int r = 0; r < 3; ++r)
+      for (int k = 0; k < 3; ++k)
+        a(r, k) = rng.normal(0.0, 1.0);
+    m.set_covariance(
+        s, (scale * (a * a.transpose() + 0.1 * Eigen::Matrix3d::Identity())).cast<float>());
+  }
+  const double v = 1e-4;
+  const auto classes = detail::size_classes(m, v);
+  ASSERT_GT(classes.size(), 2u);
+  const detail::MixtureGrid grid(m, v, v);
+  const std::vector<float> radii = grid.radii(v);
+  ASSERT_EQ(radii.size(), classes.size());
+  std::vector<detail::GridRange> scratch;
+  std::vector<Eigen::Index> ids;
+  for (int i = 0; i < 50; ++i) {
+    const Eigen::Vector3f q(static_cast<float>(1.4 * rng.uniform() - 0.2),
+                            static_cast<float>(1.4 * rng.uniform() - 0.2),
+                            static_cast<float>(1.4 * rng.uniform() - 0.2));
+    ids.clear();
+    grid.gather(q, radii, scratch, ids);
+    std::vector<Eigen::Index> want;
+    for (std::size_t c = 0; c < classes.size(); ++c) {
+      EXPECT_EQ(radii[c], detail::class_radius(classes[c].bound, v));
+      for (const Eigen::Index s : classes[c].ids) {
+        const Eigen::Vector3f d = m.means.col(s) - q;
+        if (d.x() * d.x() + d.y() * d.y() + d.z() * d.z() <= radii[c] * radii[c]) want.push_back(s);
+      }
+    }
+    std::vector<Eigen::Index> got = ids;
+    std::sort(got.begin(), got.end());
+    std::sort(want.begin(), want.end());
+    EXPECT_EQ(got, want) << "query " << i;
   }
 }
 
