@@ -321,7 +321,7 @@ Experiment load_experiment(const fs::path& file) {
       throw IoError(fmt::format("{}: not valid JSON: {}", file.string(), e.what()));
     }
   }
-  Experiment e = parse_experiment(j, file.filename().string());
+  Experiment e = parse_experiment(j, file.string());  // errors name the path as given
   e.file = file;
   // Relative mesh paths are relative to the config's folder.
   for (auto& d : e.datasets) {
@@ -569,7 +569,7 @@ std::string value_label(const Json& v) {
 
 Plan expand(const Experiment& e) {
   Plan plan;
-  const std::string file = e.file.empty() ? e.name : e.file.filename().string();
+  const std::string file = e.file.empty() ? e.name : e.file.string();
   const std::vector<Json> global_points = points_of(e.sweeps);
   std::set<std::string> keys;
   for (std::size_t di = 0; di < e.datasets.size(); ++di) {
