@@ -27,21 +27,30 @@ namespace {
 
 using Eigen::Index;
 
-// Per component, for the three fit Gaussians (k = 0..2) and the eq. 24 kernel (k = 3): the
-// inverse of Lambda as (xx, xy, xz, yy, yz, zz) and the dimensionless weight prefactor.
+// Per component: the mean (x, y, z), then for the three fit Gaussians (k = 0..2) and the eq. 24
+// kernel (k = 3) the inverse of Lambda as (xx, xy, xz, yy, yz, zz) and the log of the
+// dimensionless weight prefactor: f[3 + 7 k + e]. The attraction's fields f[0..23] are a
+// candidate's fields in CellScratch::soa, in order.
 struct Precomputed {
-  float inv[4][6];
-  float log_coef[4];
+  static constexpr int kernel(int k) { return 3 + 7 * k; }
+  float f[32];  // 31 used; 128 bytes
 };
 
 using Packet = Eigen::internal::packet_traits<float>::type;
 constexpr int kLanes = Eigen::internal::packet_traits<float>::size;
 constexpr int kShells = 8;
 constexpr double kMinOccupancy = 6.0;
+constexpr Precomputed kZeroRecord{};
+// Four packets transposed as a 4 x 4 block (Eigen's ptranspose; the packet type's alignment
+// attribute is irrelevant to a template argument here).
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wignored-attributes"
+using PacketBlock4 = Eigen::internal::PacketBlock<Packet, 4>;
+#pragma GCC diagnostic pop
 
-// Per-thread scratch of one cell of particles: the candidate components in structure-of-arrays
-// form, field by field (mean x, y, z, then per kernel the six entries of Lambda^-1 and the log
-// prefactor), each field padded to a multiple of the packet size.
+// Per-thread scratch of one cell of particles: the candidate components in packets of kLanes,
+// each packet a block of fields of kLanes floats (mean x, y, z, then per kernel the six entries
+// of Lambda^-1 and the log prefactor): what a packet of terms needs is contiguous.
 struct CellScratch {
   std::vector<detail::GridRange> ranges;
   std::vector<Index> ids, sorted;
@@ -85,7 +94,6 @@ class PreparedMixture {
  public:
   PreparedMixture(const GaussianMixture& mixture, double h)
       : sorted_(spatially_sorted(mixture, h)),
-        means_(sorted_.means),
         cell_(static_cast<float>(h / 4.0)),
         index_(sorted_, kClopFitSigmas[0] * kClopFitSigmas[0] * h * h,
                kClopFitSigmas[0] * kClopFitSigmas[0] * h * h) {
@@ -99,21 +107,24 @@ class PreparedMixture {
       for (Index s = r.begin(); s != r.end(); ++s) {
         const Eigen::Matrix3d cov = m.covariance(s).cast<double>();
         Precomputed& p = pre_[static_cast<std::size_t>(s)];
+        for (int d = 0; d < 3; ++d)
+          p.f[d] = m.means(d, s);
         for (int j = 0; j < 4; ++j) {
           const double var = j < 3 ? kClopFitSigmas[j] * kClopFitSigmas[j] * h * h : h * h / 32.0;
           const Eigen::Matrix3d lambda = cov + var * Eigen::Matrix3d::Identity();
           const Eigen::Matrix3d inv = lambda.inverse();
           const double det = lambda.determinant();
-          p.inv[j][0] = static_cast<float>(inv(0, 0));
-          p.inv[j][1] = static_cast<float>(inv(0, 1));
-          p.inv[j][2] = static_cast<float>(inv(0, 2));
-          p.inv[j][3] = static_cast<float>(inv(1, 1));
-          p.inv[j][4] = static_cast<float>(inv(1, 2));
-          p.inv[j][5] = static_cast<float>(inv(2, 2));
+          float* kj = p.f + Precomputed::kernel(j);
+          kj[0] = static_cast<float>(inv(0, 0));
+          kj[1] = static_cast<float>(inv(0, 1));
+          kj[2] = static_cast<float>(inv(0, 2));
+          kj[3] = static_cast<float>(inv(1, 1));
+          kj[4] = static_cast<float>(inv(1, 2));
+          kj[5] = static_cast<float>(inv(2, 2));
           // eq. 19 times h^3 (dimensionless; the common h^3 cancels in eq. 22) and eq. 24 times
           // the constant (h^2/32)^(3/2) (2 pi)^(3/2) / c_theta that cancels in eq. 23.
           const double scale = j < 3 ? kClopFitWeights[j] * std::pow(var, 1.5) : std::pow(var, 1.5);
-          p.log_coef[j] = static_cast<float>(std::log(m.weights(s) * scale / std::sqrt(det)));
+          kj[6] = static_cast<float>(std::log(m.weights(s) * scale / std::sqrt(det)));
         }
       }
     });
@@ -173,129 +184,149 @@ class PreparedMixture {
       r += half_diag;
 
     constexpr int nf = 3 + 7 * nk;
-    tbb::parallel_for(
-        tbb::blocked_range<std::size_t>(0, starts.size() - 1, 1), [&](const auto& rr) {
-          namespace ei = Eigen::internal;
-          CellScratch sc;
-          float ones;
-          const std::uint32_t bits = 0xffffffffu;
-          std::memcpy(&ones, &bits, sizeof ones);
-          for (std::size_t c = rr.begin(); c != rr.end(); ++c) {
-            const std::uint64_t key = keys[starts[c]].first;
-            const Eigen::Vector3f center =
-                lo + cell * (Eigen::Vector3f(static_cast<float>(key >> 42),
-                                             static_cast<float>((key >> 21) & ((1u << 21) - 1)),
-                                             static_cast<float>(key & ((1u << 21) - 1))) +
-                             Eigen::Vector3f::Constant(0.5f));
-            sc.ids.clear();
-            index_.gather(center, radii, sc.ranges, sc.ids);
-            const auto m = static_cast<Index>(sc.ids.size());
-            // Candidates ordered by distance shell around the cell centre (a stable counting
-            // sort), so that the terms out of reach of a particle, above all those of the
-            // narrow kernels, fill whole packets that are skipped.
-            {
-              float far2 = 0.0f;
-              sc.d2.resize(sc.ids.size());
-              for (std::size_t k = 0; k < sc.ids.size(); ++k) {
-                sc.d2[k] = (means_.col(sc.ids[k]) - center).squaredNorm();
-                far2 = std::max(far2, sc.d2[k]);
-              }
-              std::array<std::size_t, kShells + 1> next{};
-              const float scale = far2 > 0.0f ? kShells / std::sqrt(far2) : 0.0f;
-              sc.shell.resize(sc.ids.size());
-              for (std::size_t k = 0; k < sc.ids.size(); ++k) {
-                sc.shell[k] = std::min(kShells - 1, static_cast<int>(std::sqrt(sc.d2[k]) * scale));
-                ++next[static_cast<std::size_t>(sc.shell[k]) + 1];
-              }
-              for (int b = 0; b < kShells; ++b)
-                next[static_cast<std::size_t>(b) + 1] += next[static_cast<std::size_t>(b)];
-              sc.sorted.resize(sc.ids.size());
-              for (std::size_t k = 0; k < sc.ids.size(); ++k)
-                sc.sorted[next[static_cast<std::size_t>(sc.shell[k])]++] = sc.ids[k];
-              sc.ids.swap(sc.sorted);
-            }
-            const Index padded = (m + kLanes - 1) / kLanes * kLanes;
-            const auto np = static_cast<std::size_t>(padded);
-            sc.soa.assign(nf * np, 0.0f);
-            sc.valid.assign(np, 0.0f);
-            for (Index k = 0; k < m; ++k) {
-              const Index s = sc.ids[static_cast<std::size_t>(k)];
-              const Precomputed& pc = pre_[static_cast<std::size_t>(s)];
-              const auto kk = static_cast<std::size_t>(k);
-              sc.valid[kk] = ones;
-              for (int d = 0; d < 3; ++d)
-                sc.soa[static_cast<std::size_t>(d) * np + kk] = means_(d, s);
-              for (int jj = 0; jj < nk; ++jj) {
-                for (int e = 0; e < 6; ++e)
-                  sc.soa[static_cast<std::size_t>(3 + 7 * jj + e) * np + kk] = pc.inv[j0 + jj][e];
-                sc.soa[static_cast<std::size_t>(3 + 7 * jj + 6) * np + kk] = pc.log_coef[j0 + jj];
-              }
-            }
-            const auto field = [&](int f) {
-              return sc.soa.data() + static_cast<std::size_t>(f) * np;
-            };
-            const Packet limit = ei::pset1<Packet>(32.0f);
-            const Packet minus_half = ei::pset1<Packet>(-0.5f);
-            for (std::size_t pi = starts[c]; pi < starts[c + 1]; ++pi) {
-              const Index i = keys[pi].second;
-              const Eigen::Vector3f qi = q.col(i);
-              const Packet qx = ei::pset1<Packet>(qi.x()), qy = ei::pset1<Packet>(qi.y()),
-                           qz = ei::pset1<Packet>(qi.z());
-              Packet sw = ei::pset1<Packet>(0.0f), sx = sw, sy = sw, sz = sw;
-              for (Index t = 0; t < padded; t += kLanes) {
-                const Packet dx = ei::psub(ei::ploadu<Packet>(field(0) + t), qx);
-                const Packet dy = ei::psub(ei::ploadu<Packet>(field(1) + t), qy);
-                const Packet dz = ei::psub(ei::ploadu<Packet>(field(2) + t), qz);
-                const Packet keep = ei::ploadu<Packet>(sc.valid.data() + t);
-                for (int jj = 0; jj < nk; ++jj) {
-                  const float* a = field(3 + 7 * jj);
-                  const Packet a0 = ei::ploadu<Packet>(a + t);
-                  const Packet a1 = ei::ploadu<Packet>(a + np + t);
-                  const Packet a2 = ei::ploadu<Packet>(a + 2 * np + t);
-                  const Packet a3 = ei::ploadu<Packet>(a + 3 * np + t);
-                  const Packet a4 = ei::ploadu<Packet>(a + 4 * np + t);
-                  const Packet a5 = ei::ploadu<Packet>(a + 5 * np + t);
-                  const Packet tx =
-                      ei::padd(ei::padd(ei::pmul(a0, dx), ei::pmul(a1, dy)), ei::pmul(a2, dz));
-                  const Packet ty =
-                      ei::padd(ei::padd(ei::pmul(a1, dx), ei::pmul(a3, dy)), ei::pmul(a4, dz));
-                  const Packet tz =
-                      ei::padd(ei::padd(ei::pmul(a2, dx), ei::pmul(a4, dy)), ei::pmul(a5, dz));
-                  const Packet quad =
-                      ei::padd(ei::padd(ei::pmul(dx, tx), ei::pmul(dy, ty)), ei::pmul(dz, tz));
-                  // A term whose exponent is below -16 is dropped (the e^-16 truncation of
-                  // LOP's support radius, per component and kernel). The widest kernel comes
-                  // first: when it is out of reach, so are the narrower ones.
-                  const Packet in = ei::pand(keep, ei::pcmp_le(quad, limit));
-                  if (!ei::predux_any(in)) {
-                    if (jj == 0) break;
-                    continue;
-                  }
-                  const Packet w =
-                      ei::pand(detail::fast_pexp(ei::padd(ei::ploadu<Packet>(a + 6 * np + t),
-                                                          ei::pmul(minus_half, quad))),
-                               in);
-                  const Packet ws = ei::pmul(w, ei::pset1<Packet>(s2_[j0 + jj]));
-                  sw = ei::padd(sw, w);
-                  sx = ei::padd(sx, ei::pmul(ws, tx));
-                  sy = ei::padd(sy, ei::pmul(ws, ty));
-                  sz = ei::padd(sz, ei::pmul(ws, tz));
-                }
-              }
-              const float den = ei::predux(sw);
-              out.col(i) =
-                  den > 0.0f ? Eigen::Vector3f(qi + Eigen::Vector3f(ei::predux(sx), ei::predux(sy),
-                                                                    ei::predux(sz)) /
-                                                        den)
-                             : qi;  // no component within reach: the particle stays
+    const auto project_cells = [&](const tbb::blocked_range<std::size_t>& rr) {
+      namespace ei = Eigen::internal;
+      CellScratch sc;
+      float ones;
+      const std::uint32_t bits = 0xffffffffu;
+      std::memcpy(&ones, &bits, sizeof ones);
+      for (std::size_t c = rr.begin(); c != rr.end(); ++c) {
+        const std::uint64_t key = keys[starts[c]].first;
+        const Eigen::Vector3f center =
+            lo + cell * (Eigen::Vector3f(static_cast<float>(key >> 42),
+                                         static_cast<float>((key >> 21) & ((1u << 21) - 1)),
+                                         static_cast<float>(key & ((1u << 21) - 1))) +
+                         Eigen::Vector3f::Constant(0.5f));
+        sc.ids.clear();
+        sc.d2.clear();
+        index_.gather(center, radii, sc.ranges, sc.ids, sc.d2);
+        const auto m = static_cast<Index>(sc.ids.size());
+        // Candidates ordered by distance shell around the cell centre (a stable counting
+        // sort), so that the terms out of reach of a particle, above all those of the
+        // narrow kernels, fill whole packets that are skipped.
+        {
+          float far2 = 0.0f;
+          for (const float d : sc.d2)
+            far2 = std::max(far2, d);
+          std::array<std::size_t, kShells + 1> next{};
+          const float scale = far2 > 0.0f ? kShells / std::sqrt(far2) : 0.0f;
+          sc.shell.resize(sc.ids.size());
+          for (std::size_t k = 0; k < sc.ids.size(); ++k) {
+            sc.shell[k] = std::min(kShells - 1, static_cast<int>(std::sqrt(sc.d2[k]) * scale));
+            ++next[static_cast<std::size_t>(sc.shell[k]) + 1];
+          }
+          for (int b = 0; b < kShells; ++b)
+            next[static_cast<std::size_t>(b) + 1] += next[static_cast<std::size_t>(b)];
+          sc.sorted.resize(sc.ids.size());
+          for (std::size_t k = 0; k < sc.ids.size(); ++k)
+            sc.sorted[next[static_cast<std::size_t>(sc.shell[k])]++] = sc.ids[k];
+          sc.ids.swap(sc.sorted);
+        }
+        const Index padded = (m + kLanes - 1) / kLanes * kLanes;
+        const auto np = static_cast<std::size_t>(padded);
+        sc.soa.resize(nf * np);
+        sc.valid.assign(np, 0.0f);
+        std::fill_n(sc.valid.begin(), m, ones);
+        if constexpr (!kInitial && kLanes == 4) {
+          // The 24 fields of 4 candidates: their records' first 24 floats, transposed in 4 x 4
+          // blocks (a zero record pads the last packet).
+          static_assert(nf == 24);
+          for (Index t = 0; t < padded; t += kLanes) {
+            const float* rec[kLanes];
+            for (int l = 0; l < kLanes; ++l)
+              rec[l] =
+                  t + l < m
+                      ? pre_[static_cast<std::size_t>(sc.ids[static_cast<std::size_t>(t + l)])].f
+                      : kZeroRecord.f;
+            float* block = sc.soa.data() + static_cast<std::size_t>(t) * nf;
+            for (int b = 0; b < nf; b += kLanes) {
+              PacketBlock4 pb;
+              for (int l = 0; l < kLanes; ++l)
+                pb.packet[l] = ei::ploadu<Packet>(rec[l] + b);
+              ei::ptranspose(pb);
+              for (int l = 0; l < kLanes; ++l)
+                ei::pstoreu(block + (b + l) * kLanes, pb.packet[l]);
             }
           }
-        });
+        } else {
+          for (Index k = m; k < padded; ++k)  // the padding lanes of the last packet
+            for (int f = 0; f < nf; ++f)
+              sc.soa[static_cast<std::size_t>((padded - kLanes) * nf + f * kLanes + k % kLanes)] =
+                  0.0f;
+          for (Index k = 0; k < m; ++k) {
+            const float* src =
+                pre_[static_cast<std::size_t>(sc.ids[static_cast<std::size_t>(k)])].f;
+            const auto kk = static_cast<std::size_t>(k);
+            float* dst = sc.soa.data() + (kk - kk % kLanes) * nf + kk % kLanes;
+            for (int d = 0; d < 3; ++d)
+              dst[d * kLanes] = src[d];
+            for (int e = 0; e < 7 * nk; ++e)
+              dst[(3 + e) * kLanes] = src[Precomputed::kernel(j0) + e];
+          }
+        }
+        const Packet limit = ei::pset1<Packet>(32.0f);
+        const Packet minus_half = ei::pset1<Packet>(-0.5f);
+        for (std::size_t pi = starts[c]; pi < starts[c + 1]; ++pi) {
+          const Index i = keys[pi].second;
+          const Eigen::Vector3f qi = q.col(i);
+          const Packet qx = ei::pset1<Packet>(qi.x()), qy = ei::pset1<Packet>(qi.y()),
+                       qz = ei::pset1<Packet>(qi.z());
+          Packet sw = ei::pset1<Packet>(0.0f), sx = sw, sy = sw, sz = sw;
+          for (Index t = 0; t < padded; t += kLanes) {
+            const float* block = sc.soa.data() + static_cast<std::size_t>(t) * nf;
+            const Packet dx = ei::psub(ei::ploadu<Packet>(block), qx);
+            const Packet dy = ei::psub(ei::ploadu<Packet>(block + kLanes), qy);
+            const Packet dz = ei::psub(ei::ploadu<Packet>(block + 2 * kLanes), qz);
+            const Packet keep = ei::ploadu<Packet>(sc.valid.data() + t);
+            for (int jj = 0; jj < nk; ++jj) {
+              const float* a = block + (3 + 7 * jj) * kLanes;
+              const Packet a0 = ei::ploadu<Packet>(a);
+              const Packet a1 = ei::ploadu<Packet>(a + kLanes);
+              const Packet a2 = ei::ploadu<Packet>(a + 2 * kLanes);
+              const Packet a3 = ei::ploadu<Packet>(a + 3 * kLanes);
+              const Packet a4 = ei::ploadu<Packet>(a + 4 * kLanes);
+              const Packet a5 = ei::ploadu<Packet>(a + 5 * kLanes);
+              const Packet tx =
+                  ei::padd(ei::padd(ei::pmul(a0, dx), ei::pmul(a1, dy)), ei::pmul(a2, dz));
+              const Packet ty =
+                  ei::padd(ei::padd(ei::pmul(a1, dx), ei::pmul(a3, dy)), ei::pmul(a4, dz));
+              const Packet tz =
+                  ei::padd(ei::padd(ei::pmul(a2, dx), ei::pmul(a4, dy)), ei::pmul(a5, dz));
+              const Packet quad =
+                  ei::padd(ei::padd(ei::pmul(dx, tx), ei::pmul(dy, ty)), ei::pmul(dz, tz));
+              // A term whose exponent is below -16 is dropped (the e^-16 truncation of
+              // LOP's support radius, per component and kernel). The widest kernel comes
+              // first: when it is out of reach, so are the narrower ones.
+              const Packet in = ei::pand(keep, ei::pcmp_le(quad, limit));
+              if (!ei::predux_any(in)) {
+                if (jj == 0) break;
+                continue;
+              }
+              const Packet w =
+                  ei::pand(detail::fast_pexp(ei::padd(ei::ploadu<Packet>(a + 6 * kLanes),
+                                                      ei::pmul(minus_half, quad))),
+                           in);
+              const Packet ws = ei::pmul(w, ei::pset1<Packet>(s2_[j0 + jj]));
+              sw = ei::padd(sw, w);
+              sx = ei::padd(sx, ei::pmul(ws, tx));
+              sy = ei::padd(sy, ei::pmul(ws, ty));
+              sz = ei::padd(sz, ei::pmul(ws, tz));
+            }
+          }
+          const float den = ei::predux(sw);
+          out.col(i) = den > 0.0f
+                           ? Eigen::Vector3f(qi + Eigen::Vector3f(ei::predux(sx), ei::predux(sy),
+                                                                  ei::predux(sz)) /
+                                                      den)
+                           : qi;  // no component within reach: the particle stays
+        }
+      }
+    };
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, starts.size() - 1, 1), project_cells);
   }
 
  private:
   GaussianMixture sorted_;
-  const Eigen::Matrix3Xf& means_;
   float cell_;
   float s2_[4];
   std::vector<Precomputed> pre_;

@@ -155,9 +155,12 @@ class MixtureGrid {
 
   /// Appends to `ids` every component within its class radius of q (|mu - q|^2 <= radius^2 in
   /// float), class by class, each in its grid's order (deterministic: depends only on q and the
-  /// mixture). `ranges` is scratch space.
+  /// mixture), and to `d2` their squared distances |mu - q|^2 (dx^2 + (dy^2 + dz^2) in float,
+  /// as Eigen's squaredNorm).
+  /// `ranges` is scratch space.
   void gather(const Eigen::Vector3f& q, const std::vector<float>& radii,
-              std::vector<GridRange>& ranges, std::vector<Eigen::Index>& ids) const {
+              std::vector<GridRange>& ranges, std::vector<Eigen::Index>& ids,
+              std::vector<float>& d2) const {
     for (std::size_t c = 0; c < classes_.size(); ++c) {
       const NeighborGrid& g = classes_[c].grid;
       const Eigen::Index* cls_ids = classes_[c].sorted_ids.data();
@@ -168,6 +171,7 @@ class MixtureGrid {
         bound += static_cast<std::size_t>(r.end - r.begin);
       std::size_t m = ids.size();
       ids.resize(bound);
+      d2.resize(bound);
       const float* x = g.x();
       const float* y = g.y();
       const float* z = g.z();
@@ -175,9 +179,11 @@ class MixtureGrid {
         for (Eigen::Index k = r.begin; k < r.end; ++k) {  // branch-free compaction
           const float dx = x[k] - q.x(), dy = y[k] - q.y(), dz = z[k] - q.z();
           ids[m] = cls_ids[k];
+          d2[m] = dx * dx + (dy * dy + dz * dz);  // Eigen's squaredNorm order
           m += dx * dx + dy * dy + dz * dz <= r2 ? 1 : 0;
         }
       ids.resize(m);
+      d2.resize(m);
     }
   }
 
