@@ -259,7 +259,7 @@ TEST(NeighborGrid, RangesNearHoldEveryPointWithinTheRadius) {
 }
 
 // The grid gather of CLOP's attraction returns exactly the components within their class radius
-// (brute force over the same size classes), each once.
+// (brute force over the same size classes), each once, with their squared distances.
 TEST(MixtureGrid, GathersExactlyTheComponentsWithinTheirClassRadius) {
   Rng rng(17);
   GaussianMixture m;
@@ -285,12 +285,17 @@ TEST(MixtureGrid, GathersExactlyTheComponentsWithinTheirClassRadius) {
   ASSERT_EQ(radii.size(), classes.size());
   std::vector<detail::GridRange> scratch;
   std::vector<Eigen::Index> ids;
+  std::vector<float> d2;
   for (int i = 0; i < 50; ++i) {
     const Eigen::Vector3f q(static_cast<float>(1.4 * rng.uniform() - 0.2),
                             static_cast<float>(1.4 * rng.uniform() - 0.2),
                             static_cast<float>(1.4 * rng.uniform() - 0.2));
     ids.clear();
-    grid.gather(q, radii, scratch, ids);
+    d2.clear();
+    grid.gather(q, radii, scratch, ids, d2);
+    ASSERT_EQ(d2.size(), ids.size());
+    for (std::size_t k = 0; k < ids.size(); ++k)  // bit for bit: CLOP's shells depend on it
+      EXPECT_EQ(d2[k], (m.means.col(ids[k]) - q).squaredNorm());
     std::vector<Eigen::Index> want;
     for (std::size_t c = 0; c < classes.size(); ++c) {
       EXPECT_EQ(radii[c], detail::class_radius(classes[c].bound, v));
