@@ -168,7 +168,7 @@ class PreparedMixture {
           keys[static_cast<std::size_t>(i)] = {key, i};
         }
       });
-      tbb::parallel_sort(keys.begin(), keys.end());
+      detail::sort_cell_keys(keys);
       starts.clear();
       for (std::size_t i = 0; i < keys.size(); ++i)
         if (i == 0 || keys[i].first != keys[i - 1].first) starts.push_back(i);
