@@ -1,6 +1,5 @@
 #include "neighbor_grid.h"
 
-
 #include <algorithm>
 #include <array>
 #include <cmath>
