@@ -4,7 +4,6 @@
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
-#include <tbb/parallel_invoke.h>
 #include <tbb/parallel_sort.h>
 
 #include <Eigen/Eigenvalues>
@@ -14,6 +13,7 @@
 #include <cstdint>
 #include <cstring>
 #include <limits>
+#include <mutex>
 #include <optional>
 #include <type_traits>
 #include <utility>
@@ -479,24 +479,26 @@ std::vector<double> density_weights(const Grid& g, double h) {
 Components initial_mixture(const Eigen::Matrix3Xf& pts, const HemParams& p, double h_abs,
                            double abs_floor) {
   const Index n = pts.cols();
-  // The kd-tree (a serial build) is built while the density weights use the other threads.
+  // The kd-tree serves only the searches that outgrow the grids (none on typical scans): built on
+  // first use, once.
+  std::once_flag tree_once;
   std::optional<KdTree> tree_storage;
+  auto tree = [&]() -> const KdTree& {
+    std::call_once(tree_once, [&] { tree_storage.emplace(pts); });
+    return *tree_storage;
+  };
+  std::optional<Grid> density_grid;
   std::vector<double> density;
-  tbb::parallel_invoke([&] { tree_storage.emplace(pts); },
-                       [&] {
-                         if (p.weighted)
-                           density = density_weights(
-                               make_grid(pts, h_abs * (1.0 + 10.0 * kSlack), 3), h_abs);
-                       });
-  const KdTree& tree = *tree_storage;
+  if (p.weighted) {
+    density_grid.emplace(make_grid(pts, h_abs * (1.0 + 10.0 * kSlack), 3));
+    density = density_weights(*density_grid, h_abs);
+  }
   const int k_nn = p.init_neighbors;
   const int k_query = k_nn + 8;  // the nearest k_query points, duplicates included
 
-  // Mean distance to the k_nn nearest distinct points among the k_query nearest, by kd-tree.
-  auto tree_nn = [&](Index j) {
-    std::vector<Index> idx;
-    std::vector<float> d2;
-    tree.knn(pts.col(j), k_query, idx, d2);
+  // Mean distance to the k_nn nearest distinct points among the k_query nearest (squared
+  // distances ascending: `d2`, of the k_query nearest or of all points when fewer).
+  auto mean_nn = [&](const auto& d2) {
     double sum = 0.0;
     int found = 0;
     for (float d : d2) {
@@ -507,14 +509,46 @@ Components initial_mixture(const Eigen::Matrix3Xf& pts, const HemParams& p, doub
     }
     return found > 0 ? sum / found : 0.0;
   };
+  auto tree_nn = [&](Index j) {
+    std::vector<Index> idx;
+    std::vector<float> d2;
+    tree().knn(pts.col(j), k_query, idx, d2);
+    return mean_nn(d2);
+  };
 
-  // Typical spacing from a fixed subset: sizes the grid of the neighbour searches.
+  // Typical spacing from a fixed subset: sizes the grid of the neighbour searches. With the
+  // density grid (cells of width >= h), the k_query nearest come from the block of cells around
+  // the point when the farthest of them lies within the block's guaranteed reach; the squared
+  // distances are the kd-tree's ((dx^2 + dy^2) + dz^2 in float), so the mean is the same.
   double spacing = 0.0;
   {
     std::vector<double> all((static_cast<std::size_t>(n) + 60) / 61);
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, all.size(), 16), [&](const auto& r) {
-      for (std::size_t k = r.begin(); k != r.end(); ++k)
-        all[k] = tree_nn(static_cast<Index>(k) * 61);
+      std::vector<Grid::Cell> block;
+      std::vector<float> best(static_cast<std::size_t>(k_query));
+      for (std::size_t k = r.begin(); k != r.end(); ++k) {
+        const Index j = static_cast<Index>(k) * 61;
+        if (!density_grid) {
+          all[k] = tree_nn(j);
+          continue;
+        }
+        const Grid& dg = *density_grid;
+        const Vector3f qf = pts.col(j);
+        dg.cells_around(dg.coords(qf.cast<double>()), 1, block);
+        std::fill(best.begin(), best.end(), std::numeric_limits<float>::infinity());
+        for (const Grid::Cell& cell : block)
+          for (std::size_t i = cell.begin; i < cell.end; ++i) {
+            const float dx = qf.x() - dg.x[i], dy = qf.y() - dg.y[i], dz = qf.z() - dg.z[i];
+            const float d = dx * dx + dy * dy + dz * dz;
+            if (!(d < best.back())) continue;
+            auto at = best.end() - 1;
+            for (; at != best.begin() && *(at - 1) > d; --at)
+              *at = *(at - 1);
+            *at = d;
+          }
+        const auto reach = static_cast<float>(dg.width) * (1.0f - 4.0f * kSlack);
+        all[k] = best.back() <= reach * reach ? mean_nn(best) : tree_nn(j);
+      }
     });
     std::vector<double> sample;
     for (double d : all)
@@ -581,7 +615,7 @@ Components initial_mixture(const Eigen::Matrix3Xf& pts, const HemParams& p, doub
   };
   auto tree_initial = [&](Index j, double r) {
     Hits own;
-    tree.radius(pts.col(j), static_cast<float>(r) * (1.0f + kSlack), own);
+    tree().radius(pts.col(j), static_cast<float>(r) * (1.0f + kSlack), own);
     set_initial(j, r, [&](auto&& f) {
       for (const auto& hit : own)
         f(pts(0, hit.first), pts(1, hit.first), pts(2, hit.first));
