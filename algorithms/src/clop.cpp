@@ -19,6 +19,7 @@
 #include "projection_kernels.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/kdtree.h"
+#include "scanbench/core/radix_sort.h"
 #include "simd_exp.h"
 
 namespace scanbench::algorithms {
@@ -168,7 +169,7 @@ class PreparedMixture {
           keys[static_cast<std::size_t>(i)] = {key, i};
         }
       });
-      detail::sort_cell_keys(keys);
+      radix_sort(keys, [](const auto& e) { return e.first; });  // (key, index) order
       starts.clear();
       for (std::size_t i = 0; i < keys.size(); ++i)
         if (i == 0 || keys[i].first != keys[i - 1].first) starts.push_back(i);

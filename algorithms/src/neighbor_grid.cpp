@@ -1,34 +1,13 @@
 #include "neighbor_grid.h"
 
+#include "scanbench/core/radix_sort.h"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <limits>
 
 namespace scanbench::algorithms::detail {
-
-void sort_cell_keys(std::vector<std::pair<std::uint64_t, Eigen::Index>>& v) {
-  const std::size_t n = v.size();
-  if (n < 2) return;
-  std::array<std::array<std::size_t, 256>, 8> count{};
-  for (const auto& e : v)
-    for (int d = 0; d < 8; ++d)
-      ++count[static_cast<std::size_t>(d)][(e.first >> (8 * d)) & 0xffu];
-  std::vector<std::pair<std::uint64_t, Eigen::Index>> tmp(n);
-  for (int d = 0; d < 8; ++d) {
-    auto& c = count[static_cast<std::size_t>(d)];
-    if (std::find(c.begin(), c.end(), n) != c.end()) continue;  // one digit value: order kept
-    std::size_t sum = 0;
-    for (std::size_t& x : c) {
-      const std::size_t k = x;
-      x = sum;
-      sum += k;
-    }
-    for (const auto& e : v)
-      tmp[c[(e.first >> (8 * d)) & 0xffu]++] = e;
-    v.swap(tmp);
-  }
-}
 
 NeighborGrid::NeighborGrid(const Eigen::Matrix3Xf& points, float cell)
     : n_(points.cols()), cell_(cell), inv_cell_(1.0f / cell) {
@@ -61,7 +40,7 @@ NeighborGrid::NeighborGrid(const Eigen::Matrix3Xf& points, float cell)
       keys[static_cast<std::size_t>(i)] = {key(c.x, c.y, c.z), i};
     }
   });
-  sort_cell_keys(keys);
+  radix_sort(keys, [](const auto& e) { return e.first; });  // (key, index) order
   for (std::size_t k = 0; k < n; ++k) {
     const Eigen::Index i = keys[k].second;
     x_[k] = points(0, i);

@@ -29,11 +29,6 @@
 
 namespace scanbench::algorithms::detail {
 
-/// Sorts (cell key, index) pairs whose indices increase along `v` into increasing (key, index)
-/// order: the result of std::sort on the pairs, by a stable least-significant-digit radix sort
-/// (8-bit digits; digits equal for every key are skipped, so compact keys take few passes).
-void sort_cell_keys(std::vector<std::pair<std::uint64_t, Eigen::Index>>& v);
-
 /// A half-open range [begin, end) of sorted positions in a NeighborGrid.
 struct GridRange {
   Eigen::Index begin = 0;

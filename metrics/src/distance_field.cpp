@@ -228,7 +228,7 @@ void DistanceField::distances(const Eigen::Matrix3Xf& q, Eigen::VectorXf& out,
           order[static_cast<std::size_t>(i)] = key << idx_bits | static_cast<std::uint64_t>(i);
         }
       });
-  detail::radix_sort(order, idx_bits, idx_bits + 3 * (axis_bits - coarsen));
+  radix_sort(order, [idx_bits](std::uint64_t k) { return k >> idx_bits; });
 
   // Fixed chunks of the sorted order, each with its own sampler; the outside lists are joined
   // in chunk order, so they do not depend on the thread count either.

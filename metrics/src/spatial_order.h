@@ -3,9 +3,8 @@
 // order), so that consecutive queries walk the same BVH nodes or OpenVDB leaves. Used by the
 // exact path (ground_truth.cpp), the field path (distance_field.cpp) and the distance benchmark.
 //
-// Hand-written on purpose: an LSD radix sort of 64-bit keys with the query index in the low
-// bits is about 5x faster than std::sort of (key, index) pairs at a million queries, and the
-// resulting order is total (it depends on the positions alone, never on the thread count).
+// Keys hold the Morton code above the query index, sorted by scanbench::radix_sort on the code:
+// the order is total and depends on the positions alone, never on the thread count.
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <Eigen/Core>
@@ -15,6 +14,8 @@
 #include <cmath>
 #include <cstdint>
 #include <vector>
+
+#include "scanbench/core/radix_sort.h"
 
 namespace scanbench::metrics::detail {
 
@@ -27,26 +28,6 @@ inline std::uint64_t spread3(std::uint64_t v) {
   v = (v | v << 4) & 0x10c30c30c30c30c3ULL;
   v = (v | v << 2) & 0x1249249249249249ULL;
   return v;
-}
-
-/// Stable LSD radix sort of a by bits [lo_bit, hi_bit) (the bits below lo_bit keep their input
-/// order, so a starting in index order with the index in the low bits ends totally sorted).
-inline void radix_sort(std::vector<std::uint64_t>& a, int lo_bit, int hi_bit) {
-  constexpr int kDigit = 11;
-  std::vector<std::uint64_t> tmp(a.size());
-  std::vector<std::size_t> count;
-  for (int shift = lo_bit; shift < hi_bit; shift += kDigit) {
-    const int width = std::min(kDigit, hi_bit - shift);
-    const std::uint64_t mask = (std::uint64_t{1} << width) - 1;
-    count.assign((std::size_t{1} << width) + 1, 0);
-    for (const std::uint64_t v : a)
-      ++count[((v >> shift) & mask) + 1];
-    for (std::size_t k = 1; k < count.size(); ++k)
-      count[k] += count[k - 1];
-    for (const std::uint64_t v : a)
-      tmp[count[(v >> shift) & mask]++] = v;
-    a.swap(tmp);
-  }
 }
 
 /// Bits needed for the indices 0..n-1.
@@ -77,7 +58,7 @@ inline std::vector<Eigen::Index> morton_order(const Eigen::Matrix3Xf& q) {
           keys[static_cast<std::size_t>(i)] = key << idx_bits | static_cast<std::uint64_t>(i);
         }
       });
-  radix_sort(keys, idx_bits, idx_bits + 3 * axis_bits);
+  radix_sort(keys, [idx_bits](std::uint64_t k) { return k >> idx_bits; });
   const std::uint64_t mask =
       idx_bits >= 64 ? ~std::uint64_t{0} : (std::uint64_t{1} << idx_bits) - 1;
   std::vector<Eigen::Index> order(static_cast<std::size_t>(n));

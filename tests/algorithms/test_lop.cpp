@@ -232,25 +232,6 @@ TEST(NeighborGrid, RangesHoldEveryPointWithinTheRadius) {
 
 // The radix sort of cell keys equals std::sort of the (key, index) pairs: repeated keys, compact
 // keys (few digit passes) and keys using all 64 bits.
-TEST(NeighborGrid, SortCellKeysEqualsStdSort) {
-  Rng rng(3);
-  for (const std::uint64_t range :
-       {std::uint64_t{1}, std::uint64_t{37}, std::uint64_t{1} << 20, ~std::uint64_t{0}}) {
-    for (const std::size_t n :
-         {std::size_t{0}, std::size_t{1}, std::size_t{2}, std::size_t{5000}}) {
-      std::vector<std::pair<std::uint64_t, Eigen::Index>> v(n);
-      for (std::size_t i = 0; i < n; ++i) {
-        const std::uint64_t r = rng.next();
-        v[i] = {range == ~std::uint64_t{0} ? r : r % range, static_cast<Eigen::Index>(i)};
-      }
-      auto want = v;
-      std::sort(want.begin(), want.end());
-      detail::sort_cell_keys(v);
-      EXPECT_EQ(v, want) << "range " << range << " n " << n;
-    }
-  }
-}
-
 // One query at a time, anywhere (outside the box, in empty cells), for both cell lookups.
 TEST(NeighborGrid, RangesNearHoldEveryPointWithinTheRadius) {
   const PointCloud c = noisy_sphere(600, 1.0f, 0.05f, 4);

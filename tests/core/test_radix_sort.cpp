@@ -1,0 +1,50 @@
+// scanbench::radix_sort against std::sort: (key, index) pairs and keys packed above an index.
+#include <gtest/gtest.h>
+
+#include <Eigen/Core>
+
+#include <algorithm>
+#include <cstdint>
+#include <utility>
+#include <vector>
+
+#include "scanbench/core/radix_sort.h"
+#include "scanbench/core/rng.h"
+
+namespace scanbench {
+namespace {
+
+TEST(RadixSort, PairsEndInKeyThenIndexOrder) {
+  Rng rng(3);
+  for (const std::uint64_t range :
+       {std::uint64_t{1}, std::uint64_t{37}, std::uint64_t{1} << 20, ~std::uint64_t{0}}) {
+    for (const std::size_t n :
+         {std::size_t{0}, std::size_t{1}, std::size_t{2}, std::size_t{5000}}) {
+      std::vector<std::pair<std::uint64_t, Eigen::Index>> v(n);
+      for (std::size_t i = 0; i < n; ++i) {
+        const std::uint64_t r = rng.next();
+        v[i] = {range == ~std::uint64_t{0} ? r : r % range, static_cast<Eigen::Index>(i)};
+      }
+      auto want = v;
+      std::sort(want.begin(), want.end());
+      radix_sort(v, [](const auto& e) { return e.first; });
+      EXPECT_EQ(v, want) << "range " << range << " n " << n;
+    }
+  }
+}
+
+TEST(RadixSort, PackedKeysSortedByTheirHighBitsStably) {
+  Rng rng(5);
+  const int idx_bits = 13;
+  const std::size_t n = 6000;  // < 2^13
+  std::vector<std::uint64_t> v(n);
+  for (std::size_t i = 0; i < n; ++i)
+    v[i] = (rng.next() % 977) << idx_bits | i;  // many equal codes: stability decides
+  auto want = v;
+  std::sort(want.begin(), want.end());  // (code, index): what a stable sort by code gives
+  radix_sort(v, [&](std::uint64_t k) { return k >> idx_bits; });
+  EXPECT_EQ(v, want);
+}
+
+}  // namespace
+}  // namespace scanbench
