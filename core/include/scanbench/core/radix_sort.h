@@ -13,23 +13,38 @@
 
 namespace scanbench {
 
-/// Sorts v stably by key(element) (a std::uint64_t), 8-bit digits from the lowest; a digit
-/// that is equal for every element is skipped. Elements with equal keys keep their input order,
-/// so elements entered in index order end sorted by (key, index).
+/// Sorts v stably by key(element) (a std::uint64_t), 8-bit digits from the lowest; digits in
+/// which no two keys differ are skipped (no pass, no histogram). Elements with equal keys keep
+/// their input order, so elements entered in index order end sorted by (key, index).
 template <class T, class Key>
 void radix_sort(std::vector<T>& v, Key key) {
   const std::size_t n = v.size();
   if (n < 2) return;
-  std::array<std::array<std::size_t, 256>, 8> count{};
+  // The bits that differ between keys: only their digits need a pass (and a histogram).
+  std::uint64_t any = 0, all = ~std::uint64_t{0};
   for (const T& e : v) {
     const std::uint64_t k = key(e);
-    for (std::size_t d = 0; d < 8; ++d)
-      ++count[d][(k >> (8 * d)) & 0xffu];
+    any |= k;
+    all &= k;
+  }
+  const std::uint64_t varying = any ^ all;
+  std::array<std::size_t, 8> digits{};
+  std::size_t nd = 0;
+  for (std::size_t d = 0; d < 8; ++d)
+    if ((varying >> (8 * d)) & 0xffu) digits[nd++] = d;
+  if (nd == 0) return;
+  std::vector<std::array<std::size_t, 256>> count(nd);
+  for (auto& c : count)
+    c.fill(0);
+  for (const T& e : v) {
+    const std::uint64_t k = key(e);
+    for (std::size_t i = 0; i < nd; ++i)
+      ++count[i][(k >> (8 * digits[i])) & 0xffu];
   }
   std::vector<T> tmp(n);
-  for (std::size_t d = 0; d < 8; ++d) {
-    auto& c = count[d];
-    if (c[(key(v[0]) >> (8 * d)) & 0xffu] == n) continue;  // one digit value: order kept
+  for (std::size_t i = 0; i < nd; ++i) {
+    const std::size_t shift = 8 * digits[i];
+    auto& c = count[i];
     std::size_t sum = 0;
     for (std::size_t& x : c) {
       const std::size_t k = x;
@@ -37,7 +52,7 @@ void radix_sort(std::vector<T>& v, Key key) {
       sum += k;
     }
     for (const T& e : v)
-      tmp[c[(key(e) >> (8 * d)) & 0xffu]++] = e;
+      tmp[c[(key(e) >> shift) & 0xffu]++] = e;
     v.swap(tmp);
   }
 }
