@@ -491,7 +491,8 @@ Components initial_mixture(const Eigen::Matrix3Xf& pts, const HemParams& p, doub
   std::vector<double> density;
   if (p.weighted) {
     density_grid.emplace(make_grid(pts, h_abs * (1.0 + 10.0 * kSlack), 3));
-    density = density_weights(*density_grid, h_abs);
+    // density "kernel": summed in the eq. 12 kernel pass below (set_initial).
+    if (p.density == "support") density = density_weights(*density_grid, h_abs);
   }
   const int k_nn = p.init_neighbors;
   const int k_query = k_nn + 8;  // the nearest k_query points, duplicates included
@@ -569,6 +570,9 @@ Components initial_mixture(const Eigen::Matrix3Xf& pts, const HemParams& p, doub
   const float guaranteed = static_cast<float>(g.width) * (1.0f - 4.0f * kSlack);
   std::vector<double> nn(static_cast<std::size_t>(n), 0.0);
   Components comps(static_cast<std::size_t>(n));
+  const bool kernel_density = p.weighted && p.density == "kernel";
+  const double k_theta = -16.0 / (h_abs * h_abs);
+  if (kernel_density) density.assign(static_cast<std::size_t>(n), 1.0);
 
   // Eq. 12 for point j from its neighbours within r (`for_each` calls back with indices).
   auto set_initial = [&](Index j, double r, auto&& for_each) {
@@ -576,10 +580,13 @@ Components initial_mixture(const Eigen::Matrix3Xf& pts, const HemParams& p, doub
     const Vector3d pj = pts.col(j).cast<double>();
     // Moments centred at p_j for precision (six scalars: no temporaries in the hot loop).
     double sx = 0.0, sy = 0.0, sz = 0.0, sxx = 0.0, sxy = 0.0, sxz = 0.0, syy = 0.0, syz = 0.0,
-           szz = 0.0, count = 0.0;
+           szz = 0.0, count = 0.0, v = 0.0;
     for_each([&](double qx, double qy, double qz) {
       const double dx = qx - pj.x(), dy = qy - pj.y(), dz = qz - pj.z();
-      if (dx * dx + dy * dy + dz * dz <= r2) {
+      const double d2 = dx * dx + dy * dy + dz * dz;
+      if (d2 <= r2) {
+        // eq. 25 over the kernel's neighbours: the point itself adds theta(0) = 1.
+        if (kernel_density) v += std::exp(k_theta * d2);
         sx += dx;
         sy += dy;
         sz += dz;
@@ -597,6 +604,7 @@ Components initial_mixture(const Eigen::Matrix3Xf& pts, const HemParams& p, doub
     sum2 << sxx, sxy, sxz, sxy, syy, syz, sxz, syz, szz;
     Component& comp = comps[static_cast<std::size_t>(j)];
     comp.mu = pj;
+    if (kernel_density) density[static_cast<std::size_t>(j)] = std::max(v, 1.0);
     const double bias = p.cov_bias * r2;
     if (count < 1.0) count = 1.0;  // the point itself is always within r
     const Vector3d mean = sum / count;

@@ -140,19 +140,11 @@ PointCloud patch_with_duplicates(std::uint64_t seed) {
   return cloud;
 }
 
-TEST(Hem, LevelZeroNeighboursMatchBruteForceWithDuplicates) {
-  // Algorithm 1 lines 1-9 by brute force: the mean distance to the init_neighbors nearest
-  // distinct points among the init_neighbors + 8 nearest (float distances, duplicates counted),
-  // the median of those for points with only duplicates, eq. 12 within r in double.
-  const PointCloud c = patch_with_duplicates(23);
+// Algorithm 1 line 2 by brute force: r_j = init_radius_factor x the mean distance to the
+// init_neighbors nearest distinct points among the init_neighbors + 8 nearest (float distances,
+// duplicates counted); points with only duplicates take the median of those means.
+std::vector<double> brute_kernel_radii(const PointCloud& c, const HemParams& p) {
   const Eigen::Index n = c.size();
-  HemParams p;
-  p.levels = 0;
-  p.weighted = false;
-  RunContext ctx(1);
-  const double diag = c.bbox().diagonal();
-  const GaussianMixture m = hem_mixture(c.positions, p, p.h * diag, diag, ctx);
-  ASSERT_EQ(m.size(), n);
   std::vector<double> nn(static_cast<std::size_t>(n), 0.0);
   for (Eigen::Index j = 0; j < n; ++j) {
     std::vector<float> d2;
@@ -177,13 +169,30 @@ TEST(Hem, LevelZeroNeighboursMatchBruteForceWithDuplicates) {
                    positive.begin() + static_cast<std::ptrdiff_t>(positive.size() / 2),
                    positive.end());
   const double median = positive[positive.size() / 2];
-  EXPECT_EQ(nn[900], 0.0);  // the point with 12 copies
+  std::vector<double> radius(static_cast<std::size_t>(n));
+  for (std::size_t j = 0; j < radius.size(); ++j)
+    radius[j] = p.init_radius_factor * (nn[j] > 0.0 ? nn[j] : median);
+  return radius;
+}
+
+TEST(Hem, LevelZeroNeighboursMatchBruteForceWithDuplicates) {
+  // Algorithm 1 lines 1-9 by brute force: the mean distance to the init_neighbors nearest
+  // distinct points among the init_neighbors + 8 nearest (float distances, duplicates counted),
+  // the median of those for points with only duplicates, eq. 12 within r in double.
+  const PointCloud c = patch_with_duplicates(23);
+  const Eigen::Index n = c.size();
+  HemParams p;
+  p.levels = 0;
+  p.weighted = false;
+  RunContext ctx(1);
+  const double diag = c.bbox().diagonal();
+  const GaussianMixture m = hem_mixture(c.positions, p, p.h * diag, diag, ctx);
+  ASSERT_EQ(m.size(), n);
+  const std::vector<double> radius = brute_kernel_radii(c, p);
   int checked = 0;
   for (Eigen::Index j = 0; j < n; ++j) {
     if (j % 7 != 0 && j < 900) continue;  // a sample, and every duplicate
-    const double nnd =
-        nn[static_cast<std::size_t>(j)] > 0.0 ? nn[static_cast<std::size_t>(j)] : median;
-    const double r = p.init_radius_factor * nnd;
+    const double r = radius[static_cast<std::size_t>(j)];
     const Eigen::Vector3d pj = c.positions.col(j).cast<double>();
     Eigen::Vector3d mean = Eigen::Vector3d::Zero();
     Eigen::Matrix3d m2 = Eigen::Matrix3d::Zero();
@@ -244,6 +253,39 @@ TEST(Hem, DensityWeightsMatchBruteForce) {
                   2e-5 * inv_v[static_cast<std::size_t>(j)] / total)
           << "h " << h_rel << " point " << j;
   }
+}
+
+TEST(Hem, KernelDensityWeightsMatchBruteForce) {
+  // density = "kernel" (Algorithm 1 line 3): v_j = sum over the points within r_j (itself and
+  // duplicates included, theta(0) = 1) of exp(-16 |p_j - p_i|^2 / h^2), in double.
+  const PointCloud c = patch_with_duplicates(31);
+  const Eigen::Index n = c.size();
+  HemParams p;
+  p.levels = 0;
+  p.density = "kernel";
+  RunContext ctx(1);
+  const double diag = c.bbox().diagonal();
+  const double h = p.h * diag;
+  const GaussianMixture m = hem_mixture(c.positions, p, h, diag, ctx);
+  ASSERT_EQ(m.size(), n);
+  const std::vector<double> radius = brute_kernel_radii(c, p);
+  std::vector<double> inv_v(static_cast<std::size_t>(n));
+  double total = 0.0;
+  for (Eigen::Index j = 0; j < n; ++j) {
+    const double r = radius[static_cast<std::size_t>(j)];
+    double v = 0.0;
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const double d2 =
+          (c.positions.col(i).cast<double>() - c.positions.col(j).cast<double>()).squaredNorm();
+      if (d2 <= r * r) v += std::exp(-16.0 * d2 / (h * h));
+    }
+    inv_v[static_cast<std::size_t>(j)] = 1.0 / v;
+    total += 1.0 / v;
+  }
+  for (Eigen::Index j = 0; j < n; ++j)
+    EXPECT_NEAR(m.weights(j), inv_v[static_cast<std::size_t>(j)] / total,
+                1e-5 * inv_v[static_cast<std::size_t>(j)] / total)
+        << "point " << j;
 }
 
 TEST(Hem, IdenticalAcrossThreadCounts) {
@@ -310,9 +352,10 @@ TEST(Hem, StopsWhenALevelRemovesLittle) {
 TEST(Hem, DensityWeightsBalanceTheMass) {
   // Left half 4x denser: unweighted mass ~0.8 on the left; WLOP weights (eq. 26) balance it.
   const PointCloud c = two_density_plane(3000, 4, 17);
-  auto left_mass = [&](bool weighted) {
+  auto left_mass = [&](bool weighted, const char* density = "support") {
     HemParams p;
     p.weighted = weighted;
+    p.density = density;
     p.h = 0.05;
     RunContext ctx(5);
     const GaussianMixture m = *hem(c, p, ctx).mixture;
@@ -323,6 +366,10 @@ TEST(Hem, DensityWeightsBalanceTheMass) {
   };
   EXPECT_NEAR(left_mass(false), 0.8, 0.02);
   EXPECT_NEAR(left_mass(true), 0.5, 0.06);
+  // The kernel-pass density (r follows the local spacing) balances only in part.
+  const double kernel = left_mass(true, "kernel");
+  EXPECT_LT(kernel, 0.77);
+  EXPECT_GT(kernel, 0.6);
 }
 
 TEST(Hem, OutlierStaysAnOrphan) {
