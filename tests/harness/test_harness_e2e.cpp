@@ -295,3 +295,43 @@ TEST(HarnessE2E, BadConfigExitsTwoNamingFileAndPath) {
   EXPECT_NE(b.out.find("broken.json: not valid JSON"), std::string::npos) << b.out;
   fs::remove_all(dir);
 }
+
+namespace {
+
+// Issue 5's check: `bench resample --json` writes cases (name, median_s, p2plane_mean,
+// nn_dist_cv) and the ratios wlop_over_clop and cgal_wlop_over_clop (a quick run on the
+// procedural sphere, so that it needs no extracted mesh).
+TEST(HarnessE2E, BenchResampleWritesCasesAndRatios) {
+  const fs::path dir = make_temp_dir("bench-resample");
+  const fs::path json = dir / "b.json";
+  const Result r =
+      sh(sb() + " bench resample --quick --dataset sphere --repeats 1 --json " + json.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  const Json b = Json::parse(slurp(json));
+  ASSERT_TRUE(b["cases"].is_array());
+  std::map<std::string, Json> cases;
+  for (const Json& c : b["cases"])
+    cases[c.at("name").get<std::string>()] = c;
+  for (const char* name : {"clop", "wlop", "cgal_wlop"}) {
+    ASSERT_TRUE(cases.count(name)) << name;
+    const Json& c = cases[name];
+    EXPECT_GT(c.at("median_s").get<double>(), 0.0) << name;
+    // Resampling the noisy sphere lands near the surface: a small positive error.
+    EXPECT_GT(c.at("p2plane_mean").get<double>(), 0.0) << name;
+    EXPECT_LT(c.at("p2plane_mean").get<double>(), 0.01) << name;
+    EXPECT_GT(c.at("nn_dist_cv").get<double>(), 0.0) << name;
+  }
+  EXPECT_GT(cases["clop"].at("mixture_components").get<int>(), 0);
+  for (const char* ratio :
+       {"wlop_over_clop", "cgal_wlop_over_clop", "attraction_wlop_over_clop_cpu"}) {
+    ASSERT_TRUE(b["ratios"][ratio].is_number()) << ratio;
+    EXPECT_GT(b["ratios"][ratio].get<double>(), 0.0) << ratio;
+  }
+  // The ratio is what the cases say.
+  EXPECT_NEAR(b["ratios"]["wlop_over_clop"].get<double>(),
+              cases["wlop"]["median_s"].get<double>() / cases["clop"]["median_s"].get<double>(),
+              1e-9);
+  fs::remove_all(dir);
+}
+
+}  // namespace
