@@ -312,7 +312,7 @@ TEST(HarnessE2E, BenchResampleWritesCasesAndRatios) {
   std::map<std::string, Json> cases;
   for (const Json& c : b["cases"])
     cases[c.at("name").get<std::string>()] = c;
-  for (const char* name : {"clop", "wlop", "cgal_wlop"}) {
+  for (const char* name : {"clop", "wlop", "cgal_wlop", "clop_kernel_density"}) {
     ASSERT_TRUE(cases.count(name)) << name;
     const Json& c = cases[name];
     EXPECT_GT(c.at("median_s").get<double>(), 0.0) << name;
@@ -322,8 +322,8 @@ TEST(HarnessE2E, BenchResampleWritesCasesAndRatios) {
     EXPECT_GT(c.at("nn_dist_cv").get<double>(), 0.0) << name;
   }
   EXPECT_GT(cases["clop"].at("mixture_components").get<int>(), 0);
-  for (const char* ratio :
-       {"wlop_over_clop", "cgal_wlop_over_clop", "attraction_wlop_over_clop_cpu"}) {
+  for (const char* ratio : {"wlop_over_clop", "cgal_wlop_over_clop",
+                            "attraction_wlop_over_clop_cpu", "wlop_over_clop_kernel_density"}) {
     ASSERT_TRUE(b["ratios"][ratio].is_number()) << ratio;
     EXPECT_GT(b["ratios"][ratio].get<double>(), 0.0) << ratio;
   }
