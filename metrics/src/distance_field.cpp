@@ -213,30 +213,24 @@ void DistanceField::distances(const Eigen::Matrix3Xf& q, Eigen::VectorXf& out,
   int coarsen = 0;
   while (axis_bits - coarsen > 21 || 3 * (axis_bits - coarsen) + idx_bits > 64)
     ++coarsen;
-  std::vector<std::uint64_t> order(static_cast<std::size_t>(n));
-  tbb::parallel_for(
-      tbb::blocked_range<Eigen::Index>(0, n, 8192), [&](const tbb::blocked_range<Eigen::Index>& r) {
-        for (Eigen::Index i = r.begin(); i < r.end(); ++i) {
-          std::uint64_t key = 0;
-          for (int k = 0; k < 3; ++k) {
-            const double c = std::floor(static_cast<double>(q(k, i)) * m.inv_voxel / 8.0);
-            const int lo = m.leaf_lo[k], hi = m.leaf_hi[k];
-            // NaN fails both comparisons and lands on lo.
-            const int l = c > hi ? hi : (c >= lo ? static_cast<int>(c) : lo);
-            key |= detail::spread3(static_cast<std::uint64_t>(l - lo) >> coarsen) << k;
-          }
-          order[static_cast<std::size_t>(i)] = key << idx_bits | static_cast<std::uint64_t>(i);
+  const std::vector<Eigen::Index> order =
+      detail::order_by_key(n, 3 * (axis_bits - coarsen), [&](Eigen::Index i) {
+        std::uint64_t key = 0;
+        for (int k = 0; k < 3; ++k) {
+          const double c = std::floor(static_cast<double>(q(k, i)) * m.inv_voxel / 8.0);
+          const int lo = m.leaf_lo[k], hi = m.leaf_hi[k];
+          // NaN fails both comparisons and lands on lo.
+          const int l = c > hi ? hi : (c >= lo ? static_cast<int>(c) : lo);
+          key |= detail::spread3(static_cast<std::uint64_t>(l - lo) >> coarsen) << k;
         }
+        return key;
       });
-  radix_sort(order, [idx_bits](std::uint64_t k) { return k >> idx_bits; });
 
   // Fixed chunks of the sorted order, each with its own sampler; the outside lists are joined
   // in chunk order, so they do not depend on the thread count either.
   constexpr std::size_t kChunk = 4096;
   const std::size_t chunks = (order.size() + kChunk - 1) / kChunk;
   std::vector<std::vector<Eigen::Index>> chunk_outside(chunks);
-  const std::uint64_t idx_mask =
-      idx_bits >= 64 ? ~std::uint64_t{0} : (std::uint64_t{1} << idx_bits) - 1;
   tbb::parallel_for(
       tbb::blocked_range<std::size_t>(0, chunks, 1), [&](const tbb::blocked_range<std::size_t>& r) {
         // The chunk's queries are gathered first (independent loads, many in flight), sampled
@@ -248,7 +242,7 @@ void DistanceField::distances(const Eigen::Matrix3Xf& q, Eigen::VectorXf& out,
           const std::size_t begin = c * kChunk;
           const std::size_t end = std::min(order.size(), (c + 1) * kChunk);
           for (std::size_t k = begin; k < end; ++k) {
-            const auto i = static_cast<Eigen::Index>(order[k] & idx_mask);
+            const Eigen::Index i = order[k];
             for (int d = 0; d < 3; ++d)
               local[3 * (k - begin) + static_cast<std::size_t>(d)] = q(d, i);
           }
@@ -258,7 +252,7 @@ void DistanceField::distances(const Eigen::Matrix3Xf& q, Eigen::VectorXf& out,
             value[k - begin] = sampler.sample(p[0], p[1], p[2], v) ? std::abs(v) : -1.0f;
           }
           for (std::size_t k = begin; k < end; ++k) {
-            const auto i = static_cast<Eigen::Index>(order[k] & idx_mask);
+            const Eigen::Index i = order[k];
             if (value[k - begin] >= 0.0f)
               out[i] = value[k - begin];
             else

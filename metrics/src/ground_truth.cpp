@@ -87,6 +87,23 @@ bool point_query_callback(RTCPointQueryFunctionArguments* args) {
   return false;
 }
 
+// Calls f(i, q_i) for every column i of q, in Morton order (spatial_order.h): consecutive
+// queries walk the same BVH nodes, about 1.7x faster than input order on the distance
+// benchmark. Each TBB block works on a gathered copy of its queries; f may write slot i only,
+// so the order changes no result.
+template <class F>
+void for_each_in_morton_order(const Eigen::Matrix3Xf& q, F&& f) {
+  const std::vector<Eigen::Index> order = detail::morton_order(q);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, order.size(), 1024),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      Eigen::Matrix3Xf local(3, static_cast<Eigen::Index>(r.size()));
+                      for (std::size_t k = r.begin(); k < r.end(); ++k)
+                        local.col(static_cast<Eigen::Index>(k - r.begin())) = q.col(order[k]);
+                      for (std::size_t k = r.begin(); k < r.end(); ++k)
+                        f(order[k], local.col(static_cast<Eigen::Index>(k - r.begin())));
+                    });
+}
+
 }  // namespace
 
 struct GroundTruth::Impl {
@@ -151,10 +168,9 @@ GroundTruth::GroundTruth(const TriangleMesh& mesh, std::uint64_t sample_seed,
   m.triangles.resize(static_cast<std::size_t>(mesh.num_faces()));
   for (Eigen::Index f = 0; f < mesh.num_faces(); ++f) {
     m.face_normals.col(f) = mesh.face_normal(f);
-    m.triangles[static_cast<std::size_t>(f)] = PreparedTriangle(
-        vd.col(mesh.faces(0, f)), vd.col(mesh.faces(1, f)), vd.col(mesh.faces(2, f)));
     const Eigen::Vector3d a = vd.col(mesh.faces(0, f)), b = vd.col(mesh.faces(1, f)),
                           c3 = vd.col(mesh.faces(2, f));
+    m.triangles[static_cast<std::size_t>(f)] = PreparedTriangle(a, b, c3);
     const Eigen::Vector3d c = (a + b + c3) / 3.0;
     const double r = std::max({(a - c).norm(), (b - c).norm(), (c3 - c).norm()}) * (1.0 + 1e-12);
     const Eigen::Vector3d e1 = b - a, e2 = c3 - a;
@@ -301,14 +317,9 @@ float GroundTruth::Impl::fallback_distance(const Eigen::Vector3f& q) const {
 std::vector<ClosestPoint> GroundTruth::closest_points(const Eigen::Matrix3Xf& q) const {
   std::vector<ClosestPoint> out(static_cast<std::size_t>(q.cols()));
   if (!q.allFinite()) throw InputError("ground truth: a query point is not finite");
-  // In Morton order: consecutive queries walk the same BVH nodes (about 1.7x faster than input
-  // order on the distance benchmark); each answer has its own slot, so the order changes none.
-  const std::vector<Eigen::Index> order = detail::morton_order(q);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, order.size(), 256),
-                    [&](const tbb::blocked_range<std::size_t>& r) {
-                      for (std::size_t k = r.begin(); k < r.end(); ++k)
-                        out[static_cast<std::size_t>(order[k])] = closest_point(q.col(order[k]));
-                    });
+  for_each_in_morton_order(q, [&](Eigen::Index i, const auto& qi) {
+    out[static_cast<std::size_t>(i)] = closest_point(qi);
+  });
   return out;
 }
 
@@ -317,18 +328,8 @@ Eigen::VectorXf GroundTruth::distances(const Eigen::Matrix3Xf& q, DistancePath p
   if (!q.allFinite()) throw InputError("ground truth: a query point is not finite");
   Eigen::VectorXf out(q.cols());
   if (path == DistancePath::Exact) {
-    // In Morton order (see closest_points), on a sorted copy of the queries.
-    const std::vector<Eigen::Index> order = detail::morton_order(q);
-    tbb::parallel_for(
-        tbb::blocked_range<std::size_t>(0, order.size(), 1024),
-        [&](const tbb::blocked_range<std::size_t>& r) {
-          Eigen::Matrix3Xf local(3, static_cast<Eigen::Index>(r.size()));
-          for (std::size_t k = r.begin(); k < r.end(); ++k)
-            local.col(static_cast<Eigen::Index>(k - r.begin())) = q.col(order[k]);
-          for (std::size_t k = r.begin(); k < r.end(); ++k)
-            out[order[k]] =
-                closest_point(local.col(static_cast<Eigen::Index>(k - r.begin()))).distance;
-        });
+    for_each_in_morton_order(
+        q, [&](Eigen::Index i, const auto& qi) { out[i] = closest_point(qi).distance; });
     if (fallbacks) *fallbacks = 0;
     return out;
   }
