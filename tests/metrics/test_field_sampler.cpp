@@ -34,11 +34,7 @@ void expect_matches_openvdb(const DistanceField& f, const Eigen::Matrix3Xf& q) {
   ASSERT_TRUE(grid);
   const auto acc = grid->getConstAccessor();
   Eigen::VectorXf out;
-  std::vector<Eigen::Index> outside;
-  f.distances(q, out, outside);
-  std::vector<char> is_outside(static_cast<std::size_t>(q.cols()), 0);
-  for (const Eigen::Index i : outside)
-    is_outside[static_cast<std::size_t>(i)] = 1;
+  const std::vector<char> is_outside = testing::field_outside_flags(f, q, out);
   Eigen::Index partial = 0, inside = 0;
   for (Eigen::Index i = 0; i < q.cols(); ++i) {
     const openvdb::Vec3d ip =

@@ -1,10 +1,13 @@
 #pragma once
-// Meshes built inside the tests (no files needed): icosphere, square grid, random triangle soup.
+// Meshes built inside the tests (no files needed): icosphere, square grid, random triangle soup;
+// and a field-sampling helper shared by the field tests.
 #include <map>
 #include <utility>
+#include <vector>
 
 #include "scanbench/core/rng.h"
 #include "scanbench/core/triangle_mesh.h"
+#include "scanbench/metrics/distance_field.h"
 
 namespace scanbench::metrics::testing {
 
@@ -84,6 +87,18 @@ inline TriangleMesh random_soup(int faces, std::uint64_t seed) {
     }
   }
   return m;
+}
+
+/// Runs f.distances(q, out, outside) and returns one flag per query: 1 when it was listed
+/// outside the band.
+inline std::vector<char> field_outside_flags(const DistanceField& f, const Eigen::Matrix3Xf& q,
+                                             Eigen::VectorXf& out) {
+  std::vector<Eigen::Index> outside;
+  f.distances(q, out, outside);
+  std::vector<char> flags(static_cast<std::size_t>(q.cols()), 0);
+  for (const Eigen::Index i : outside)
+    flags[static_cast<std::size_t>(i)] = 1;
+  return flags;
 }
 
 }  // namespace scanbench::metrics::testing

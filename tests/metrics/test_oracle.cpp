@@ -327,11 +327,7 @@ TEST(DistanceField, BatchIsExactOnALinearFieldAcrossLeaves) {
       q.col(i) = p;
     }
     Eigen::VectorXf out;
-    std::vector<Eigen::Index> outside;
-    f.distances(q, out, outside);
-    std::vector<char> is_outside(static_cast<std::size_t>(q.cols()), 0);
-    for (const Eigen::Index i : outside)
-      is_outside[static_cast<std::size_t>(i)] = 1;
+    const std::vector<char> is_outside = testing::field_outside_flags(f, q, out);
     for (Eigen::Index i = 0; i < q.cols(); ++i) {
       ASSERT_EQ(is_outside[static_cast<std::size_t>(i)], i % 3 == 0) << axis << " " << t[i];
       if (i % 3) {
