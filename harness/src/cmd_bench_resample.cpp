@@ -255,8 +255,13 @@ void add_bench_resample(CLI::App* bench, Cli& cli) {
       // speedups (GPU): WLOP's attraction includes its L2 first iteration (phase init), as
       // CLOP's includes its continuous first iteration; repulsion includes the densities w_i.
       {
-        const auto& wc = results[1].phases_cpu;
-        const auto& cc = results[0].phases_cpu;
+        auto phases_of = [&](const std::string& name) -> const std::map<std::string, double>& {
+          return std::find_if(results.begin(), results.end(),
+                              [&](const CaseResult& r) { return r.name == name; })
+              ->phases_cpu;
+        };
+        const auto& wc = phases_of("wlop");
+        const auto& cc = phases_of("clop");
         auto get = [](const std::map<std::string, double>& m, const char* k) {
           const auto it = m.find(k);
           return it == m.end() ? 0.0 : it->second;
