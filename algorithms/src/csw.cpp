@@ -62,7 +62,7 @@ Eigen::Matrix3Xf csw_normals(const GaussianMixture& m, const Eigen::Matrix3Xf& p
     coef[static_cast<std::size_t>(s)] =
         static_cast<float>(m.weights(s) * std::pow(var, 1.5) / std::sqrt(lambda.determinant()));
   }
-  const detail::MixtureIndex index(m, var);
+  const detail::MixtureGrid index(m, var, var);
   const std::vector<float> radii = index.radii(var);
   std::array<float, 3> wk, s2k;
   for (int j = 0; j < 3; ++j) {
@@ -73,17 +73,22 @@ Eigen::Matrix3Xf csw_normals(const GaussianMixture& m, const Eigen::Matrix3Xf& p
   Eigen::Matrix3Xf out(3, n);
   auto timer = ctx.phase("csw");
   tbb::parallel_for(tbb::blocked_range<Index>(0, n, 64), [&](const tbb::blocked_range<Index>& r) {
-    std::vector<std::pair<Index, float>> hits;
+    std::vector<detail::GridRange> ranges;
+    std::vector<Index> ids;
+    std::vector<float> d2;
     std::vector<Weighted> near;
     for (Index i = r.begin(); i != r.end(); ++i) {
       const Eigen::Vector3f q = particles.col(i);
       near.clear();
-      index.for_each_near(q, radii, hits, [&](Index s) {
+      ids.clear();
+      d2.clear();
+      index.gather(q, radii, ranges, ids, d2);
+      for (const Index s : ids) {
         const auto us = static_cast<std::size_t>(s);
         const Eigen::Vector3f d = m.means.col(s) - q;
         const float w = coef[us] * std::exp(-0.5f * d.dot(inv[us] * d));
         if (w > 0.0f) near.push_back({s, w});
-      });
+      }
       // Components whose spatial weight is below 1e-6 of the largest one are negligible for the
       // weighted median and would only cost time (large flat Gaussians reach far).
       float wmax = 0.0f;

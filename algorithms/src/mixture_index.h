@@ -9,9 +9,7 @@
 // radius h. Large components (few) get their own large radius without widening the search for
 // the many small ones.
 //
-// MixtureIndex (normals.csw): one kd-tree per class. MixtureGrid (resample.clop's attraction):
-// one uniform grid per class, the same classes and radii; the candidates come in another order
-// (the grid's), which only changes the order of the kernel sums.
+// MixtureGrid: one uniform grid per class; the candidates come in the grid's order.
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <Eigen/Core>
@@ -20,13 +18,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <memory>
 #include <utility>
 #include <vector>
 
 #include "neighbor_grid.h"
 #include "scanbench/core/gaussian_mixture.h"
-#include "scanbench/core/kdtree.h"
 
 namespace scanbench::algorithms::detail {
 
@@ -73,63 +69,14 @@ inline float class_radius(double bound, double v) {
   return static_cast<float>(std::sqrt(32.0 * (bound + v)) * 1.001);
 }
 
-class MixtureIndex {
- public:
-  static constexpr double kClassRatio = detail::kClassRatio;
-
-  /// `base` (> 0) is the variance unit of the size classes (e.g. the smallest kernel variance).
-  MixtureIndex(const GaussianMixture& m, double base) {
-    for (SizeClass& c : size_classes(m, base)) {
-      auto b = std::make_unique<Bucket>();
-      b->ids = std::move(c.ids);
-      b->bound = c.bound;
-      b->centers.resize(3, static_cast<Eigen::Index>(b->ids.size()));
-      for (std::size_t i = 0; i < b->ids.size(); ++i)
-        b->centers.col(static_cast<Eigen::Index>(i)) = m.means.col(b->ids[i]);
-      b->tree = std::make_unique<KdTree>(b->centers);
-      buckets_.push_back(std::move(b));
-    }
-  }
-
-  /// Search radius of every class for extra variance v (pass to for_each_near).
-  std::vector<float> radii(double v) const {
-    std::vector<float> r;
-    for (const auto& b : buckets_)
-      r.push_back(class_radius(b->bound, v));
-    return r;
-  }
-
-  /// Calls f(component index) for every component within its class radius of q, class by class
-  /// in a fixed order (deterministic). `hits` is scratch space.
-  template <class F>
-  void for_each_near(const Eigen::Vector3f& q, const std::vector<float>& radii,
-                     std::vector<std::pair<Eigen::Index, float>>& hits, F&& f) const {
-    for (std::size_t c = 0; c < buckets_.size(); ++c) {
-      const Bucket& b = *buckets_[c];
-      b.tree->radius(q, radii[c], hits);
-      for (const auto& h : hits)
-        f(b.ids[static_cast<std::size_t>(h.first)]);
-    }
-  }
-
- private:
-  struct Bucket {
-    Eigen::Matrix3Xf centers;
-    std::vector<Eigen::Index> ids;
-    std::unique_ptr<KdTree> tree;
-    double bound = 0.0;
-  };
-  std::vector<std::unique_ptr<Bucket>> buckets_;
-};
-
-/// The size classes of MixtureIndex over uniform grids (NeighborGrid) of the means instead of
-/// kd-trees: the means never move, and a grid query is a few contiguous ranges found without a
-/// tree walk. Used by resample.clop's attraction, whose particle cells ask for every component
-/// within reach of a cell (thousands of searches per iteration).
+/// One uniform grid (NeighborGrid) of the means per size class: the means never move, and a
+/// grid query is a few contiguous ranges found without a tree walk. Used by resample.clop's
+/// attraction (one search per cell of particles) and normals.csw (one per particle).
 class MixtureGrid {
  public:
-  /// `base` as for MixtureIndex; each class's grid has cells of half its radius for extra
-  /// variance `v_cell` (> 0, the kernel variance of the searches).
+  /// `base` (> 0) is the variance unit of the size classes (e.g. the smallest kernel variance);
+  /// each class's grid has cells of half its radius for extra variance `v_cell` (> 0, the
+  /// kernel variance of the searches).
   MixtureGrid(const GaussianMixture& m, double base, double v_cell) {
     for (SizeClass& c : size_classes(m, base)) {
       Eigen::Matrix3Xf centers(3, static_cast<Eigen::Index>(c.ids.size()));
@@ -145,7 +92,7 @@ class MixtureGrid {
     }
   }
 
-  /// Search radius of every class for extra variance v (pass to for_each_near).
+  /// Search radius of every class for extra variance v (pass to gather).
   std::vector<float> radii(double v) const {
     std::vector<float> r;
     for (const auto& c : classes_)
