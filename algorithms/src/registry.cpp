@@ -1,5 +1,6 @@
 #include "scanbench/algorithms/registry.h"
 
+#include "scanbench/algorithms/bhattacharyya_triangulation.h"
 #include "scanbench/algorithms/cgal_peers.h"
 #include "scanbench/algorithms/clop.h"
 #include "scanbench/algorithms/csw.h"
@@ -82,6 +83,15 @@ const AlgorithmRegistry& registry() {
         "CGAL 5.5 jet_smooth_point_set (Cazals and Pouget 2005; peer): each point projected "
         "onto the jet fitted to its k nearest neighbours.",
         cgal_jet));
+    reg.add(make_entry<BhattacharyyaParams>(
+        "triangulate.bhattacharyya",
+        "Triangulation of a Gaussian mixture into a covariance mesh (GPS paper sec. 6.2): greedy "
+        "front growing (Cohen-Steiner and Da 2004) graded by P = BC_ij BC_jk BC_ik beta/pi (eq. "
+        "19-22), every BC above bc_min, dihedral angle above beta_min_deg; seeded by the best "
+        "BC triangle, further seeds for further components; manifold, holes where no valid "
+        "triangle exists. Needs no oriented normals. Chain it after mixture.hem.",
+        triangulate_bhattacharyya_step,
+        StageIo{DataKind::Mixture, DataKind::CovarianceMesh, DataKind::CovarianceMesh}));
     return reg;
   }();
   return r;

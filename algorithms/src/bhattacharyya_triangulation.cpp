@@ -1,0 +1,488 @@
+#include "scanbench/algorithms/bhattacharyya_triangulation.h"
+
+#include <fmt/format.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <numbers>
+#include <queue>
+#include <unordered_map>
+#include <vector>
+
+#include "scanbench/core/errors.h"
+#include "scanbench/core/kdtree.h"
+
+namespace scanbench::algorithms {
+
+namespace {
+
+constexpr const char* kStage = "triangulate.bhattacharyya";
+
+struct Gaussian {
+  Eigen::Vector3d mu;
+  Eigen::Matrix3d sigma;
+  double log_det = 0;
+  double lambda_max = 0;
+};
+
+// log BC of eq. 19 given both log-determinants.
+double log_bc(const Gaussian& a, const Gaussian& b) {
+  const Eigen::Matrix3d s = 0.5 * (a.sigma + b.sigma);
+  const Eigen::LLT<Eigen::Matrix3d> llt(s);
+  const Eigen::Vector3d d = a.mu - b.mu;
+  const Eigen::Vector3d y = llt.matrixL().solve(d);
+  const Eigen::Vector3d l = llt.matrixL().toDenseMatrix().diagonal();
+  const double log_det_s = 2.0 * (std::log(l[0]) + std::log(l[1]) + std::log(l[2]));
+  return -0.5 * log_det_s + 0.25 * (a.log_det + b.log_det) - 0.125 * y.squaredNorm();
+}
+
+Gaussian make_gaussian(const Eigen::Vector3d& mu, const Eigen::Matrix3d& sigma, Eigen::Index i) {
+  Gaussian g;
+  g.mu = mu;
+  g.sigma = sigma;
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es;
+  es.computeDirect(sigma, Eigen::EigenvaluesOnly);
+  const Eigen::Vector3d ev = es.eigenvalues();
+  if (!sigma.allFinite() || !(ev[0] > 0.0) || ev[0] <= 1e-15 * ev[2]) {
+    throw InputError(fmt::format(
+        "{}: mixture component {}: covariance is not symmetric positive definite (eigenvalues "
+        "{:g}, {:g}, {:g})",
+        kStage, i, ev[0], ev[1], ev[2]));
+  }
+  g.log_det = std::log(ev[0]) + std::log(ev[1]) + std::log(ev[2]);
+  g.lambda_max = ev[2];
+  return g;
+}
+
+std::uint64_t edge_key(int a, int b) {
+  const auto lo = static_cast<std::uint64_t>(std::min(a, b));
+  const auto hi = static_cast<std::uint64_t>(std::max(a, b));
+  return (lo << 32) | hi;
+}
+
+struct Neighbor {
+  int j;
+  double bc;
+};
+
+// The growing mesh: faces, per-edge faces (at most two), per-vertex state.
+class Front {
+ public:
+  Front(const std::vector<Gaussian>& g, const std::vector<std::vector<Neighbor>>& adj,
+        double bc_min, double beta_min)
+      : g_(g), adj_(adj), bc_min_(bc_min), beta_min_(beta_min), used_(g.size(), 0),
+        boundary_(g.size(), 0), dead_(g.size()) {
+    edges_.reserve(4 * g.size());
+  }
+
+  struct Candidate {
+    double p = -1;
+    int k = -1;
+  };
+  struct Entry {
+    double p;
+    int a, b, face, k;
+    bool operator<(const Entry& o) const {  // max-heap: higher p first, then smaller indices
+      if (p != o.p) return p < o.p;
+      if (a != o.a) return a > o.a;
+      if (b != o.b) return b > o.b;
+      return k > o.k;
+    }
+  };
+
+  bool used(int v) const { return used_[static_cast<std::size_t>(v)] != 0; }
+
+  double bc(int i, int j) const {
+    const auto& n = adj_[static_cast<std::size_t>(i)];
+    auto it = std::lower_bound(n.begin(), n.end(), j,
+                               [](const Neighbor& x, int v) { return x.j < v; });
+    return (it != n.end() && it->j == j) ? it->bc : 0.0;
+  }
+
+  // Adds face (x, y, z) and queues its new boundary edges.
+  void add_face(int x, int y, int z) {
+    const int f = static_cast<int>(faces_.size());
+    faces_.push_back({x, y, z});
+    const Eigen::Vector3d n = (g_[static_cast<std::size_t>(y)].mu - g_[static_cast<std::size_t>(x)].mu)
+                                  .cross(g_[static_cast<std::size_t>(z)].mu -
+                                         g_[static_cast<std::size_t>(x)].mu);
+    normals_.push_back(n.normalized());
+    const std::array<int, 3> v{x, y, z};
+    for (int e = 0; e < 3; ++e) {
+      const int a = v[static_cast<std::size_t>(e)], b = v[static_cast<std::size_t>((e + 1) % 3)];
+      auto [it, fresh] = edges_.try_emplace(edge_key(a, b), std::array<int, 2>{f, -1});
+      if (fresh) {
+        ++boundary_[static_cast<std::size_t>(a)];
+        ++boundary_[static_cast<std::size_t>(b)];
+      } else {
+        it->second[1] = f;
+        --boundary_[static_cast<std::size_t>(a)];
+        --boundary_[static_cast<std::size_t>(b)];
+      }
+    }
+    for (int u : v)
+      used_[static_cast<std::size_t>(u)] = 1;
+    for (int e = 0; e < 3; ++e) {
+      const int a = v[static_cast<std::size_t>(e)], b = v[static_cast<std::size_t>((e + 1) % 3)];
+      if (edges_.at(edge_key(a, b))[1] < 0) queue_edge(a, b, f);
+    }
+    // Edges that found no candidate before may find one now that these vertices changed.
+    for (int u : v) {
+      std::vector<std::array<int, 3>> dead;
+      dead.swap(dead_[static_cast<std::size_t>(u)]);
+      for (const auto& d : dead)
+        if (is_boundary(d[0], d[1], d[2])) queue_edge(d[0], d[1], d[2]);
+    }
+  }
+
+  // Grows the front until no edge has a valid candidate.
+  void grow(RunContext& ctx) {
+    std::size_t steps = 0;
+    while (!queue_.empty()) {
+      if ((++steps & 1023u) == 0) ctx.check_cancelled(kStage);
+      const Entry e = queue_.top();
+      queue_.pop();
+      if (!is_boundary(e.a, e.b, e.face)) continue;
+      const Candidate c = best(e.a, e.b, e.face);
+      if (c.k < 0) {
+        dead_[static_cast<std::size_t>(e.a)].push_back({e.a, e.b, e.face});
+        dead_[static_cast<std::size_t>(e.b)].push_back({e.a, e.b, e.face});
+        continue;
+      }
+      if (c.k != e.k || c.p != e.p) {
+        queue_.push({c.p, e.a, e.b, e.face, c.k});
+        continue;
+      }
+      add_face(e.b, e.a, e.k);
+    }
+  }
+
+  const std::vector<std::array<int, 3>>& faces() const { return faces_; }
+  std::vector<std::array<int, 3>>& faces() { return faces_; }
+  const std::unordered_map<std::uint64_t, std::array<int, 2>>& edges() const { return edges_; }
+
+ private:
+  bool is_boundary(int a, int b, int face) const {
+    auto it = edges_.find(edge_key(a, b));
+    return it != edges_.end() && it->second[1] < 0 && it->second[0] == face;
+  }
+
+  // Face f holds the directed edge a -> b.
+  bool has_directed(int f, int a, int b) const {
+    const auto& t = faces_[static_cast<std::size_t>(f)];
+    for (int e = 0; e < 3; ++e)
+      if (t[static_cast<std::size_t>(e)] == a && t[static_cast<std::size_t>((e + 1) % 3)] == b)
+        return true;
+    return false;
+  }
+
+  // Dihedral angle between the candidate (normal n) and face f: pi when flat, 0 when folded back.
+  double dihedral(const Eigen::Vector3d& n, int f) const {
+    const double c = std::clamp(n.dot(normals_[static_cast<std::size_t>(f)]), -1.0, 1.0);
+    return std::numbers::pi - std::acos(c);
+  }
+
+  // The best candidate k for the new face (b, a, k) across the front edge a -> b of `face`.
+  Candidate best(int a, int b, int face) const {
+    const auto& t = faces_[static_cast<std::size_t>(face)];
+    const int c = t[0] != a && t[0] != b ? t[0] : (t[1] != a && t[1] != b ? t[1] : t[2]);
+    const double bc_ab = bc(a, b);
+    const auto& na = adj_[static_cast<std::size_t>(a)];
+    const auto& nb = adj_[static_cast<std::size_t>(b)];
+    const Eigen::Vector3d& pa = g_[static_cast<std::size_t>(a)].mu;
+    const Eigen::Vector3d& pb = g_[static_cast<std::size_t>(b)].mu;
+    Candidate out;
+    std::size_t ia = 0, ib = 0;
+    while (ia < na.size() && ib < nb.size()) {
+      if (na[ia].j < nb[ib].j) {
+        ++ia;
+        continue;
+      }
+      if (nb[ib].j < na[ia].j) {
+        ++ib;
+        continue;
+      }
+      const int k = na[ia].j;
+      const double bc_ak = na[ia].bc, bc_bk = nb[ib].bc;
+      ++ia;
+      ++ib;
+      if (k == c) continue;
+      // The new face (b, a, k) has the directed edges b->a, a->k and k->b.
+      const auto eak = edges_.find(edge_key(a, k));
+      const auto ekb = edges_.find(edge_key(k, b));
+      const bool has_ak = eak != edges_.end(), has_kb = ekb != edges_.end();
+      if (has_ak && (eak->second[1] >= 0 || !has_directed(eak->second[0], k, a))) continue;
+      if (has_kb && (ekb->second[1] >= 0 || !has_directed(ekb->second[0], b, k))) continue;
+      if (used(k) && !has_ak && !has_kb) continue;  // would pinch k
+      const Eigen::Vector3d n = (pa - pb).cross(g_[static_cast<std::size_t>(k)].mu - pb);
+      const double len = n.norm();
+      if (!(len > 0.0)) continue;
+      const Eigen::Vector3d nn = n / len;
+      double beta = dihedral(nn, face);
+      if (has_ak) beta = std::min(beta, dihedral(nn, eak->second[0]));
+      if (has_kb) beta = std::min(beta, dihedral(nn, ekb->second[0]));
+      if (!(beta > beta_min_)) continue;
+      const double p = bc_ab * bc_ak * bc_bk * beta / std::numbers::pi;  // eq. 20-22
+      if (p > out.p || (p == out.p && k < out.k)) out = {p, k};
+    }
+    return out;
+  }
+
+  void queue_edge(int a, int b, int face) {
+    const Candidate c = best(a, b, face);
+    if (c.k >= 0) {
+      queue_.push({c.p, a, b, face, c.k});
+    } else {
+      dead_[static_cast<std::size_t>(a)].push_back({a, b, face});
+      dead_[static_cast<std::size_t>(b)].push_back({a, b, face});
+    }
+  }
+
+  const std::vector<Gaussian>& g_;
+  const std::vector<std::vector<Neighbor>>& adj_;
+  double bc_min_, beta_min_;
+  std::vector<std::array<int, 3>> faces_;
+  std::vector<Eigen::Vector3d> normals_;
+  std::unordered_map<std::uint64_t, std::array<int, 2>> edges_;
+  std::vector<char> used_;
+  std::vector<int> boundary_;
+  std::vector<std::vector<std::array<int, 3>>> dead_;
+  std::priority_queue<Entry> queue_;
+};
+
+// Components of the face graph; closed ones with negative signed volume are flipped outward.
+void orient_closed_components(std::vector<std::array<int, 3>>& faces,
+                              const std::unordered_map<std::uint64_t, std::array<int, 2>>& edges,
+                              const std::vector<Gaussian>& g) {
+  const std::size_t nf = faces.size();
+  std::vector<int> comp(nf, -1);
+  int ncomp = 0;
+  std::vector<int> stack;
+  for (std::size_t s = 0; s < nf; ++s) {
+    if (comp[s] >= 0) continue;
+    comp[s] = ncomp;
+    stack.assign(1, static_cast<int>(s));
+    while (!stack.empty()) {
+      const int f = stack.back();
+      stack.pop_back();
+      const auto& t = faces[static_cast<std::size_t>(f)];
+      for (int e = 0; e < 3; ++e) {
+        const auto& ef = edges.at(edge_key(t[static_cast<std::size_t>(e)],
+                                           t[static_cast<std::size_t>((e + 1) % 3)]));
+        for (int o : ef) {
+          if (o >= 0 && comp[static_cast<std::size_t>(o)] < 0) {
+            comp[static_cast<std::size_t>(o)] = ncomp;
+            stack.push_back(o);
+          }
+        }
+      }
+    }
+    ++ncomp;
+  }
+  std::vector<char> closed(static_cast<std::size_t>(ncomp), 1);
+  std::vector<double> volume(static_cast<std::size_t>(ncomp), 0.0);
+  for (std::size_t f = 0; f < nf; ++f) {
+    const auto& t = faces[f];
+    for (int e = 0; e < 3; ++e) {
+      if (edges.at(edge_key(t[static_cast<std::size_t>(e)], t[static_cast<std::size_t>((e + 1) % 3)]))[1] <
+          0)
+        closed[static_cast<std::size_t>(comp[f])] = 0;
+    }
+    volume[static_cast<std::size_t>(comp[f])] +=
+        g[static_cast<std::size_t>(t[0])].mu.dot(
+            g[static_cast<std::size_t>(t[1])].mu.cross(g[static_cast<std::size_t>(t[2])].mu)) /
+        6.0;
+  }
+  for (std::size_t f = 0; f < nf; ++f) {
+    const auto c = static_cast<std::size_t>(comp[f]);
+    if (closed[c] && volume[c] < 0.0) std::swap(faces[f][1], faces[f][2]);
+  }
+}
+
+}  // namespace
+
+double bhattacharyya_coefficient(const Eigen::Vector3d& mu_i, const Eigen::Matrix3d& sigma_i,
+                                 const Eigen::Vector3d& mu_j, const Eigen::Matrix3d& sigma_j) {
+  return std::exp(log_bc(make_gaussian(mu_i, sigma_i, 0), make_gaussian(mu_j, sigma_j, 1)));
+}
+
+CovarianceMesh triangulate_bhattacharyya(const GaussianMixture& mixture,
+                                         const BhattacharyyaParams& p, RunContext& ctx,
+                                         TriangulationStats* stats) {
+  mixture.validate(kStage);
+  const Eigen::Index n = mixture.size();
+  if (n < 3) {
+    throw InputError(
+        fmt::format("{}: the mixture has {} components (at least 3 needed)", kStage, n));
+  }
+  std::vector<Gaussian> g(static_cast<std::size_t>(n));
+  for (Eigen::Index i = 0; i < n; ++i)
+    g[static_cast<std::size_t>(i)] = make_gaussian(mixture.means.col(i).cast<double>(),
+                                                   mixture.covariance(i).cast<double>(), i);
+
+  // The BC graph. BC_ij > bc_min needs the Mahalanobis term d^T S^-1 d < 8 ln(1/bc_min) (the
+  // determinant factor of eq. 19 is at most 1), and |d|^2 <= lambda_max(S) d^T S^-1 d <=
+  // max(lambda_i, lambda_j) 8 ln(1/bc_min): the search from the wider Gaussian of a pair finds it.
+  std::vector<std::vector<Neighbor>> adj(static_cast<std::size_t>(n));
+  Eigen::Index pairs = 0;
+  {
+    auto timer = ctx.phase("graph");
+    const double reach2 = 8.0 * std::log(1.0 / p.bc_min);
+    const double log_bc_min = std::log(p.bc_min);
+    const KdTree tree(mixture.means);
+    std::vector<std::vector<Neighbor>> found(static_cast<std::size_t>(n));
+    tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, n, 64), [&](const auto& r) {
+      std::vector<std::pair<Eigen::Index, float>> near;
+      for (Eigen::Index i = r.begin(); i != r.end(); ++i) {
+        const Gaussian& gi = g[static_cast<std::size_t>(i)];
+        // Float search radius grown by a relative 1e-5 so rounding cannot drop a pair.
+        const auto radius = static_cast<float>(std::sqrt(reach2 * gi.lambda_max) * (1.0 + 1e-5));
+        tree.radius(mixture.means.col(i), radius, near, false);
+        auto& out = found[static_cast<std::size_t>(i)];
+        for (const auto& [j, d2] : near) {
+          if (j == i) continue;
+          const Gaussian& gj = g[static_cast<std::size_t>(j)];
+          // Each pair once: from the wider Gaussian (ties: the lower index).
+          if (gj.lambda_max > gi.lambda_max || (gj.lambda_max == gi.lambda_max && j < i)) continue;
+          const double lb = log_bc(gi, gj);
+          if (lb > log_bc_min) out.push_back({static_cast<int>(j), std::exp(lb)});
+        }
+      }
+    });
+    for (Eigen::Index i = 0; i < n; ++i) {
+      for (const Neighbor& nb : found[static_cast<std::size_t>(i)]) {
+        adj[static_cast<std::size_t>(i)].push_back(nb);
+        adj[static_cast<std::size_t>(nb.j)].push_back({static_cast<int>(i), nb.bc});
+        ++pairs;
+      }
+    }
+    const auto cap = static_cast<std::size_t>(p.max_neighbors);
+    tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, n, 256), [&](const auto& r) {
+      for (Eigen::Index i = r.begin(); i != r.end(); ++i) {
+        auto& a = adj[static_cast<std::size_t>(i)];
+        if (a.size() > cap) {
+          std::sort(a.begin(), a.end(), [](const Neighbor& x, const Neighbor& y) {
+            return x.bc != y.bc ? x.bc > y.bc : x.j < y.j;
+          });
+          a.resize(cap);
+        }
+        std::sort(a.begin(), a.end(), [](const Neighbor& x, const Neighbor& y) { return x.j < y.j; });
+      }
+    });
+  }
+
+  Front front(g, adj, p.bc_min, p.beta_min_deg * std::numbers::pi / 180.0);
+  Eigen::Index seeds = 0;
+  {
+    auto timer = ctx.phase("front");
+    // Seeds: per Gaussian i, its best triangle (i, j, k) of unused Gaussians by P_prob (eq. 20),
+    // in a lazy max-heap; a stale entry is re-evaluated when it surfaces.
+    struct Seed {
+      double p;
+      int i, j, k;
+      bool operator<(const Seed& o) const {
+        if (p != o.p) return p < o.p;
+        return i > o.i;
+      }
+    };
+    auto best_seed = [&](int i) {
+      Seed s{-1, i, -1, -1};
+      if (front.used(i)) return s;
+      const auto& ni = adj[static_cast<std::size_t>(i)];
+      for (std::size_t a = 0; a < ni.size(); ++a) {
+        const int j = ni[a].j;
+        if (front.used(j)) continue;
+        for (std::size_t b = a + 1; b < ni.size(); ++b) {
+          const int k = ni[b].j;
+          if (front.used(k)) continue;
+          const double bc_jk = front.bc(j, k);
+          if (bc_jk <= 0.0) continue;
+          const double pp = ni[a].bc * ni[b].bc * bc_jk;
+          if (pp <= s.p) continue;
+          const Eigen::Vector3d nrm = (g[static_cast<std::size_t>(j)].mu - g[static_cast<std::size_t>(i)].mu)
+                                          .cross(g[static_cast<std::size_t>(k)].mu -
+                                                 g[static_cast<std::size_t>(i)].mu);
+          if (!(nrm.norm() > 0.0)) continue;
+          s = {pp, i, j, k};
+        }
+      }
+      return s;
+    };
+    std::priority_queue<Seed> heap;
+    {
+      std::vector<Seed> all(static_cast<std::size_t>(n));
+      tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, n, 64), [&](const auto& r) {
+        for (Eigen::Index i = r.begin(); i != r.end(); ++i)
+          all[static_cast<std::size_t>(i)] = best_seed(static_cast<int>(i));
+      });
+      for (const Seed& s : all)
+        if (s.j >= 0) heap.push(s);
+    }
+    while (!heap.empty() && (p.max_seeds == 0 || seeds < p.max_seeds)) {
+      const Seed s = heap.top();
+      heap.pop();
+      if (front.used(s.i) || front.used(s.j) || front.used(s.k)) {
+        const Seed fresh = best_seed(s.i);
+        if (fresh.j >= 0) heap.push(fresh);
+        continue;
+      }
+      ++seeds;
+      front.add_face(s.i, s.j, s.k);
+      front.grow(ctx);
+    }
+  }
+  if (seeds == 0) {
+    throw InputError(fmt::format(
+        "{}: no valid seed triangle: no three Gaussians overlap pairwise with Bhattacharyya "
+        "coefficients above bc_min = {:g} (lower bc_min, or check the mixture's scale)",
+        kStage, p.bc_min));
+  }
+
+  auto& faces = front.faces();
+  orient_closed_components(faces, front.edges(), g);
+
+  // Compact: only Gaussians in a triangle, in index order.
+  std::vector<int> remap(static_cast<std::size_t>(n), -1);
+  for (const auto& t : faces)
+    for (int v : t)
+      remap[static_cast<std::size_t>(v)] = 0;
+  int nv = 0;
+  for (auto& r : remap)
+    if (r == 0) r = nv++;
+  CovarianceMesh out;
+  out.resize(nv);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const int r = remap[static_cast<std::size_t>(i)];
+    if (r < 0) continue;
+    out.means.col(r) = g[static_cast<std::size_t>(i)].mu;
+    out.set_covariance(r, g[static_cast<std::size_t>(i)].sigma);
+  }
+  for (const auto& t : faces) {
+    const int f[3] = {remap[static_cast<std::size_t>(t[0])], remap[static_cast<std::size_t>(t[1])],
+                      remap[static_cast<std::size_t>(t[2])]};
+    out.add_face(f);
+  }
+  if (stats != nullptr) {
+    stats->pairs = pairs;
+    stats->seeds = seeds;
+    stats->unused = n - nv;
+    stats->boundary_edges = 0;
+    for (const auto& [k, e] : front.edges())
+      if (e[1] < 0) ++stats->boundary_edges;
+  }
+  return out;
+}
+
+StageData triangulate_bhattacharyya_step(const StageData& in, const BhattacharyyaParams& p,
+                                         RunContext& ctx) {
+  StageData out;
+  out.covariance_mesh = triangulate_bhattacharyya(in.require_mixture(kStage), p, ctx);
+  return out;
+}
+
+}  // namespace scanbench::algorithms
