@@ -68,15 +68,17 @@ AlgorithmRegistry::Entry make_entry(std::string name, std::string doc, F f, Stag
     }
     P p = params_from_json<P>(params, name);
     StageData out;
-    if constexpr (std::is_invocable_v<F, const PointCloud&, const P&, RunContext&>) {
-      auto r = f(in.points, p, ctx);
+    // StageData first: a PointCloud converts to StageData, so a StageData function would also be
+    // invocable with the points alone (and lose the other kinds).
+    if constexpr (std::is_invocable_v<F, const StageData&, const P&, RunContext&>) {
+      auto r = f(in, p, ctx);
       if constexpr (std::is_same_v<decltype(r), PointCloud>) {
         out.points = std::move(r);
       } else {
         out = std::move(r);
       }
     } else {
-      auto r = f(in, p, ctx);
+      auto r = f(in.points, p, ctx);
       if constexpr (std::is_same_v<decltype(r), PointCloud>) {
         out.points = std::move(r);
       } else {
