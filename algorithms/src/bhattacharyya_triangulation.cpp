@@ -75,8 +75,14 @@ class Front {
  public:
   Front(const std::vector<Gaussian>& g, const std::vector<std::vector<Neighbor>>& adj,
         double bc_min, double beta_min)
-      : g_(g), adj_(adj), bc_min_(bc_min), beta_min_(beta_min), used_(g.size(), 0),
-        boundary_(g.size(), 0), dead_(g.size()) {
+      : g_(g),
+        adj_(adj),
+        bc_min_(bc_min),
+        beta_min_(beta_min),
+        used_(g.size(), 0),
+        boundary_(g.size(), 0),
+        dead_(g.size()),
+        vertex_faces_(g.size()) {
     edges_.reserve(4 * g.size());
   }
 
@@ -99,8 +105,8 @@ class Front {
 
   double bc(int i, int j) const {
     const auto& n = adj_[static_cast<std::size_t>(i)];
-    auto it = std::lower_bound(n.begin(), n.end(), j,
-                               [](const Neighbor& x, int v) { return x.j < v; });
+    auto it =
+        std::lower_bound(n.begin(), n.end(), j, [](const Neighbor& x, int v) { return x.j < v; });
     return (it != n.end() && it->j == j) ? it->bc : 0.0;
   }
 
@@ -108,9 +114,9 @@ class Front {
   void add_face(int x, int y, int z) {
     const int f = static_cast<int>(faces_.size());
     faces_.push_back({x, y, z});
-    const Eigen::Vector3d n = (g_[static_cast<std::size_t>(y)].mu - g_[static_cast<std::size_t>(x)].mu)
-                                  .cross(g_[static_cast<std::size_t>(z)].mu -
-                                         g_[static_cast<std::size_t>(x)].mu);
+    const Eigen::Vector3d n =
+        (g_[static_cast<std::size_t>(y)].mu - g_[static_cast<std::size_t>(x)].mu)
+            .cross(g_[static_cast<std::size_t>(z)].mu - g_[static_cast<std::size_t>(x)].mu);
     normals_.push_back(n.normalized());
     const std::array<int, 3> v{x, y, z};
     for (int e = 0; e < 3; ++e) {
@@ -125,8 +131,10 @@ class Front {
         --boundary_[static_cast<std::size_t>(b)];
       }
     }
-    for (int u : v)
+    for (int u : v) {
       used_[static_cast<std::size_t>(u)] = 1;
+      vertex_faces_[static_cast<std::size_t>(u)].push_back(f);
+    }
     for (int e = 0; e < 3; ++e) {
       const int a = v[static_cast<std::size_t>(e)], b = v[static_cast<std::size_t>((e + 1) % 3)];
       if (edges_.at(edge_key(a, b))[1] < 0) queue_edge(a, b, f);
@@ -140,8 +148,18 @@ class Front {
     }
   }
 
-  // Grows the front until no edge has a valid candidate.
+  // Grows the front until no edge has a valid candidate. When it stalls, one "glue" triangle may
+  // reach a front vertex through no front edge (where two fronts meet, e.g. around a torus handle);
+  // the best such triangle over every stalled edge is added, then growing resumes, so the pinch it
+  // creates at that vertex is closed by the ordinary steps that follow.
   void grow(RunContext& ctx) {
+    for (;;) {
+      grow_ordinary(ctx);
+      if (!glue()) return;
+    }
+  }
+
+  void grow_ordinary(RunContext& ctx) {
     std::size_t steps = 0;
     while (!queue_.empty()) {
       if ((++steps & 1023u) == 0) ctx.check_cancelled(kStage);
@@ -160,6 +178,37 @@ class Front {
       }
       add_face(e.b, e.a, e.k);
     }
+  }
+
+  // Adds the best glue triangle over the stalled edges; false when there is none.
+  bool glue() {
+    std::vector<std::array<int, 3>> stalled;
+    for (const auto& d : dead_)
+      for (const auto& e : d)
+        if (is_boundary(e[0], e[1], e[2])) stalled.push_back(e);
+    std::sort(stalled.begin(), stalled.end());
+    stalled.erase(std::unique(stalled.begin(), stalled.end()), stalled.end());
+    allow_pinch_ = true;
+    Entry best_entry{-1, 0, 0, -1, -1};
+    for (const auto& e : stalled) {
+      const Candidate c = best(e[0], e[1], e[2]);
+      const Entry en{c.p, e[0], e[1], e[2], c.k};
+      if (c.k >= 0 && (best_entry.k < 0 || best_entry < en)) best_entry = en;
+    }
+    allow_pinch_ = false;
+    if (best_entry.k < 0) return false;
+    ++glued_;
+    add_face(best_entry.b, best_entry.a, best_entry.k);
+    return true;
+  }
+
+  Eigen::Index glued() const { return glued_; }
+  /// Vertices with more than two front edges (two fans meeting at one vertex).
+  Eigen::Index pinched() const {
+    Eigen::Index n = 0;
+    for (int b : boundary_)
+      n += b > 2 ? 1 : 0;
+    return n;
   }
 
   const std::vector<std::array<int, 3>>& faces() const { return faces_; }
@@ -218,7 +267,9 @@ class Front {
       const bool has_ak = eak != edges_.end(), has_kb = ekb != edges_.end();
       if (has_ak && (eak->second[1] >= 0 || !has_directed(eak->second[0], k, a))) continue;
       if (has_kb && (ekb->second[1] >= 0 || !has_directed(ekb->second[0], b, k))) continue;
-      if (used(k) && !has_ak && !has_kb) continue;  // would pinch k
+      const bool pinch = used(k) && !has_ak && !has_kb;
+      // Would pinch k: only as a glue step, and only at a front vertex (never an interior one).
+      if (pinch && (!allow_pinch_ || boundary_[static_cast<std::size_t>(k)] == 0)) continue;
       const Eigen::Vector3d n = (pa - pb).cross(g_[static_cast<std::size_t>(k)].mu - pb);
       const double len = n.norm();
       if (!(len > 0.0)) continue;
@@ -227,6 +278,14 @@ class Front {
       if (has_ak) beta = std::min(beta, dihedral(nn, eak->second[0]));
       if (has_kb) beta = std::min(beta, dihedral(nn, ekb->second[0]));
       if (!(beta > beta_min_)) continue;
+      if (pinch) {
+        // A glue face must face the same way as the faces it joins at k (one orientation), or
+        // the gap could never be zipped closed.
+        bool agrees = true;
+        for (int f : vertex_faces_[static_cast<std::size_t>(k)])
+          agrees = agrees && nn.dot(normals_[static_cast<std::size_t>(f)]) > 0.0;
+        if (!agrees) continue;
+      }
       const double p = bc_ab * bc_ak * bc_bk * beta / std::numbers::pi;  // eq. 20-22
       if (p > out.p || (p == out.p && k < out.k)) out = {p, k};
     }
@@ -252,7 +311,10 @@ class Front {
   std::vector<char> used_;
   std::vector<int> boundary_;
   std::vector<std::vector<std::array<int, 3>>> dead_;
+  std::vector<std::vector<int>> vertex_faces_;
   std::priority_queue<Entry> queue_;
+  bool allow_pinch_ = false;
+  Eigen::Index glued_ = 0;
 };
 
 // Components of the face graph; closed ones with negative signed volume are flipped outward.
@@ -272,8 +334,8 @@ void orient_closed_components(std::vector<std::array<int, 3>>& faces,
       stack.pop_back();
       const auto& t = faces[static_cast<std::size_t>(f)];
       for (int e = 0; e < 3; ++e) {
-        const auto& ef = edges.at(edge_key(t[static_cast<std::size_t>(e)],
-                                           t[static_cast<std::size_t>((e + 1) % 3)]));
+        const auto& ef = edges.at(
+            edge_key(t[static_cast<std::size_t>(e)], t[static_cast<std::size_t>((e + 1) % 3)]));
         for (int o : ef) {
           if (o >= 0 && comp[static_cast<std::size_t>(o)] < 0) {
             comp[static_cast<std::size_t>(o)] = ncomp;
@@ -289,8 +351,8 @@ void orient_closed_components(std::vector<std::array<int, 3>>& faces,
   for (std::size_t f = 0; f < nf; ++f) {
     const auto& t = faces[f];
     for (int e = 0; e < 3; ++e) {
-      if (edges.at(edge_key(t[static_cast<std::size_t>(e)], t[static_cast<std::size_t>((e + 1) % 3)]))[1] <
-          0)
+      if (edges.at(edge_key(t[static_cast<std::size_t>(e)],
+                            t[static_cast<std::size_t>((e + 1) % 3)]))[1] < 0)
         closed[static_cast<std::size_t>(comp[f])] = 0;
     }
     volume[static_cast<std::size_t>(comp[f])] +=
@@ -322,8 +384,8 @@ CovarianceMesh triangulate_bhattacharyya(const GaussianMixture& mixture,
   }
   std::vector<Gaussian> g(static_cast<std::size_t>(n));
   for (Eigen::Index i = 0; i < n; ++i)
-    g[static_cast<std::size_t>(i)] = make_gaussian(mixture.means.col(i).cast<double>(),
-                                                   mixture.covariance(i).cast<double>(), i);
+    g[static_cast<std::size_t>(i)] =
+        make_gaussian(mixture.means.col(i).cast<double>(), mixture.covariance(i).cast<double>(), i);
 
   // The BC graph. BC_ij > bc_min needs the Mahalanobis term d^T S^-1 d < 8 ln(1/bc_min) (the
   // determinant factor of eq. 19 is at most 1), and |d|^2 <= lambda_max(S) d^T S^-1 d <=
@@ -371,7 +433,8 @@ CovarianceMesh triangulate_bhattacharyya(const GaussianMixture& mixture,
           });
           a.resize(cap);
         }
-        std::sort(a.begin(), a.end(), [](const Neighbor& x, const Neighbor& y) { return x.j < y.j; });
+        std::sort(a.begin(), a.end(),
+                  [](const Neighbor& x, const Neighbor& y) { return x.j < y.j; });
       }
     });
   }
@@ -404,9 +467,9 @@ CovarianceMesh triangulate_bhattacharyya(const GaussianMixture& mixture,
           if (bc_jk <= 0.0) continue;
           const double pp = ni[a].bc * ni[b].bc * bc_jk;
           if (pp <= s.p) continue;
-          const Eigen::Vector3d nrm = (g[static_cast<std::size_t>(j)].mu - g[static_cast<std::size_t>(i)].mu)
-                                          .cross(g[static_cast<std::size_t>(k)].mu -
-                                                 g[static_cast<std::size_t>(i)].mu);
+          const Eigen::Vector3d nrm =
+              (g[static_cast<std::size_t>(j)].mu - g[static_cast<std::size_t>(i)].mu)
+                  .cross(g[static_cast<std::size_t>(k)].mu - g[static_cast<std::size_t>(i)].mu);
           if (!(nrm.norm() > 0.0)) continue;
           s = {pp, i, j, k};
         }
@@ -471,6 +534,8 @@ CovarianceMesh triangulate_bhattacharyya(const GaussianMixture& mixture,
     stats->pairs = pairs;
     stats->seeds = seeds;
     stats->unused = n - nv;
+    stats->glued = front.glued();
+    stats->pinched_vertices = front.pinched();
     stats->boundary_edges = 0;
     for (const auto& [k, e] : front.edges())
       if (e[1] < 0) ++stats->boundary_edges;

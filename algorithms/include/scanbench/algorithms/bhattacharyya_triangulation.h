@@ -1,6 +1,6 @@
 #pragma once
-// triangulate.bhattacharyya: a triangulation of a Gaussian mixture into a covariance mesh (GPS paper,
-// Preiner et al. 2019, sec. 6.2 "Topological inference").
+// triangulate.bhattacharyya: a triangulation of a Gaussian mixture into a covariance mesh (GPS
+// paper, Preiner et al. 2019, sec. 6.2 "Topological inference").
 //
 // Greedy front growing (Cohen-Steiner and Da 2004): start from a seed triangle and repeatedly add,
 // across an open boundary edge of the front, the candidate triangle of highest plausibility
@@ -16,15 +16,20 @@
 // especially if comprising several distinct parts"), until none is left or `max_seeds` is reached.
 //
 // Where the paper is silent, and what is chosen here:
-// - Candidates. The paper does not restrict them; CGAL's advancing front (the base method) offers only
+// - Candidates. The paper does not restrict them; CGAL's advancing front (the base method) offers
+// only
 //   Delaunay facets, which cannot express the anisotropic overlaps of Fig. 8 (a Delaunay facet
 //   ignores the covariances). Here the candidates for a front edge (i, j) are the Gaussians k that
 //   overlap both ends (BC_ik and BC_jk above bc_min): every valid triangle is a candidate. To bound
 //   the work each Gaussian keeps its `max_neighbors` partners of highest BC (ties by index).
 // - Manifoldness (the paper requires a manifold mesh): a candidate may not put a third face on an
 //   edge, must use an existing edge in the direction opposite to its face there (one orientation),
-//   and may reach a vertex already in the mesh only through an edge of the front (no pinched vertex).
-//   So every edge has at most two faces and every vertex one fan of faces.
+//   and may reach a vertex already in the mesh only through an edge of the front. So every edge has
+//   at most two faces. Where two fronts meet (closing a handle, e.g. around a torus) no such
+//   candidate exists; when the front stalls, the best "glue" candidate over every stalled edge may
+//   reach a front vertex through no edge (as the glue step of Cohen-Steiner and Da), which pinches
+//   that vertex until the ordinary steps that follow close the gap. Vertices that stay pinched are
+//   counted (`pinched_vertices`).
 // - Orientation: consistent per component (a new face uses the front edge reversed); a closed
 //   component with negative signed volume is flipped, so closed components face outward.
 // - Gaussians in no triangle are left out of the output (they are counted in the run's log).
@@ -69,10 +74,12 @@ double bhattacharyya_coefficient(const Eigen::Vector3d& mu_i, const Eigen::Matri
 
 /// What one triangulation did.
 struct TriangulationStats {
-  Eigen::Index pairs = 0;     ///< Gaussian pairs with BC above bc_min (before the neighbour cap)
-  Eigen::Index seeds = 0;     ///< components started
-  Eigen::Index unused = 0;    ///< Gaussians left out of every triangle
-  Eigen::Index boundary_edges = 0;  ///< edges with one face in the result
+  Eigen::Index pairs = 0;   ///< Gaussian pairs with BC above bc_min (before the neighbour cap)
+  Eigen::Index seeds = 0;   ///< components started
+  Eigen::Index unused = 0;  ///< Gaussians left out of every triangle
+  Eigen::Index boundary_edges = 0;    ///< edges with one face in the result
+  Eigen::Index glued = 0;             ///< glue triangles (fronts meeting, see below)
+  Eigen::Index pinched_vertices = 0;  ///< vertices left with two fans (edge-manifold, not vertex-)
 };
 
 /// The triangulation of `mixture`. Throws InputError for fewer than 3 components, a covariance that
