@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <cstring>
 #include <optional>
 #include <string_view>
@@ -310,11 +311,14 @@ PointCloud gpf(const PointCloud& input, const GpfParams& p, RunContext& ctx) {
     problem.emplace(std::move(v), std::move(normals), static_cast<float>(p.h));
   }
   double s2 = p.s2_init;
+  const bool fixed_s2 = p.s2_update == "fixed";
   for (int it = 0; it < p.iterations; ++it) {
     ctx.check_cancelled(kStage);
     gpf_detail::Step step = gpf_detail::em_step(*problem, x, xb, s2, p.omega, p.mu, &ctx);
     x = std::move(step.x);
-    s2 = step.s2;
+    if (std::getenv("GPF_DEBUG"))
+      fmt::print(stderr, "it {} s2 {:.3g} -> {:.3g} np {:.4g} c {:.3g} max_move {:.4g} data {:.4g} rep {:.4g}\n", it, s2, step.s2, step.np, step.outlier_term, step.max_move, step.data.colwise().norm().mean(), step.repulsion.colwise().norm().mean());
+    if (!fixed_s2) s2 = step.s2;
     if (step.max_move <= p.tolerance) break;
   }
   if (p.gap_iterations > 0) {
@@ -326,7 +330,7 @@ PointCloud gpf(const PointCloud& input, const GpfParams& p, RunContext& ctx) {
       ctx.check_cancelled(kStage);
       gpf_detail::Step step = gpf_detail::em_step(*problem, x, xb, s2, p.omega, p.mu, &ctx);
       x = std::move(step.x);
-      s2 = step.s2;
+      if (!fixed_s2) s2 = step.s2;
     }
   }
   PointCloud out;

@@ -4,6 +4,7 @@
 // scans (sharp edges against WLOP and CLOP, outlier residue against WLOP).
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <string>

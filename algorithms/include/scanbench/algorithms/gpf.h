@@ -59,6 +59,8 @@
 //  - Gap filling (section 6 (iii), Fig. 21): `gap_iterations` further iterations with every
 //    radius and the kernel widened by `gap_scale`, which spreads points along the surface into the
 //    gaps that form beside sharp edges. Off by default (the paper's results do not use it).
+#include <string>
+
 #include "scanbench/core/params.h"
 #include "scanbench/core/point_cloud.h"
 #include "scanbench/core/run_context.h"
@@ -81,6 +83,8 @@ struct GpfParams {
   double s2_init = 0.004;
   /// Convergence tolerance on the largest particle move, fraction of the bbox diagonal.
   double tolerance = 1e-5;
+  /// "eq11" (Algorithm 1) or "fixed" (s2 stays s2_init; see the header).
+  std::string s2_update = "eq11";
   /// Gap filling (Fig. 21): extra iterations with the neighbourhoods widened by gap_scale.
   int gap_iterations = 0;
   double gap_scale = 2.0;
@@ -103,6 +107,10 @@ struct GpfParams {
            "initial sigma^2 as a fraction of the squared bbox diagonal (paper: 0.004, absolute)");
     d.real("tolerance", &GpfParams::tolerance, Range::at_least(0.0), "diag",
            "stop when no particle moved farther than this in an iteration (0: run all)");
+    d.choice("s2_update", &GpfParams::s2_update, {"eq11", "fixed"},
+             "eq11: s2 from eq. 11 every iteration (Algorithm 1); fixed: s2 stays s2_init (the "
+             "regime the paper describes in sec. 4.4, 'the update variations of s2 are not "
+             "large'; a comparison, not the paper's algorithm)");
     d.integer("gap_iterations", &GpfParams::gap_iterations, Range::closed(0, 1000), "",
               "gap filling (Fig. 21): extra iterations with neighbourhoods scaled by gap_scale");
     d.real("gap_scale", &GpfParams::gap_scale, Range::closed(1.0, 10.0), "",
