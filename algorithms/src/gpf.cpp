@@ -317,7 +317,11 @@ PointCloud gpf(const PointCloud& input, const GpfParams& p, RunContext& ctx) {
     gpf_detail::Step step = gpf_detail::em_step(*problem, x, xb, s2, p.omega, p.mu, &ctx);
     x = std::move(step.x);
     if (std::getenv("GPF_DEBUG"))
-      fmt::print(stderr, "it {} s2 {:.3g} -> {:.3g} np {:.4g} c {:.3g} max_move {:.4g} data {:.4g} rep {:.4g}\n", it, s2, step.s2, step.np, step.outlier_term, step.max_move, step.data.colwise().norm().mean(), step.repulsion.colwise().norm().mean());
+      fmt::print(
+          stderr,
+          "it {} s2 {:.3g} -> {:.3g} np {:.4g} c {:.3g} max_move {:.4g} data {:.4g} rep {:.4g}\n",
+          it, s2, step.s2, step.np, step.outlier_term, step.max_move,
+          step.data.colwise().norm().mean(), step.repulsion.colwise().norm().mean());
     if (!fixed_s2) s2 = step.s2;
     if (step.max_move <= p.tolerance) break;
   }
