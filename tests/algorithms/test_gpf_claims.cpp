@@ -176,27 +176,42 @@ Compared compare_on(const TriangleMesh& mesh, double noise, double outliers, boo
   return c;
 }
 
+// Findings (the figures are printed; see also gpf.h, "s2 collapse"). With Algorithm 1 as
+// written (s2 by eq. 11) the claim does NOT hold on our scans: s2 collapses below the sample
+// spacing within two iterations, the E-step then gives each input to its nearest particle, the
+// data term stops averaging and GPF's edge error ends above the input's, WLOP's and CLOP's. With
+// s2 kept at s2_init (s2_update = fixed, the regime the paper describes in section 4.4), GPF has
+// the lowest edge error on the cube (3% noise) but not on the block (1.5%), where WLOP and CLOP
+// are lower. The normal error of the PCA normals of the outputs is dominated by the residual
+// noise at these levels (40-47 degrees on the cube, 31-37 on the block for every method) and
+// separates no method: it is printed, not asserted. The tests assert what holds.
 TEST(GpfClaims, CubeThreePercentNoiseSharpEdges) {
   const Compared c = compare_on(make_cube({}), 0.03, 0.0, true);
   ASSERT_GT(c.gpf.points, 100);
-  EXPECT_LT(c.gpf.p2plane, c.wlop.p2plane);
-  EXPECT_LT(c.gpf.p2plane, c.clop.p2plane);
-  EXPECT_LT(c.gpf.normal_deg, c.wlop.normal_deg);
-  EXPECT_LT(c.gpf.normal_deg, c.clop.normal_deg);
+  // Algorithm 1 with eq. 11: worse than both (finding, see above).
+  EXPECT_GT(c.gpf.p2plane, c.wlop.p2plane);
+  EXPECT_GT(c.gpf.p2plane, c.clop.p2plane);
+  // s2 fixed at s2_init: the paper's claim holds.
+  EXPECT_LT(c.gpf_fixed.p2plane, c.wlop.p2plane);
+  EXPECT_LT(c.gpf_fixed.p2plane, c.clop.p2plane);
+  EXPECT_LT(c.gpf_fixed.p2plane, c.input.p2plane);
 }
 
 TEST(GpfClaims, FandiskBlockOneAndAHalfPercentNoiseSharpEdges) {
   const Compared c = compare_on(make_fandisk_block({}), 0.015, 0.0, true);
   ASSERT_GT(c.gpf.points, 100);
-  EXPECT_LT(c.gpf.p2plane, c.wlop.p2plane);
-  EXPECT_LT(c.gpf.p2plane, c.clop.p2plane);
-  EXPECT_LT(c.gpf.normal_deg, c.wlop.normal_deg);
-  EXPECT_LT(c.gpf.normal_deg, c.clop.normal_deg);
+  // The claim does not hold here with either s2 (finding, see above).
+  EXPECT_GT(c.gpf.p2plane, c.wlop.p2plane);
+  EXPECT_GT(c.gpf.p2plane, c.clop.p2plane);
+  EXPECT_GT(c.gpf_fixed.p2plane, c.wlop.p2plane);
+  EXPECT_LT(c.gpf_fixed.p2plane, c.input.p2plane);
 }
 
 TEST(GpfClaims, TwentyPercentOutliersResidueBelowWlop) {
+  // The paper's claim (Fig. 18) holds with either s2.
   const Compared c = compare_on(make_cube({}), 0.01, 0.2, false);
   EXPECT_LT(c.gpf.residue, c.wlop.residue);
+  EXPECT_LT(c.gpf_fixed.residue, c.wlop.residue);
 }
 
 }  // namespace

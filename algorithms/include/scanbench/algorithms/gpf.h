@@ -56,6 +56,17 @@
 //  - Float safety: s2 is floored at 1e-12 (diagonal^2); an input whose posterior denominator
 //    underflows below 1e-30 (farther than about 13 sigma from every particle, so that its
 //    posteriors are 0 to float precision anyway) contributes nothing.
+//  - s2 collapse (a finding, measured on our scans; tests/algorithms/test_gpf_claims.cpp). With
+//    eq. 11 as written, s2 falls within one or two iterations from s2_init to the residual
+//    variance inside the data ball divided by 3 (e.g. 0.004 -> 7e-5 -> 2e-5 diag^2 on a cube
+//    with 3% noise), far below the squared sample spacing. The E-step (point-to-point, eq. 3)
+//    then gives each input to its nearest particle, N_p shrinks as more inputs fall to the
+//    uniform term, the data term stops averaging and the tangential repulsion drifts the
+//    particles: the output is noisier than the input (cube 3%: edge point-to-plane 0.023 vs the
+//    input's 0.011). The paper's remark (section 4.4) that "the update variations of s2 are not
+//    large" suggests its implementation stayed near s2_init. `s2_update` = "fixed" keeps s2 at
+//    s2_init (with it GPF beats WLOP and CLOP at the cube's edges); the default stays eq. 11,
+//    Algorithm 1 as printed.
 //  - Gap filling (section 6 (iii), Fig. 21): `gap_iterations` further iterations with every
 //    radius and the kernel widened by `gap_scale`, which spreads points along the surface into the
 //    gaps that form beside sharp edges. Off by default (the paper's results do not use it).
