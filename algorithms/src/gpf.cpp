@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <cstdlib>
 #include <cstring>
 #include <optional>
 #include <string_view>
@@ -87,7 +86,9 @@ std::vector<float> sorted(const detail::NeighborGrid& g, const float* values, Ei
 }  // namespace
 
 Problem::Problem(Eigen::Matrix3Xf v, Eigen::Matrix3Xf b, float h)
-    : v_(std::move(v)), b_(std::move(b)), h_(h), grid_(v_, kernels::grid_cell(0.25f * h)) {
+    : v_(std::move(v)), b_(std::move(b)), h_(h), grid_(v_, 0.25f * h) {
+  // Input cells as wide as the data radius (3 x 3 columns per query): the data balls hold only a
+  // few tens of points, and finer cells (kernels::grid_cell) cost more per column than they skip.
   for (int d = 0; d < 3; ++d)
     sb_[d] = sorted(grid_, b_.data() + d, 3);
   set_h(h);
@@ -116,6 +117,8 @@ Step em_step(const Problem& problem, const Eigen::Matrix3Xf& x, const Eigen::Mat
 
   // E-step (eq. 3): the denominators D_n; p_mn = exp(-|v_n - x_m|^2 / 2 s2) / D_n.
   if (ctx) timer.emplace(*ctx, "e_step");
+  // Cell side r_rep / 2 = r_data: the E-step (radius r_data) reads 3 x 3 columns, the repulsion
+  // (radius r_rep) 5 x 5.
   detail::NeighborGrid pgrid(x, kernels::grid_cell(r_rep));
   s.denominator.resize(n);
   const auto c = static_cast<float>(s.outlier_term);
@@ -316,12 +319,6 @@ PointCloud gpf(const PointCloud& input, const GpfParams& p, RunContext& ctx) {
     ctx.check_cancelled(kStage);
     gpf_detail::Step step = gpf_detail::em_step(*problem, x, xb, s2, p.omega, p.mu, &ctx);
     x = std::move(step.x);
-    if (std::getenv("GPF_DEBUG"))
-      fmt::print(
-          stderr,
-          "it {} s2 {:.3g} -> {:.3g} np {:.4g} c {:.3g} max_move {:.4g} data {:.4g} rep {:.4g}\n",
-          it, s2, step.s2, step.np, step.outlier_term, step.max_move,
-          step.data.colwise().norm().mean(), step.repulsion.colwise().norm().mean());
     if (!fixed_s2) s2 = step.s2;
     if (step.max_move <= p.tolerance) break;
   }

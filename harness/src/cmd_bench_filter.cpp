@@ -8,6 +8,7 @@
 //  - normals: normals.pca -> normals.bilateral on the scan (timed once per repeat);
 //  - gpf: filter.gpf on the scan with those normals; its total adds the normals' time, as the
 //    paper's Table 1 counts PCA and bilateral filtering in GPF's time (`gpf_only` without);
+//  - gpf_s2_fixed: the same with s2_update = fixed (see filter.gpf), for its accuracy;
 //  - wlop, clop: resample.wlop and resample.clop on the bare scan (no normals needed);
 //  - cgal_ear: CGAL's EAR upsampling (peer.cgal_ear) on the scan with the same normals, inserting
 //    as many new points as GPF outputs (factor 1 + particles); its total adds the normals' time
@@ -208,6 +209,10 @@ void add_bench_filter(CLI::App* bench, Cli& cli) {
       gp.particles = o.particles;
       const Timed g = time_it(o.repeats, th, o.seed,
                               [&](RunContext& ctx) { return gpf(with_normals, gp, ctx); });
+      GpfParams gpf_fixed = gp;
+      gpf_fixed.s2_update = "fixed";
+      const Timed gf = time_it(o.repeats, th, o.seed,
+                               [&](RunContext& ctx) { return gpf(with_normals, gpf_fixed, ctx); });
       LopParams wp;
       wp.h = o.h;
       wp.iterations = o.iterations;
@@ -239,15 +244,17 @@ void add_bench_filter(CLI::App* bench, Cli& cli) {
           {"gpf_only", median(g.seconds), median(g.cpu), &g.output, &g.phases_cpu},
           {"gpf", t_normals + median(g.seconds), c_normals + median(g.cpu), &g.output,
            &g.phases_cpu},
+          {"gpf_s2_fixed", t_normals + median(gf.seconds), c_normals + median(gf.cpu), &gf.output,
+           &gf.phases_cpu},
           {"wlop", median(w.seconds), median(w.cpu), &w.output, &w.phases_cpu},
           {"clop", median(c.seconds), median(c.cpu), &c.output, &c.phases_cpu},
           {"cgal_ear", t_normals + median(e.seconds), c_normals + median(e.cpu), &e.output,
            &e.phases_cpu},
       };
       const Accuracy in_acc = accuracy(gt, edges, input);
-      fmt::print("{:>9} {:>9} {:>9} {:>9} {:>13} {:>13}  phases (CPU s)\n", "method", "median_s",
+      fmt::print("{:>12} {:>9} {:>9} {:>9} {:>13} {:>13}  phases (CPU s)\n", "method", "median_s",
                  "cpu_s", "points", "p2plane_mean", "p2plane_edge");
-      fmt::print("{:>9} {:>9} {:>9} {:>9} {:>13.6f} {:>13.6f}\n", "input", "-", "-", input.size(),
+      fmt::print("{:>12} {:>9} {:>9} {:>9} {:>13.6f} {:>13.6f}\n", "input", "-", "-", input.size(),
                  in_acc.p2plane, in_acc.p2plane_edge);
       Json cases = Json::array();
       std::map<std::string, double> med, med_cpu;
@@ -261,7 +268,7 @@ void add_bench_filter(CLI::App* bench, Cli& cli) {
           ph += fmt::format("{}={:.3f} ", k, v);
           phj[k] = v;
         }
-        fmt::print("{:>9} {:>9.3f} {:>9.3f} {:>9} {:>13.6f} {:>13.6f}  {}\n", r.name, r.s, r.cpu,
+        fmt::print("{:>12} {:>9.3f} {:>9.3f} {:>9} {:>13.6f} {:>13.6f}  {}\n", r.name, r.s, r.cpu,
                    r.out->size(), a.p2plane, a.p2plane_edge, ph);
         cases.push_back({{"name", r.name},
                          {"median_s", r.s},
