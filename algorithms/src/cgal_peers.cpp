@@ -3,15 +3,18 @@
 
 #include <CGAL/Simple_cartesian.h>
 #include <CGAL/bilateral_smooth_point_set.h>
+#include <CGAL/edge_aware_upsample_point_set.h>
 #include <CGAL/jet_smooth_point_set.h>
 #include <CGAL/property_map.h>
 #include <CGAL/wlop_simplify_and_regularize_point_set.h>
 #include <fmt/format.h>
 
+#include <cmath>
 #include <iterator>
 #include <utility>
 #include <vector>
 
+#include "normal_checks.h"
 #include "scanbench/algorithms/pca_normals.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/rng.h"
@@ -144,6 +147,61 @@ PointCloud cgal_jet(const PointCloud& input, const CgalJetParams& p, RunContext&
   for (std::size_t i = 0; i < points.size(); ++i)
     out.positions.col(static_cast<Eigen::Index>(i)) = to_eigen(points[i]);
   out.validate(stage);
+  return out;
+}
+
+PointCloud cgal_ear(const PointCloud& input, const CgalEarParams& p, RunContext& ctx) {
+  constexpr std::string_view stage = "peer.cgal_ear";
+  check_input(input, stage, 7);  // CGAL's spacing estimate takes 6 neighbours
+  detail::require_unit_normals(input, stage, "normals.pca -> normals.bilateral -> peer.cgal_ear");
+  const BoundingBox box = input.bbox();
+  const double diag = box.diagonal();
+  if (!(diag > 0.0))
+    throw InputError(fmt::format("{}: the input's bbox has a zero diagonal", stage));
+  const auto n = static_cast<std::size_t>(input.size());
+  const double wanted =
+      p.count > 0 ? static_cast<double>(p.count) : std::floor(p.factor * static_cast<double>(n));
+  if (!(wanted > static_cast<double>(n))) {
+    throw InputError(fmt::format(
+        "{}: asked for {} output points, but the input already has {}; EAR only adds points", stage,
+        static_cast<long long>(wanted), n));
+  }
+  // Centred, unit diagonal (CGAL issue 4662: EAR fails on large coordinates).
+  const Eigen::Vector3f centre = box.center();
+  const Eigen::Matrix3Xf unit_normals = detail::unit_normals(input);
+  std::vector<PointWithNormal> pwn(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto c = static_cast<Eigen::Index>(i);
+    const Eigen::Vector3d q = ((input.positions.col(c) - centre).cast<double>()) / diag;
+    pwn[i] = {Point(q.x(), q.y(), q.z()),
+              Vector(unit_normals(0, c), unit_normals(1, c), unit_normals(2, c))};
+  }
+  std::vector<PointWithNormal> added;
+  {
+    auto timer = ctx.phase("cgal");
+    CGAL::edge_aware_upsample_point_set<CGAL::Parallel_tag>(
+        pwn, std::back_inserter(added),
+        CGAL::parameters::point_map(CGAL::First_of_pair_property_map<PointWithNormal>())
+            .normal_map(CGAL::Second_of_pair_property_map<PointWithNormal>())
+            .sharpness_angle(p.sharpness_angle)
+            .edge_sensitivity(p.edge_sensitivity)
+            .neighbor_radius(0.5 * p.h)  // exp(-4 r^2/R^2), R = h/2 == exp(-16 r^2/h^2)
+            .number_of_output_points(static_cast<std::size_t>(wanted)));
+  }
+  PointCloud out;
+  const auto total = static_cast<Eigen::Index>(n + added.size());
+  out.positions.resize(3, total);
+  out.normals.resize(3, total);
+  out.positions.leftCols(input.size()) = input.positions;
+  out.normals.leftCols(input.size()) = unit_normals;
+  for (std::size_t i = 0; i < added.size(); ++i) {
+    const auto c = static_cast<Eigen::Index>(n + i);
+    const Point& q = added[i].first;
+    const Vector& v = added[i].second;
+    out.positions.col(c) = (Eigen::Vector3d(q.x(), q.y(), q.z()) * diag).cast<float>() + centre;
+    out.normals.col(c) = Eigen::Vector3d(v.x(), v.y(), v.z()).normalized().cast<float>();
+  }
+  out.validate(stage);  // CGAL output is checked, not trusted
   return out;
 }
 

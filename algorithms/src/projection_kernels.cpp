@@ -272,6 +272,20 @@ Eigen::Index particle_count(double particles, Eigen::Index n, std::string_view w
   return static_cast<Eigen::Index>(particles);
 }
 
+std::vector<char> seeded_subset(Eigen::Index n, Eigen::Index m, Rng& rng) {
+  // Partial Fisher-Yates: m draws.
+  std::vector<Eigen::Index> perm(static_cast<std::size_t>(n));
+  std::iota(perm.begin(), perm.end(), Eigen::Index{0});
+  for (Eigen::Index k = 0; k < m; ++k) {
+    const auto j = k + static_cast<Eigen::Index>(rng.below(static_cast<std::uint64_t>(n - k)));
+    std::swap(perm[static_cast<std::size_t>(k)], perm[static_cast<std::size_t>(j)]);
+  }
+  std::vector<char> flags(static_cast<std::size_t>(n), 0);
+  for (Eigen::Index k = 0; k < m; ++k)
+    flags[static_cast<std::size_t>(perm[static_cast<std::size_t>(k)])] = 1;
+  return flags;
+}
+
 Eigen::Matrix3Xf initial_particles(const Eigen::Matrix3Xf& points, Eigen::Index m,
                                    std::uint64_t seed, float jitter) {
   const Eigen::Index n = points.cols();
@@ -279,16 +293,8 @@ Eigen::Matrix3Xf initial_particles(const Eigen::Matrix3Xf& points, Eigen::Index 
   Rng rng(seed);
   const Eigen::Index copies = m / std::max<Eigen::Index>(n, 1);
   const Eigen::Index rest = m - copies * n;
-  // A seeded subset of `rest` indices: partial Fisher-Yates, then input order.
-  std::vector<Eigen::Index> perm(static_cast<std::size_t>(n));
-  std::iota(perm.begin(), perm.end(), Eigen::Index{0});
-  for (Eigen::Index k = 0; k < rest; ++k) {
-    const auto j = k + static_cast<Eigen::Index>(rng.below(static_cast<std::uint64_t>(n - k)));
-    std::swap(perm[static_cast<std::size_t>(k)], perm[static_cast<std::size_t>(j)]);
-  }
-  std::vector<char> extra(static_cast<std::size_t>(n), 0);
-  for (Eigen::Index k = 0; k < rest; ++k)
-    extra[static_cast<std::size_t>(perm[static_cast<std::size_t>(k)])] = 1;
+  // A seeded subset of `rest` indices, then input order.
+  const std::vector<char> extra = seeded_subset(n, rest, rng);
 
   Eigen::Matrix3Xf q(3, m);
   Eigen::Index out = 0;

@@ -24,6 +24,7 @@
 
 #include "neighbor_grid.h"
 #include "scanbench/core/kdtree.h"
+#include "scanbench/core/rng.h"
 
 namespace scanbench::algorithms::kernels {
 
@@ -96,6 +97,12 @@ Eigen::Matrix3Xf repulsions(const Eigen::Matrix3Xf& particles, const detail::Nei
 /// count and must be an integer (it may exceed n: upsampling). Throws ParamError naming
 /// "<where>.particles" for a non-integral count or a non-positive value.
 Eigen::Index particle_count(double particles, Eigen::Index n, std::string_view where);
+
+/// A seeded subset of m <= n of the indices 0..n-1 (partial Fisher-Yates shuffle on `rng`, m
+/// draws), as flags: flags[j] = 1 when j is chosen. initial_particles() draws its subset with it,
+/// so a caller that needs the chosen indices (filter.gpf carries the points' normals) gets the
+/// same subset from the same seed.
+std::vector<char> seeded_subset(Eigen::Index n, Eigen::Index m, Rng& rng);
 
 /// The initial particles Q(0): m points of `points` chosen by a seeded partial Fisher-Yates
 /// shuffle, listed in increasing input order. For m > n every point is used floor(m/n) times and

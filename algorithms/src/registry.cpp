@@ -1,9 +1,11 @@
 #include "scanbench/algorithms/registry.h"
 
 #include "scanbench/algorithms/bhattacharyya_triangulation.h"
+#include "scanbench/algorithms/bilateral_normals.h"
 #include "scanbench/algorithms/cgal_peers.h"
 #include "scanbench/algorithms/clop.h"
 #include "scanbench/algorithms/csw.h"
+#include "scanbench/algorithms/gpf.h"
 #include "scanbench/algorithms/hem.h"
 #include "scanbench/algorithms/lop.h"
 #include "scanbench/algorithms/pca_normals.h"
@@ -65,6 +67,24 @@ const AlgorithmRegistry& registry() {
         "density weights v_j = 1 + sum theta (once) in F1 and particle weights w_i (every "
         "iteration) in F2.",
         wlop));
+    reg.add(make_entry<BilateralNormalsParams>(
+        "normals.bilateral",
+        "Bilateral normal filtering (Huang et al. 2013 sec. 4; the GPF paper's pipeline, sec. 3): "
+        "n_i <- normalise(sum_j theta(|p_i - p_j|) psi(n_i, n_j) n_j), theta = exp(-16 r^2/h^2), "
+        "psi = exp(-((1 - n_i.n_j)/(1 - cos sigma_n))^2), signs aligned first, Jacobi "
+        "iterations; normals only, points do not move (peer.cgal_bilateral moves them). Needs "
+        "input normals (normals.pca).",
+        bilateral_normals));
+    reg.add(make_entry<GpfParams>(
+        "filter.gpf",
+        "GMM-inspired feature-preserving filtering (Lu et al. 2017 sec. 4, Algorithm 1): EM with "
+        "E-step eq. 3 (uniform outlier term omega), M-step eq. 10 (point-to-plane data term along "
+        "the input normals weighted by p_mn/rho_n, tangential WLOP-weighted repulsion mu_hat) and "
+        "s2 update eq. 11; h in scanbench's kernel convention (GPF's h = h/2): data within h/4, "
+        "repulsion within h/2; lengths in bbox-diagonal units. Needs filtered normals "
+        "(normals.pca -> normals.bilateral). Output: M particles with normals. Phases normals, "
+        "init, e_step, m_step.",
+        gpf));
     reg.add(make_entry<CgalWlopParams>(
         "peer.cgal_wlop",
         "CGAL 5.5 wlop_simplify_and_regularize_point_set (peer, not the definition): h is "
@@ -78,6 +98,14 @@ const AlgorithmRegistry& registry() {
         "of points and normals, k nearest neighbours, CGAL's own kernel radius; input normals, "
         "else normals.pca first.",
         cgal_bilateral));
+    reg.add(make_entry<CgalEarParams>(
+        "peer.cgal_ear",
+        "CGAL 5.5 edge_aware_upsample_point_set (EAR upsampling, Huang et al. 2013 sec. 5; the "
+        "GPF paper's last step, Fig. 2(d); peer): needs normals (normals.pca -> "
+        "normals.bilateral, or filter.gpf); CGAL returns only new points, the output is input + "
+        "new; h in scanbench's convention (CGAL neighbor_radius = h/2; 0 = CGAL's 3 x spacing); "
+        "input scaled to a unit diagonal at the boundary (CGAL issue 4662).",
+        cgal_ear));
     reg.add(make_entry<CgalJetParams>(
         "peer.cgal_jet",
         "CGAL 5.5 jet_smooth_point_set (Cazals and Pouget 2005; peer): each point projected "

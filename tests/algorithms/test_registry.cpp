@@ -14,18 +14,21 @@
 namespace scanbench::algorithms {
 namespace {
 
-// A noisy unit sphere seen by two sensors (above and below), like a tiny scan.
+// A noisy unit sphere seen by two sensors (above and below), like a tiny scan, with unit radial
+// normals (for the stages that consume normals: normals.bilateral, filter.gpf, peer.cgal_ear).
 PointCloud small_scan() {
   Rng rng(77);
   const int n = 1500;
   PointCloud c;
   c.positions.resize(3, n);
   c.scan_ids.resize(n);
+  c.normals.resize(3, n);
   for (int i = 0; i < n; ++i) {
     Eigen::Vector3f d(static_cast<float>(rng.normal()), static_cast<float>(rng.normal()),
                       static_cast<float>(rng.normal()));
     d.normalize();
     c.positions.col(i) = d * (1.0f + static_cast<float>(rng.normal(0.0, 0.01)));
+    c.normals.col(i) = d;
     c.scan_ids[i] = d.z() >= 0.0f ? 0 : 1;
   }
   c.sensor_origins.resize(3, 2);

@@ -21,7 +21,9 @@
 // (0.95 x the largest k-NN distance), so it has no h. Each pass projects onto neighbours' tangent
 // planes, which pushes points outward on convex parts: on a noisy unit sphere (5000 points, noise
 // 1.5%) k = 30 with one pass halves the radial error, k = 60 with three passes doubles it, hence
-// the modest defaults. peer.cgal_jet wraps CGAL::jet_smooth_point_set (Cazals and Pouget 2005 jet
+// the modest defaults. It moves the points as well as the normals: scanbench's normals.bilateral
+// (bilateral_normals.h) filters the normals of the same paper and leaves the points in place.
+// peer.cgal_jet wraps CGAL::jet_smooth_point_set (Cazals and Pouget 2005 jet
 // fitting): each point is projected onto the degree-`degree_fitting` jet fitted to its k nearest
 // neighbours.
 //
@@ -86,6 +88,46 @@ struct CgalJetParams {
               "degree of the Monge form (<= degree_fitting)");
   }
 };
+
+// peer.cgal_ear wraps CGAL::edge_aware_upsample_point_set (the upsampling step of EAR, Huang et
+// al. 2013 section 5; the last step of the GPF paper's pipeline, Lu et al. 2017 Fig. 2(d)). It
+// needs normals (filtered ones: normals.pca -> normals.bilateral, or filter.gpf's output) and
+// never estimates them. CGAL returns only the NEW points: the adapter outputs the input points
+// (first, unchanged, with their normals) followed by the new points with CGAL's normals.
+//  - Kernel: CGAL's EAR kernel is exp(-4 r^2/R^2) with R = neighbor_radius (as its WLOP), so
+//    scanbench's h maps to R = h/2 (h = 0 lets CGAL choose R = 3 x the average 6-NN spacing, which
+//    CGAL also does whenever R is below that spacing). CGAL shrinks R by 0.75 per pass.
+//  - Scale: EAR is known to misbehave on large coordinates (CGAL issue 4662): the input is centred
+//    and scaled to a unit bbox diagonal before the call, and the new points scaled back.
+//  - Points: `factor` x the input size, or `count` when > 0; either must exceed the input size.
+//    CGAL stops after 20 passes, so fewer points may come back.
+//  - CGAL's EAR is serial (ConcurrencyTag only reaches its spacing estimate) and deterministic.
+struct CgalEarParams {
+  double factor = 2.0;
+  int count = 0;
+  double sharpness_angle = 30.0;
+  double edge_sensitivity = 1.0;
+  double h = 0.0;
+
+  static void declare(ParamDeclarer<CgalEarParams>& d) {
+    d.real("factor", &CgalEarParams::factor, Range::above(1.0), "",
+           "output size as a multiple of the input size (> 1; ignored when count > 0)");
+    d.integer("count", &CgalEarParams::count, Range::at_least(0), "",
+              "number of output points (input + new), > input size; 0 = use factor");
+    d.real("sharpness_angle", &CgalEarParams::sharpness_angle, Range::closed(0.0, 90.0), "deg",
+           "CGAL sharpness_angle: normal sharpness of the bilateral projection of new points");
+    d.real("edge_sensitivity", &CgalEarParams::edge_sensitivity, Range::closed(0.0, 1.0), "",
+           "CGAL edge_sensitivity: larger values insert more points near sharp edges");
+    d.real("h", &CgalEarParams::h, Range::closed(0.0, 1.0), "diag",
+           "kernel width in scanbench's convention exp(-16 r^2/h^2), fraction of the bbox "
+           "diagonal; CGAL gets neighbor_radius = h/2; 0 = CGAL's own (3 x average spacing)");
+  }
+};
+
+/// peer.cgal_ear. Output: input + new points, all with normals (other attributes dropped).
+/// Throws InputError for fewer than 7 points, no or zero-length normals (naming the chain that
+/// supplies them), a zero bbox diagonal, or an output size not above the input size.
+PointCloud cgal_ear(const PointCloud& input, const CgalEarParams& p, RunContext& ctx);
 
 /// peer.cgal_wlop. Throws InputError for bad input, ParamError when no particle remains.
 PointCloud cgal_wlop(const PointCloud& input, const CgalWlopParams& p, RunContext& ctx);
