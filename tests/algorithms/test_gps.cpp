@@ -279,8 +279,9 @@ TEST(GpSubdivision, LimitNormalsAgreeWithFiniteDifferencesOfTheRefinedSurface) {
     }
     for (const auto& err : {err_gp, err_lin}) {
       for (std::size_t k = 1; k < err.size(); ++k)
-        if (err[k - 1] > 1e-9)  // symmetric cases (octahedron, cube) are exact from the start
+        if (err[k - 1] > 1e-9) {  // symmetric cases (octahedron, cube) are exact from the start
           EXPECT_LT(err[k], 0.75 * err[k - 1]) << c.name << " k " << k;
+        }
       EXPECT_LT(err.back(), 0.05) << c.name;
     }
   }
@@ -353,6 +354,256 @@ TEST(LimitAnalysis, AppendixBMatchesNumericChainRule) {
     EXPECT_NEAR(an.mean_curvature[v], H, 1e-4 * (1 + std::abs(H)));
     EXPECT_GT(std::abs(H), 1e-3);  // a curved case, so the comparison means something
   }
+}
+
+
+// --- Fig. 10: the cone apex variants ---------------------------------------------------------
+
+// Mean |H| (times the cone height 1) over the limit vertices within `radius` of the apex's limit.
+double apex_mean_curvature(const CovarianceMesh& cone, int levels, double radius) {
+  RunContext ctx(1);
+  SubdivideParams p;
+  p.levels = levels;
+  p.limit = false;
+  const CovarianceMesh r = gp_subdivide(cone, SubdivisionScheme::Loop, p, ctx, "cone");
+  const SurfaceAnalysis a = gp_limit_analysis(r, {SubdivisionScheme::Loop, LoopBeta::Loop}, "cone");
+  double sum = 0;
+  int n = 0;
+  for (Eigen::Index v = 0; v < a.positions.cols(); ++v)
+    if (a.kind[v] == VertexKind::Regular && (a.positions.col(v) - a.positions.col(0)).norm() < radius) {
+      sum += std::abs(a.mean_curvature[v]);
+      ++n;
+    }
+  EXPECT_GT(n, 6);
+  return sum / n;
+}
+
+const CovarianceMesh& figure(const std::string& name) {
+  static const std::vector<FigureInput> inputs = gps_figure_inputs();
+  for (const auto& f : inputs)
+    if (f.name == name) return f.mesh;
+  throw std::runtime_error("no figure input " + name);
+}
+
+TEST(Figure10, FlatApexCovarianceGivesAPlateau) {
+  const double iso = apex_mean_curvature(figure("cone_isotropic"), 4, 0.15);
+  const double flat = apex_mean_curvature(figure("cone_flat"), 4, 0.15);
+  const double smooth = apex_mean_curvature(figure("cone_horizontal"), 4, 0.15);
+  // The isotropic apex is an ordinary Loop cone tip (curved); the flat apex is a plateau.
+  EXPECT_GT(iso, 1.0);
+  EXPECT_LT(flat, 0.02 * iso);
+  EXPECT_LT(smooth, iso);
+  // The plateau is level: limit heights near the apex equal the apex's.
+  RunContext ctx(1);
+  SubdivideParams p;
+  p.levels = 4;
+  const CovarianceMesh r = gp_subdivide(figure("cone_flat"), SubdivisionScheme::Loop, p, ctx, "c");
+  double spread = 0;
+  for (Eigen::Index v = 0; v < r.means.cols(); ++v)
+    if ((r.means.col(v) - r.means.col(0)).norm() < 0.15)
+      spread = std::max(spread, std::abs(r.means(1, v) - r.means(1, 0)));
+  EXPECT_LT(spread, 1e-3);
+}
+
+TEST(Figure10, ApexVariantsOrderTheApexHeight) {
+  // Singular apex: pointy (the limit apex reaches the control apex); isotropic: Loop's shrunk
+  // tip; the flat apex keeps its height too.
+  RunContext ctx(1);
+  SubdivideParams p;
+  p.levels = 3;
+  auto apex_y = [&](const std::string& n) {
+    return gp_subdivide(figure(n), SubdivisionScheme::Loop, p, ctx, n).means(1, 0);
+  };
+  EXPECT_GT(apex_y("cone_singular"), 0.99);
+  EXPECT_LT(apex_y("cone_isotropic"), 0.9);
+  EXPECT_GT(apex_y("cone_flat"), 0.99);
+}
+
+TEST(Figure9, IsotropicCubeIsCatmullClarkAndVariantsDiffer) {
+  RunContext ctx(1);
+  SubdivideParams p;
+  p.levels = 3;
+  const Mesh cc = refine_linear(fixtures::quad_cube(), SubdivisionScheme::CatmullClark, 3, true);
+  const CovarianceMesh iso =
+      gp_subdivide(figure("cube_isotropic"), SubdivisionScheme::CatmullClark, p, ctx, "c");
+  EXPECT_LT((iso.means - cc.positions).cwiseAbs().maxCoeff(), 1e-12);
+  // Eq. 14 holds for any constant covariance, anisotropic too.
+  const CovarianceMesh aniso = gp_subdivide(
+      [] {
+        CovarianceMesh c = figure("cube_isotropic");
+        c.covariances = vech(Eigen::Vector3d(0.001, 0.02, 0.3).asDiagonal()).replicate(1, 8);
+        return c;
+      }(),
+      SubdivisionScheme::CatmullClark, p, ctx, "c");
+  EXPECT_LT((aniso.means - cc.positions).cwiseAbs().maxCoeff(), 1e-12);
+  for (const char* v : {"cube_flat_diagonal", "cube_needle_diagonal", "cube_top_flat",
+                        "cube_axis_z"}) {
+    const CovarianceMesh r =
+        gp_subdivide(figure(v), SubdivisionScheme::CatmullClark, p, ctx, v);
+    EXPECT_GT((r.means - cc.positions).cwiseAbs().maxCoeff(), 0.05) << v;
+  }
+}
+
+// --- Inference (sec. 6.1) ----------------------------------------------------------------------
+
+Eigen::Matrix3d population_cov(const std::vector<Eigen::Vector3d>& pts) {
+  Eigen::Vector3d m = Eigen::Vector3d::Zero();
+  for (const auto& p : pts)
+    m += p;
+  m /= pts.size();
+  Eigen::Matrix3d c = Eigen::Matrix3d::Zero();
+  for (const auto& p : pts)
+    c += (p - m) * (p - m).transpose() / pts.size();
+  return c;
+}
+
+TEST(Inference, VertexAndFaceBasedEqualBruteForceTranscriptions) {
+  const Mesh m = fixtures::coarse_sphere(2);
+  const double diag = (m.positions.rowwise().maxCoeff() - m.positions.rowwise().minCoeff()).norm();
+  for (const char* method : {"vertex", "face"})
+    for (const char* bias : {"sigma0", "lambda_max"}) {
+      InferenceParams p;
+      p.method = method;
+      p.bias = bias;
+      p.sigma_0 = 0.02;
+      const CovarianceMesh c = infer_covariances(m.positions, m.faces, p, "t");
+      for (int v = 0; v < static_cast<int>(m.positions.cols()); ++v) {
+        auto biased = [&](const Eigen::Matrix3d& s) -> Eigen::Matrix3d {
+          Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(s);
+          const double b = std::string(bias) == "sigma0" ? std::pow(0.02 * diag, 2)
+                                                         : 0.05 * es.eigenvalues()[2];
+          return s + b * Eigen::Matrix3d::Identity();
+        };
+        Eigen::Matrix3d expect;
+        if (std::string(method) == "vertex") {
+          std::vector<int> ring{v};
+          for (int f = 0; f < m.faces.num_faces(); ++f)
+            for (int k = 0; k < 3; ++k)
+              if (m.faces.indices[3 * f + k] == v)
+                for (int l = 0; l < 3; ++l)
+                  if (std::find(ring.begin(), ring.end(), m.faces.indices[3 * f + l]) ==
+                      ring.end())
+                    ring.push_back(m.faces.indices[3 * f + l]);
+          std::vector<Eigen::Vector3d> pts;
+          for (int i : ring)
+            pts.push_back(m.positions.col(i));
+          expect = biased(population_cov(pts));  // eq. 15
+        } else {
+          Eigen::Matrix3d info = Eigen::Matrix3d::Zero();
+          for (int f = 0; f < m.faces.num_faces(); ++f) {
+            std::vector<Eigen::Vector3d> pts;
+            bool has = false;
+            for (int k = 0; k < 3; ++k) {
+              pts.push_back(m.positions.col(m.faces.indices[3 * f + k]));
+              has |= m.faces.indices[3 * f + k] == v;
+            }
+            if (has) info += biased(population_cov(pts)).inverse();  // eq. 17
+          }
+          expect = info.inverse();  // eq. 16
+        }
+        EXPECT_LT((unvech(c.covariances.col(v)) - expect).norm(), 1e-12 * expect.norm())
+            << method << " " << bias << " vertex " << v;
+      }
+    }
+}
+
+TEST(Inference, FaceBasedCovarianceIsThinAcrossAFlatSurface) {
+  const Mesh m = fixtures::triangle_lattice(3, 0.25, [](double, double) { return 0.0; });
+  InferenceParams p;
+  p.sigma_0 = 0.001;
+  const CovarianceMesh c = infer_covariances(m.positions, m.faces, p, "t");
+  const Eigen::Matrix3d s = unvech(c.covariances.col(fixtures::lattice_centre(3)));
+  // Every face covariance has variance sigma_0^2 along the normal, so eq. 16 gives sigma_0^2 / 6
+  // (six faces) there, while the tangential variance is the faces' spread.
+  const double diag = (m.positions.rowwise().maxCoeff() - m.positions.rowwise().minCoeff()).norm();
+  const double s0 = 0.001 * diag;
+  EXPECT_NEAR(s(2, 2), s0 * s0 / 6, 1e-12 * s0 * s0);
+  EXPECT_GT(s(0, 0), 100 * s(2, 2));
+  EXPECT_NEAR(s(0, 2), 0.0, 1e-15);
+}
+
+// --- Bad input ---------------------------------------------------------------------------------
+
+template <class F>
+std::string error_of(F f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
+TEST(BadInput, NonSpdCovarianceIsAnErrorNamingTheVertex) {
+  RunContext ctx(1);
+  SubdivideParams p;
+  const Mesh m = fixtures::octahedron();
+  for (double bad : {-1.0, 0.0, std::numeric_limits<double>::quiet_NaN()}) {
+    CovarianceMesh c = with_covariance(m, Eigen::Matrix3d::Identity());
+    c.covariances.col(3) = vech(Eigen::Vector3d(1.0, bad, 1.0).asDiagonal());
+    const std::string e =
+        error_of([&] { gp_subdivide(c, SubdivisionScheme::Loop, p, ctx, "c.ply"); });
+    EXPECT_NE(e.find("c.ply: vertex 3: covariance"), std::string::npos) << e;
+  }
+  CovarianceMesh c = with_covariance(m, Eigen::Matrix3d::Identity());
+  c.covariances.col(2)[1] = 2.0;  // symmetric but indefinite (xy = 2 with xx = yy = 1)
+  EXPECT_NE(error_of([&] { gp_subdivide(c, SubdivisionScheme::Loop, p, ctx, "c"); })
+                .find("vertex 2"),
+            std::string::npos);
+}
+
+TEST(BadInput, ConnectivityErrorsNameTheFace) {
+  RunContext ctx(1);
+  SubdivideParams p;
+  p.levels = 1;
+  // A fin: three triangles on one edge.
+  Mesh fin = fixtures::octahedron();
+  fin.positions.conservativeResize(3, 7);
+  fin.positions.col(6) << 2, 2, 2;
+  fin.faces.add({0, 2, 6});
+  std::string e = error_of([&] { subdivide_linear(fin.positions, fin.faces, SubdivisionScheme::Loop, p, "fin"); });
+  EXPECT_NE(e.find("fin: face 8"), std::string::npos) << e;
+  EXPECT_NE(e.find("non-manifold"), std::string::npos) << e;
+  // Two fans at one vertex (a bow tie).
+  Mesh bow;
+  bow.positions.resize(3, 5);
+  bow.positions << 0, 1, 1, -1, -1, 0, 0, 1, 0, 1, 0, 1, 0, -1, 0;
+  bow.faces.add({0, 1, 2});
+  bow.faces.add({0, 3, 4});
+  e = error_of([&] { subdivide_linear(bow.positions, bow.faces, SubdivisionScheme::Loop, p, "bow"); });
+  EXPECT_NE(e.find("non-manifold vertex"), std::string::npos) << e;
+  EXPECT_NE(e.find("bow: face"), std::string::npos) << e;
+  // Quads to Loop.
+  Mesh cube = fixtures::quad_cube();
+  e = error_of([&] { subdivide_linear(cube.positions, cube.faces, SubdivisionScheme::Loop, p, "cube"); });
+  EXPECT_NE(e.find("cube: face 0 has 4 vertices"), std::string::npos) << e;
+  // Inconsistent orientation.
+  Mesh flip = fixtures::octahedron();
+  std::swap(flip.faces.indices[0], flip.faces.indices[1]);
+  e = error_of([&] { subdivide_linear(flip.positions, flip.faces, SubdivisionScheme::Loop, p, "flip"); });
+  EXPECT_NE(e.find("inconsistent orientation"), std::string::npos) << e;
+  // Index out of range.
+  Mesh out = fixtures::octahedron();
+  out.faces.indices[5] = 17;
+  e = error_of([&] { subdivide_linear(out.positions, out.faces, SubdivisionScheme::Loop, p, "o"); });
+  EXPECT_NE(e.find("o: face 1 has vertex index 17"), std::string::npos) << e;
+}
+
+TEST(BadInput, LevelsBeyondMemoryAreRefusedBeforeAllocating) {
+  RunContext ctx(1);
+  SubdivideParams p;
+  p.levels = 12;
+  const Mesh m = fixtures::coarse_sphere(8);  // 768 triangles -> 1.3e10 at level 12
+  Mesh copy = m;
+  const std::string e = error_of(
+      [&] { subdivide_linear(copy.positions, copy.faces, SubdivisionScheme::Loop, p, "s"); });
+  EXPECT_NE(e.find("s.levels: 12 levels"), std::string::npos) << e;
+  EXPECT_EQ(copy.positions.cols(), m.positions.cols());  // nothing was refined
+  const std::string g = error_of([&] {
+    gp_subdivide(with_covariance(m, Eigen::Matrix3d::Identity()), SubdivisionScheme::Loop, p, ctx,
+                 "g");
+  });
+  EXPECT_NE(g.find("g.levels: 12 levels"), std::string::npos) << g;
 }
 
 }  // namespace

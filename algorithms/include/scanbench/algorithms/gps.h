@@ -150,3 +150,28 @@ PolygonFaces faces_of(const TriangleMesh& m);
 TriangleMesh triangle_mesh_of(const Eigen::Matrix3Xd& positions, const PolygonFaces& faces);
 
 }  // namespace scanbench::algorithms
+
+namespace scanbench::algorithms {
+
+/// One modelling input of the GPS paper's figures.
+struct FigureInput {
+  std::string name;  ///< e.g. "cone_flat", "cube_isotropic"
+  std::string doc;
+  CovarianceMesh mesh;
+};
+
+/// The modelling inputs of GPS Fig. 10 and Fig. 9 (shipped as configs/gps/<name>.ply):
+///  - cone (y up; apex (0, 1, 0), rings of 8 at y = 0.5 (radius 0.5) and y = 0 (radius 1), open
+///    at the bottom; every vertex 0.01 I except the apex), the five apex covariances of Fig. 10
+///    with the values of the authors' demo: cone_isotropic 0.01 I (ordinary Loop), cone_singular
+///    1e-5 I (pointy apex), cone_vertical diag(.001, .01, .01) (concave ridge), cone_horizontal
+///    diag(.01, .001, .01) (smooth plateau), cone_flat diag(1, 1e-5, 1) (sharp plateau);
+///  - cube [-1, 1]^3 as 6 quads (Fig. 9; the paper gives no values, ours are stated here):
+///    cube_isotropic 0.1 I (= Catmull-Clark, eq. 14), cube_flat_diagonal (each corner flat
+///    across its diagonal d: 0.1 (I - 0.99 d d^T)), cube_needle_diagonal (elongated along d:
+///    0.1 (0.01 I + d d^T)), cube_top_flat (top corners diag(.1, .1, 1e-4), bottom 0.1 I),
+///    cube_axis_z (corners at x > 0 elongated along z: diag(.001, .001, .1), the others 0.1 I;
+///    one constant covariance everywhere, anisotropic or not, is plain Catmull-Clark by eq. 14).
+std::vector<FigureInput> gps_figure_inputs();
+
+}  // namespace scanbench::algorithms
