@@ -11,13 +11,9 @@ namespace scanbench::algorithms {
 
 namespace {
 
-// Adapts an algorithm that returns only points to make_entry (the other outputs stay empty).
-template <class P>
-auto points_only(PointCloud (*f)(const PointCloud&, const P&, RunContext&)) {
-  return [f](const PointCloud& in, const P& p, RunContext& ctx) {
-    return AlgorithmOutput{f(in, p, ctx), std::nullopt, std::nullopt};
-  };
-}
+// Steps that summarise points in a Gaussian mixture and output points (the mixture rides along).
+constexpr StageIo kPointsToMixture{DataKind::Points, DataKind::Points | DataKind::Mixture,
+                                   DataKind::Points};
 
 }  // namespace
 
@@ -33,7 +29,7 @@ const AlgorithmRegistry& registry() {
         "eq. 10 and wrapped normal axes eq. 29-30, orphans carried; stops after `levels` or when "
         "a level removes < min_reduction. Output points = component means (normals = axes, "
         "weights = mixture weights); the mixture is written as a PLY.",
-        hem));
+        hem, kPointsToMixture));
     reg.add(make_entry<ClopParams>(
         "resample.clop",
         "Continuous LOP (CLOP paper sec. 6-8): weighted HEM mixture, continuous L2 initial "
@@ -41,51 +37,51 @@ const AlgorithmRegistry& registry() {
         "(eq. 19-22), WLOP repulsion cut at repulsion_cutoff*h and interleaved (sec. 8); "
         "theta(r) = exp(-16 r^2/h^2), h a fraction of the bbox diagonal; particles may exceed "
         "the input (upsampling). Phases init, hem, attraction, repulsion.",
-        clop));
+        clop, kPointsToMixture));
     reg.add(make_entry<CswParams>(
         "normals.csw",
         "Continuous spherical Weiszfeld normals (CLOP paper sec. 9, eq. 29-34) on the CLOP "
         "particles (or the input points with resample=false): wrapped normal axes merged by HEM, "
         "spherical kernel H = pi, spatial localisation by the eq. 24 kernel integral of width "
         "normal_h; start from the input normals or the continuous PCA normal.",
-        csw));
+        csw, kPointsToMixture));
     reg.add(make_entry<PcaNormalsParams>(
         "normals.pca",
         "k-nearest-neighbour PCA normals (Hoppe et al. 1992): smallest eigenvector of the "
         "neighbourhood covariance; oriented toward the scan's sensor when scan_ids and "
         "sensor_origins are known, else by MST propagation seeded outward at the point farthest "
         "from the centroid.",
-        points_only(pca_normals)));
+        pca_normals));
     reg.add(make_entry<LopParams>(
         "resample.lop",
         "Locally optimal projection (Lipman et al. 2007; CLOP paper sec. 3): L2 first iteration "
         "(eq. 2), then q <- F1 + mu F2 (eq. 3-6) with theta(r) = exp(-16 r^2/h^2), h a fraction "
         "of the bbox diagonal, neighbours within h; v = w = 1.",
-        points_only(lop)));
+        lop));
     reg.add(make_entry<LopParams>(
         "resample.wlop",
         "Weighted LOP (Huang et al. 2009; CLOP paper sec. 3, 7 eq. 25): as resample.lop with input "
         "density weights v_j = 1 + sum theta (once) in F1 and particle weights w_i (every "
         "iteration) in F2.",
-        points_only(wlop)));
+        wlop));
     reg.add(make_entry<CgalWlopParams>(
         "peer.cgal_wlop",
         "CGAL 5.5 wlop_simplify_and_regularize_point_set (peer, not the definition): h is "
         "scanbench's kernel width, passed to CGAL as neighbor_radius = h/2 because CGAL's "
         "kernel is exp(-4 r^2/R^2); CGAL hard-codes mu = 0.45, uses an L2 attraction "
         "(no 1/r) and theta/r^2 repulsion, no L2 first iteration; seeded particle subset; TBB.",
-        points_only(cgal_wlop)));
+        cgal_wlop));
     reg.add(make_entry<CgalBilateralParams>(
         "peer.cgal_bilateral",
         "CGAL 5.5 bilateral_smooth_point_set (Huang et al. 2013; peer): edge-aware smoothing "
         "of points and normals, k nearest neighbours, CGAL's own kernel radius; input normals, "
         "else normals.pca first.",
-        points_only(cgal_bilateral)));
+        cgal_bilateral));
     reg.add(make_entry<CgalJetParams>(
         "peer.cgal_jet",
         "CGAL 5.5 jet_smooth_point_set (Cazals and Pouget 2005; peer): each point projected "
         "onto the jet fitted to its k nearest neighbours.",
-        points_only(cgal_jet)));
+        cgal_jet));
     return reg;
   }();
   return r;

@@ -326,6 +326,142 @@ void write_point_cloud(const PointCloud& cloud, const std::filesystem::path& pat
   ply::write(f, path);
 }
 
+namespace io_detail {
+
+CovarianceMesh covariance_mesh_from_ply(const ply::File& file, const std::string& name) {
+  const ply::Element& ve = require_element(file, "vertex", name);
+  const auto nv = static_cast<Eigen::Index>(ve.count);
+  CovarianceMesh m;
+  m.resize(nv);
+  static constexpr std::array<const char*, 9> props{"x",     "y",     "z",     "covxx", "covxy",
+                                                    "covxz", "covyy", "covyz", "covzz"};
+  for (std::size_t c = 0; c < props.size(); ++c) {
+    const ply::Property& p = require_scalar(ve, props[c], name);
+    for (Eigen::Index i = 0; i < nv; ++i) {
+      const double v = p.values[static_cast<std::size_t>(i)];
+      if (!std::isfinite(v)) {
+        throw IoError(fmt::format("{}: element vertex, row {}, property {}: non-finite value {}",
+                                  name, i, p.name, v));
+      }
+      if (c < 3) {
+        m.means(static_cast<Eigen::Index>(c), i) = v;
+      } else {
+        m.covariances(static_cast<Eigen::Index>(c - 3), i) = v;
+      }
+    }
+  }
+  if (const ply::Element* fe = file.find("face")) {
+    const ply::Property* idx = fe->find("vertex_indices");
+    if (idx == nullptr) idx = fe->find("vertex_index");
+    if (idx == nullptr || !idx->is_list) {
+      throw IoError(fmt::format("{}: element face has no list property vertex_indices", name));
+    }
+    std::vector<int> poly;
+    for (std::size_t r = 0; r < fe->count; ++r) {
+      poly.clear();
+      for (std::size_t k = idx->offsets[r]; k < idx->offsets[r + 1]; ++k) {
+        const double v = idx->values[k];
+        if (!(v >= 0 && v < static_cast<double>(nv)) || v != std::trunc(v)) {
+          throw IoError(fmt::format(
+              "{}: element face, row {}: vertex index {} out of range [0, {})", name, r, v, nv));
+        }
+        poly.push_back(static_cast<int>(v));
+      }
+      m.add_face(poly);
+    }
+  }
+  try {
+    m.validate(name);
+  } catch (const InputError& e) {
+    throw IoError(e.what());
+  }
+  return m;
+}
+
+}  // namespace io_detail
+
+CovarianceMesh read_covariance_mesh(const std::filesystem::path& path) {
+  require_ply_extension(path, "covariance mesh");
+  return io_detail::covariance_mesh_from_ply(ply::read(path), path.string());
+}
+
+void write_covariance_mesh(const CovarianceMesh& mesh, const std::filesystem::path& path,
+                           PlyFormat format) {
+  require_ply_extension(path, "covariance mesh");
+  mesh.validate(path.string());
+  ply::File f;
+  f.format = to_ply(format);
+  f.comments.push_back("scanbench covariance mesh");
+  ply::Element ve;
+  ve.name = "vertex";
+  ve.count = static_cast<std::size_t>(mesh.num_vertices());
+  static constexpr std::array<const char*, 9> props{"x",     "y",     "z",     "covxx", "covxy",
+                                                    "covxz", "covyy", "covyz", "covzz"};
+  for (std::size_t c = 0; c < props.size(); ++c) {
+    ply::Property p;
+    p.name = props[c];
+    p.type = ply::Type::Float64;  // the dual map inverts covariances: keep every bit
+    p.values = column(mesh.num_vertices(), [&](Eigen::Index i) {
+      return c < 3 ? mesh.means(static_cast<Eigen::Index>(c), i)
+                   : mesh.covariances(static_cast<Eigen::Index>(c - 3), i);
+    });
+    ve.properties.push_back(std::move(p));
+  }
+  ply::Element fe;
+  fe.name = "face";
+  fe.count = static_cast<std::size_t>(mesh.num_faces());
+  ply::Property idx;
+  idx.name = "vertex_indices";
+  idx.is_list = true;
+  idx.count_type = ply::Type::UInt8;
+  idx.type = ply::Type::Int32;
+  idx.values.assign(mesh.face_vertices.begin(), mesh.face_vertices.end());
+  idx.offsets.assign(mesh.face_offsets.begin(), mesh.face_offsets.end());
+  fe.properties.push_back(std::move(idx));
+  f.elements.push_back(std::move(ve));
+  f.elements.push_back(std::move(fe));
+  ply::write(f, path);
+}
+
+StageData read_stage_file(const std::filesystem::path& path) {
+  StageData d;
+  if (lower_extension(path) != ".ply") {
+    d.mesh = read_mesh(path);
+    return d;
+  }
+  const ply::File f = ply::read(path);
+  const std::string name = path.string();
+  const ply::Element* face = f.find("face");
+  const ply::Element* vertex = f.find("vertex");
+  if (f.find("component") != nullptr) {
+    d.mixture = io_detail::mixture_from_ply(f, name);
+  } else if (vertex != nullptr && vertex->find("covxx") != nullptr) {
+    d.covariance_mesh = io_detail::covariance_mesh_from_ply(f, name);
+  } else if (face != nullptr && face->count > 0) {
+    d.mesh = io_detail::mesh_from_ply(f, name);
+  } else {
+    d.points = io_detail::cloud_from_ply(f, name);
+  }
+  return d;
+}
+
+void write_stage_kind(const StageData& data, DataKind kind, const std::filesystem::path& path) {
+  switch (kind) {
+    case DataKind::Points:
+      write_point_cloud(data.points, path);
+      return;
+    case DataKind::Mixture:
+      write_mixture(data.require_mixture(path.string()), path);
+      return;
+    case DataKind::Mesh:
+      write_mesh(data.require_mesh(path.string()), path);
+      return;
+    case DataKind::CovarianceMesh:
+      write_covariance_mesh(data.require_covariance_mesh(path.string()), path);
+      return;
+  }
+}
+
 GaussianMixture read_mixture(const std::filesystem::path& path) {
   require_ply_extension(path, "mixture");
   return io_detail::mixture_from_ply(ply::read(path), path.string());

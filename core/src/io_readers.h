@@ -10,6 +10,7 @@
 #include <string_view>
 
 #include "ply.h"
+#include "scanbench/core/covariance_mesh.h"
 #include "scanbench/core/gaussian_mixture.h"
 #include "scanbench/core/point_cloud.h"
 #include "scanbench/core/triangle_mesh.h"
@@ -22,6 +23,8 @@ TriangleMesh mesh_from_ply(const ply::File& file, const std::string& name);
 /// See io.h for the mapping of properties.
 PointCloud cloud_from_ply(const ply::File& file, const std::string& name);
 GaussianMixture mixture_from_ply(const ply::File& file, const std::string& name);
+/// Element `vertex` (x, y, z, covxx ... covzz) and an optional element `face` (polygons kept).
+CovarianceMesh covariance_mesh_from_ply(const ply::File& file, const std::string& name);
 
 /// OFF, with the [ST][C][N][4]OFF header variants (extra per-vertex values after x y z are
 /// skipped; 4OFF divides by w), '#' comments, counts on the header line or the next one, and

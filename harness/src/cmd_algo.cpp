@@ -1,6 +1,7 @@
 // scanbench algo NAME -i in.ply -o out.ply [--set key=value ...] [--seed N] [--threads N]
 //                [--timings t.json] [--mixture m.ply] [--mesh m.ply]
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <chrono>
 #include <filesystem>
@@ -39,7 +40,7 @@ void write_json(const Json& j, const std::filesystem::path& path) {
 void add_algo_command(Cli& cli) {
   struct Opts {
     std::string name;
-    std::string input;
+    std::vector<std::string> inputs;
     std::string output;
     std::vector<std::string> sets;
     std::uint64_t seed = 0;
@@ -47,15 +48,23 @@ void add_algo_command(Cli& cli) {
     std::string timings;
     std::string mixture;
     std::string mesh;
+    std::string covariance_mesh;
   };
   auto opts = std::make_shared<Opts>();
   CLI::App* sub = cli.app.add_subcommand(
       "algo",
-      "Run one registered algorithm (scanbench list algorithms) on a point cloud and write the "
-      "result as a binary PLY");
+      "Run one registered algorithm (scanbench list algorithms) on files and write its primary "
+      "output (points, mixture, mesh or covariance mesh, as the algorithm declares) as a binary "
+      "PLY; other products go beside it");
   sub->add_option("name", opts->name, "Algorithm name, e.g. resample.wlop")->required();
-  sub->add_option("-i,--input", opts->input, "Input point cloud (.ply)")->required();
-  sub->add_option("-o,--output", opts->output, "Output point cloud (.ply)")->required();
+  sub->add_option("-i,--input", opts->inputs,
+                  "Input file, repeatable, one per kind the algorithm consumes: a point cloud "
+                  "(.ply), a mixture (.ply with element component), a mesh (.ply with faces, "
+                  ".off, .obj, .stl) or a covariance mesh (.ply with covxx..covzz per vertex)")
+      ->required();
+  sub->add_option("-o,--output", opts->output,
+                  "Output (.ply, or .obj for a mesh): the algorithm's primary output")
+      ->required();
   sub->add_option("--set", opts->sets,
                   "Algorithm parameter key=value (repeatable; unknown keys, wrong types and "
                   "out-of-range values are errors)");
@@ -69,7 +78,10 @@ void add_algo_command(Cli& cli) {
                   "Where a mixture-producing algorithm writes its mixture PLY (default "
                   "<output>.mixture.ply)");
   sub->add_option("--mesh", opts->mesh,
-                  "Where a reconstruction writes its mesh PLY (default <output>.mesh.ply)");
+                  "Where a mesh that is not the primary output goes (default <output>.mesh.ply)");
+  sub->add_option("--covariance-mesh", opts->covariance_mesh,
+                  "Where a covariance mesh that is not the primary output goes (default "
+                  "<output>.covmesh.ply)");
   sub->callback([&cli, opts] {
     cli.action = [opts] {
       const auto& entry = algorithms::registry().at(opts->name);
@@ -77,28 +89,47 @@ void add_algo_command(Cli& cli) {
       for (const auto& s : opts->sets)
         apply_assignment(given, s);
       const Json params = entry.params.validate(given, "algo " + entry.name);
-      const PointCloud input = read_point_cloud(opts->input);
+      StageData input;
+      for (const auto& path : opts->inputs) {
+        StageData d = read_stage_file(path);
+        const DataKinds k = d.kinds();
+        if ((input.kinds().bits & k.bits) != 0) {
+          throw ParamError(fmt::format("algo: {}: a second {} input (give one file per kind)", path,
+                                       kinds_names(k)));
+        }
+        input = StageData::carry(std::move(d), input, k);
+      }
+      const auto& io = entry.fn.io;
+      if (!input.kinds().contains(io.consumes)) {
+        throw ParamError(
+            fmt::format("algo {}: consumes {}, but the inputs ({}) hold {}: give {} with -i",
+                        entry.name, kinds_names(io.consumes), fmt::join(opts->inputs, ", "),
+                        kinds_names(input.kinds()), kinds_names(io.consumes - input.kinds())));
+      }
 
       RunContext ctx(opts->seed, opts->threads);
       const auto t0 = std::chrono::steady_clock::now();
-      algorithms::AlgorithmOutput out = entry.fn(input, params, ctx);
+      StageData out = entry.fn(input, params, ctx);
       const double total =
           std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      out.points.validate(entry.name);
 
-      write_point_cloud(out.points, opts->output);
+      write_stage_kind(out, io.primary, opts->output);
       std::string extra;
-      if (out.mixture) {
-        const auto path = opts->mixture.empty() ? sibling(opts->output, "mixture")
-                                                : std::filesystem::path(opts->mixture);
-        write_mixture(*out.mixture, path);
-        extra += fmt::format(", mixture of {} -> {}", out.mixture->size(), path.string());
-      }
-      if (out.mesh) {
+      const std::pair<DataKind, std::string> others[] = {
+          {DataKind::Points, ""},
+          {DataKind::Mixture, opts->mixture},
+          {DataKind::Mesh, opts->mesh},
+          {DataKind::CovarianceMesh, opts->covariance_mesh}};
+      for (const auto& [kind, given] : others) {
+        if (kind == io.primary || !io.produces.has(kind)) continue;
+        const std::string suffix = kind == DataKind::Points    ? "points"
+                                   : kind == DataKind::Mixture ? "mixture"
+                                   : kind == DataKind::Mesh    ? "mesh"
+                                                               : "covmesh";
         const auto path =
-            opts->mesh.empty() ? sibling(opts->output, "mesh") : std::filesystem::path(opts->mesh);
-        write_mesh(*out.mesh, path);
-        extra += fmt::format(", mesh -> {}", path.string());
+            given.empty() ? sibling(opts->output, suffix) : std::filesystem::path(given);
+        write_stage_kind(out, kind, path);
+        extra += fmt::format(", {} -> {}", kind_name(kind), path.string());
       }
       if (!opts->timings.empty()) {
         Json record = Json::object();
@@ -106,9 +137,13 @@ void add_algo_command(Cli& cli) {
         record["params"] = params;
         record["seed"] = opts->seed;
         record["threads"] = opts->threads;
-        record["input"] = opts->input;
-        record["input_points"] = input.size();
+        record["inputs"] = opts->inputs;
+        record["input_points"] = input.points.size();
+        record["output_kind"] = kind_name(io.primary);
         record["output_points"] = out.points.size();
+        if (out.mesh) record["output_mesh_faces"] = out.mesh->num_faces();
+        if (out.covariance_mesh)
+          record["output_covariance_mesh_faces"] = out.covariance_mesh->num_faces();
         Json phases = Json::object();
         for (const auto& [name, seconds] : ctx.phase_seconds())
           phases[name] = seconds;
@@ -120,8 +155,8 @@ void add_algo_command(Cli& cli) {
         record["total_s"] = total;
         write_json(record, opts->timings);
       }
-      fmt::print("{}: {} -> {} points in {:.3f} s -> {}{}\n", entry.name, input.size(),
-                 out.points.size(), total, opts->output, extra);
+      fmt::print("{}: {} -> {} in {:.3f} s -> {}{}\n", entry.name, kinds_names(input.kinds()),
+                 kind_name(io.primary), total, opts->output, extra);
       return 0;
     };
   });

@@ -285,6 +285,19 @@ VariantSpec parse_variant(const Json& j, const Where& w) {
       }
     }
   }
+  // Type check: a scan enters as points; each step must find what it consumes in what the steps
+  // before it produced (every kind is carried on until a step replaces it).
+  DataKinds have = DataKind::Points;
+  for (std::size_t i = 0; i < v.chain.size(); ++i) {
+    const auto& io = algorithm_entry(v.chain[i].algorithm).fn.io;
+    if (!have.contains(io.consumes)) {
+      const Where at = j.contains("chain") ? w / "chain" / i : w;
+      fail(at, "step '" + v.chain[i].label + "' (" + v.chain[i].algorithm + ") consumes " +
+                   kinds_names(io.consumes) + ", but the chain before it provides only " +
+                   kinds_names(have) + " (" + kinds_names(io.consumes - have) + " missing)");
+    }
+    have = have | io.produces;
+  }
   if (j.contains("label")) {
     v.label = get_string(j["label"], w / "label");
   } else {

@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cstring>
 #include <map>
+#include <optional>
 
 #include "scanbench/algorithms/registry.h"
 #include "scanbench/core/datasets.h"
@@ -100,10 +101,10 @@ Json execute_job(const Job& job, const fs::path& out) {
   // The chain, `repeats` times; every sample of every phase is kept.
   std::map<std::string, std::vector<double>> phases;
   std::vector<double> total, cpu;
-  algorithms::AlgorithmOutput final_out;
+  StageData final_out;
   bool identical = true;
   for (int rep = 0; rep < job.repeats; ++rep) {
-    algorithms::AlgorithmOutput cur;
+    StageData cur;
     cur.points = cloud;
     std::map<std::string, double> rep_phases;
     double rep_total = 0;
@@ -114,15 +115,13 @@ Json execute_job(const Job& job, const fs::path& out) {
       const auto& entry = algorithm_entry(algo);
       ctx.clear_phases();
       const auto t0 = Clock::now();
-      algorithms::AlgorithmOutput next = entry.fn(cur.points, step.at("params"), ctx);
+      StageData next = entry.fn(cur, step.at("params"), ctx);
       const double dt = seconds_since(t0);
       rep_total += dt;
       rep_phases[label] += dt;
       for (const auto& [name, s] : ctx.phase_seconds())
         rep_phases[label + ":" + name] += s;
-      // A step that yields no mixture or mesh keeps the previous one (e.g. normals after HEM).
-      if (!next.mixture) next.mixture = std::move(cur.mixture);
-      if (!next.mesh) next.mesh = std::move(cur.mesh);
+      // The step's result already carries every kind it does not produce (StageData::carry).
       cur = std::move(next);
     }
     cpu.push_back(cpu_seconds() - cpu0);
@@ -142,17 +141,29 @@ Json execute_job(const Job& job, const fs::path& out) {
     ph[k] = v;
   timing["phases"] = ph;
   res["repeat_outputs_identical"] = identical;
+  // What the chain is scored on: the primary kind of its last step (a mesh for a reconstruction,
+  // the mean mesh of a covariance mesh, else the points).
+  const DataKind primary =
+      algorithm_entry(job.chain.back().at("algorithm").get<std::string>()).fn.io.primary;
+  std::optional<TriangleMesh> scored_mesh;
+  if (primary == DataKind::Mesh) scored_mesh = final_out.mesh;
+  if (primary == DataKind::CovarianceMesh) scored_mesh = final_out.covariance_mesh->mean_mesh();
+  res["output_kind"] = kind_name(primary);
   sizes["output_points"] = final_out.points.size();
   if (final_out.mixture) sizes["mixture_components"] = final_out.mixture->size();
   if (final_out.mesh) sizes["mesh_faces"] = final_out.mesh->num_faces();
+  if (final_out.covariance_mesh) {
+    sizes["covariance_mesh_vertices"] = final_out.covariance_mesh->num_vertices();
+    sizes["covariance_mesh_faces"] = final_out.covariance_mesh->num_faces();
+  }
 
   // Metrics.
   ctx.clear_phases();
   const auto t_metrics = Clock::now();
   const metrics::GroundTruth gt(mesh, ctx.stream_seed("ground_truth"));
   Json m =
-      final_out.mesh
-          ? metrics::evaluate_mesh(gt, *final_out.mesh, &cloud, job.metrics, job.metric_params, ctx)
+      scored_mesh
+          ? metrics::evaluate_mesh(gt, *scored_mesh, &cloud, job.metrics, job.metric_params, ctx)
           : metrics::evaluate(gt, final_out.points, &cloud, job.metrics, job.metric_params, ctx);
   timing["metrics_s"] = seconds_since(t_metrics);
   Json metric_phases = Json::object();
@@ -182,6 +193,10 @@ Json execute_job(const Job& job, const fs::path& out) {
     if (final_out.mesh) {
       write_mesh(*final_out.mesh, base.string() + ".mesh.ply");
       artifacts["mesh"] = "outputs/" + job.id + ".mesh.ply";
+    }
+    if (final_out.covariance_mesh) {
+      write_covariance_mesh(*final_out.covariance_mesh, base.string() + ".covmesh.ply");
+      artifacts["covariance_mesh"] = "outputs/" + job.id + ".covmesh.ply";
     }
     // Heatmap of the point-to-plane error E(q) = <q - p, N_p> (REFERENCE 6) on four views.
     if (final_out.points.size() > 0) {

@@ -44,7 +44,9 @@ struct SubsampleParams {
 using algorithms::AlgorithmOutput;
 
 AlgorithmOutput only(PointCloud pc) {
-  return AlgorithmOutput{std::move(pc), std::nullopt, std::nullopt};
+  AlgorithmOutput out;
+  out.points = std::move(pc);
+  return out;
 }
 
 AlgorithmOutput crash(const PointCloud&, const CrashParams& p, RunContext&) {

@@ -8,6 +8,7 @@
 
 #include "scanbench/algorithms/registry.h"
 #include "scanbench/core/errors.h"
+#include "scanbench/core/procedural.h"
 #include "scanbench/core/rng.h"
 
 namespace scanbench::algorithms {
@@ -53,23 +54,76 @@ TEST(AlgorithmRegistry, SchemasRejectUnknownKeys) {
   }
 }
 
+// Stage data holding every kind an entry may consume: the small scan, its HEM mixture, a coarse
+// sphere mesh and that mesh with isotropic covariances.
+StageData every_kind() {
+  StageData d = small_scan();
+  RunContext ctx(3);
+  const auto& hem = registry().at("mixture.hem");
+  d.mixture = hem.fn(d, hem.params.validate(Json::object(), "test"), ctx).mixture;
+  SphereParams sp;
+  sp.resolution = 4;
+  d.mesh = make_sphere(sp);
+  CovarianceMesh cm;
+  cm.resize(d.mesh->num_vertices());
+  cm.means = d.mesh->vertices.cast<double>();
+  for (Eigen::Index i = 0; i < cm.num_vertices(); ++i)
+    cm.set_covariance(i, 0.01 * Eigen::Matrix3d::Identity());
+  for (Eigen::Index f = 0; f < d.mesh->num_faces(); ++f) {
+    const int t[3] = {d.mesh->faces(0, f), d.mesh->faces(1, f), d.mesh->faces(2, f)};
+    cm.add_face(t);
+  }
+  d.covariance_mesh = std::move(cm);
+  return d;
+}
+
 TEST(AlgorithmRegistry, EveryEntryRunsByNameOnASmallScan) {
-  const PointCloud in = small_scan();
+  const StageData all = every_kind();
   ASSERT_FALSE(registry().entries().empty());
   for (const auto& e : registry().entries()) {
     SCOPED_TRACE(e.name);
     RunContext ctx(5);
     const Json params = e.params.validate(Json::object(), e.name);
-    AlgorithmOutput out;
+    EXPECT_TRUE(e.fn.io.produces.has(e.fn.io.primary));
+    // The entry gets exactly what it consumes, nothing else.
+    StageData in;
+    if (e.fn.io.consumes.has(DataKind::Points)) in.points = all.points;
+    if (e.fn.io.consumes.has(DataKind::Mixture)) in.mixture = all.mixture;
+    if (e.fn.io.consumes.has(DataKind::Mesh)) in.mesh = all.mesh;
+    if (e.fn.io.consumes.has(DataKind::CovarianceMesh)) in.covariance_mesh = all.covariance_mesh;
+    StageData out;
     ASSERT_NO_THROW(out = e.fn(in, params, ctx));
-    EXPECT_GT(out.points.size(), 0);
-    EXPECT_NO_THROW(out.points.validate(e.name));
+    EXPECT_TRUE(out.kinds().contains(e.fn.io.produces)) << kinds_names(out.kinds());
+    if (e.fn.io.produces.has(DataKind::Points)) {
+      EXPECT_GT(out.points.size(), 0);
+      EXPECT_NO_THROW(out.points.validate(e.name));
+    }
     if (out.points.has_normals()) {
       for (Eigen::Index i = 0; i < out.points.size(); ++i)
         ASSERT_NEAR(out.points.normals.col(i).norm(), 1.0f, 1e-3f) << "normal " << i;
     }
     if (out.mixture) {
       EXPECT_NO_THROW(out.mixture->validate(e.name));
+    }
+    if (out.mesh) {
+      EXPECT_NO_THROW(out.mesh->validate(e.name));
+    }
+    if (out.covariance_mesh) {
+      EXPECT_NO_THROW(out.covariance_mesh->validate(e.name));
+    }
+  }
+}
+
+TEST(AlgorithmRegistry, EveryEntryRefusesInputWithoutWhatItConsumes) {
+  for (const auto& e : registry().entries()) {
+    RunContext ctx(5);
+    const Json params = e.params.validate(Json::object(), e.name);
+    try {
+      (void)e.fn(StageData{}, params, ctx);
+      ADD_FAILURE() << e.name << " ran on empty stage data";
+    } catch (const InputError& err) {
+      EXPECT_NE(std::string(err.what()).find(e.name + ": consumes"), std::string::npos)
+          << err.what();
     }
   }
 }

@@ -26,6 +26,7 @@ struct RegistryEntry {
     j["name"] = name;
     j["doc"] = doc;
     j["params"] = params.to_json();
+    if constexpr (requires(const Fn& f, Json& out) { f.describe(out); }) fn.describe(j);
     return j;
   }
 };
