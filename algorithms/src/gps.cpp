@@ -1,11 +1,11 @@
 #include "scanbench/algorithms/gps.h"
 
+#include <fmt/format.h>
+#include <tbb/parallel_for.h>
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <cmath>
-#include <fmt/format.h>
-#include <tbb/parallel_for.h>
 
 #include "scanbench/core/errors.h"
 
@@ -53,27 +53,7 @@ std::pair<double, double> eig_range(const Eigen::Matrix3d& s) {
   return {es.eigenvalues()[0], es.eigenvalues()[2]};
 }
 
-void throw_not_spd(std::string_view where, Eigen::Index i, std::string_view what) {
-  throw InputError(fmt::format("{}: vertex {}: {}", where, i, what));
-}
-
 }  // namespace
-
-void check_covariances(const CovarianceMesh& m, std::string_view where) {
-  if (m.covariances.cols() != m.means.cols())
-    throw InputError(fmt::format("{}: {} covariances for {} vertices", where,
-                                 m.covariances.cols(), m.means.cols()));
-  for (Eigen::Index i = 0; i < m.means.cols(); ++i) {
-    if (!m.means.col(i).allFinite()) throw_not_spd(where, i, "mean is not finite");
-    if (!m.covariances.col(i).allFinite()) throw_not_spd(where, i, "covariance is not finite");
-    const auto [lo, hi] = eig_range(cov_at(m, i));
-    if (!(lo > 1e-300) || !(lo > 1e-14 * hi))
-      throw_not_spd(where, i,
-                    fmt::format("covariance is not symmetric positive definite (eigenvalues "
-                                "{:.3g} .. {:.3g})",
-                                lo, hi));
-  }
-}
 
 PolygonFaces faces_of(const CovarianceMesh& m) {
   PolygonFaces f;
@@ -130,12 +110,11 @@ void subdivide_linear(Eigen::Matrix3Xd& positions, PolygonFaces& faces, Subdivis
 
 CovarianceMesh gp_subdivide(const CovarianceMesh& in, SubdivisionScheme scheme,
                             const SubdivideParams& p, RunContext& ctx, std::string_view where) {
-  check_covariances(in, where);
+  in.validate(where);
   PolygonFaces faces = faces_of(in);
   const SubdivisionOptions o = p.options(scheme);
   // Refuse before the dual-space copy is allocated.
-  check_subdivision_memory(faces, static_cast<int>(in.means.cols()), p.levels, scheme, 72.0,
-                           where);
+  check_subdivision_memory(faces, static_cast<int>(in.means.cols()), p.levels, scheme, 72.0, where);
   ValueMatrix<9> q(9, in.means.cols());
   {
     auto t = ctx.phase("dual_map");
@@ -171,9 +150,10 @@ CovarianceMesh gp_subdivide(const CovarianceMesh& in, SubdivisionScheme scheme,
   }
   for (Eigen::Index i = 0; i < out.means.cols(); ++i)
     if (!out.means.col(i).allFinite())
-      throw InputError(fmt::format("{}: refined vertex {}: the dual-space quadric is not positive "
-                                   "definite (an input covariance is too close to singular)",
-                                   where, i));
+      throw InputError(
+          fmt::format("{}: refined vertex {}: the dual-space quadric is not positive "
+                      "definite (an input covariance is too close to singular)",
+                      where, i));
   set_faces(out, faces);
   return out;
 }
@@ -183,8 +163,7 @@ namespace {
 // Normal and curvatures from the jets of a surface (Appendix B's first and second forms).
 void differential_geometry(const Eigen::Vector3d& mu_u, const Eigen::Vector3d& mu_v,
                            const Eigen::Vector3d& mu_uu, const Eigen::Vector3d& mu_uv,
-                           const Eigen::Vector3d& mu_vv, Eigen::Vector3d& n, double& H,
-                           double& K) {
+                           const Eigen::Vector3d& mu_vv, Eigen::Vector3d& n, double& H, double& K) {
   const Eigen::Vector3d c = mu_u.cross(mu_v);
   const double len = c.norm();
   n = len > 0 ? Eigen::Vector3d(c / len) : Eigen::Vector3d::Zero();
@@ -254,7 +233,7 @@ SurfaceAnalysis linear_limit_analysis(const Eigen::Matrix3Xd& positions, const P
 
 SurfaceAnalysis gp_limit_analysis(const CovarianceMesh& m, const SubdivisionOptions& options,
                                   std::string_view where) {
-  check_covariances(m, where);
+  m.validate(where);
   const PolygonFaces faces = faces_of(m);
   ValueMatrix<9> q(9, m.means.cols());
   for (Eigen::Index i = 0; i < m.means.cols(); ++i)
@@ -266,13 +245,11 @@ SurfaceAnalysis gp_limit_analysis(const CovarianceMesh& m, const SubdivisionOpti
     Eigen::Vector3d mu;
     Eigen::Matrix3d S;
     if (!dual_to_gaussian(j.value.col(v), mu, S))
-      throw InputError(fmt::format("{}: vertex {}: limit quadric is not positive definite", where,
-                                   v));
+      throw InputError(
+          fmt::format("{}: vertex {}: limit quadric is not positive definite", where, v));
     // Appendix B: mu_u = Sigma (qbar_u - [qq_u] mu), and the second derivatives.
     auto lin = [](const auto& col) -> Eigen::Vector3d { return col.template tail<3>(); };
-    auto quad = [](const auto& col) -> Eigen::Matrix3d {
-      return unvech(col.template head<6>());
-    };
+    auto quad = [](const auto& col) -> Eigen::Matrix3d { return unvech(col.template head<6>()); };
     const Eigen::Matrix3d Qu = quad(j.du.col(v)), Qv = quad(j.dv.col(v));
     const Eigen::Vector3d mu_u = S * (lin(j.du.col(v)) - Qu * mu);
     const Eigen::Vector3d mu_v = S * (lin(j.dv.col(v)) - Qv * mu);
@@ -359,14 +336,67 @@ CovarianceMesh infer_covariances(const Eigen::Matrix3Xd& positions, const Polygo
     }
     for (Eigen::Index i = 0; i < nv; ++i) {
       // A vertex in no face keeps the isotropic bandwidth (eq. 17 with only itself).
-      const Eigen::Matrix3d s = info[i].isZero(0)
-                                    ? Eigen::Matrix3d(s0 * s0 * Eigen::Matrix3d::Identity())
-                                    : Eigen::Matrix3d(info[i].llt().solve(
-                                          Eigen::Matrix3d::Identity()));
+      const Eigen::Matrix3d s =
+          info[i].isZero(0) ? Eigen::Matrix3d(s0 * s0 * Eigen::Matrix3d::Identity())
+                            : Eigen::Matrix3d(info[i].llt().solve(Eigen::Matrix3d::Identity()));
       out.covariances.col(i) = vech(0.5 * (s + s.transpose()));
     }
   }
-  check_covariances(out, where);
+  out.validate(where);
+  return out;
+}
+
+}  // namespace scanbench::algorithms
+
+namespace scanbench::algorithms {
+
+namespace {
+
+StageData linear_stage(const StageData& in, const SubdivideParams& p, RunContext& ctx,
+                       SubdivisionScheme scheme, std::string_view name) {
+  const TriangleMesh& m = in.require_mesh(name);
+  m.validate(name);
+  Eigen::Matrix3Xd x = m.vertices.cast<double>();
+  PolygonFaces f = faces_of(m);
+  {
+    auto t = ctx.phase("subdivide");
+    subdivide_linear(x, f, scheme, p, name);
+  }
+  StageData out;
+  out.mesh = triangle_mesh_of(x, f);
+  return out;
+}
+
+StageData gp_stage(const StageData& in, const SubdivideParams& p, RunContext& ctx,
+                   SubdivisionScheme scheme, std::string_view name) {
+  StageData out;
+  out.covariance_mesh = gp_subdivide(in.require_covariance_mesh(name), scheme, p, ctx, name);
+  out.mesh = out.covariance_mesh->mean_mesh();
+  return out;
+}
+
+}  // namespace
+
+StageData subdivide_loop_stage(const StageData& in, const SubdivideParams& p, RunContext& ctx) {
+  return linear_stage(in, p, ctx, SubdivisionScheme::Loop, "subdivide.loop");
+}
+StageData subdivide_catmull_clark_stage(const StageData& in, const SubdivideParams& p,
+                                        RunContext& ctx) {
+  return linear_stage(in, p, ctx, SubdivisionScheme::CatmullClark, "subdivide.catmull_clark");
+}
+StageData gp_loop_stage(const StageData& in, const SubdivideParams& p, RunContext& ctx) {
+  return gp_stage(in, p, ctx, SubdivisionScheme::Loop, "subdivide.gp_loop");
+}
+StageData gp_catmull_clark_stage(const StageData& in, const SubdivideParams& p, RunContext& ctx) {
+  return gp_stage(in, p, ctx, SubdivisionScheme::CatmullClark, "subdivide.gp_catmull_clark");
+}
+StageData infer_covariances_stage(const StageData& in, const InferenceParams& p, RunContext& ctx) {
+  const char* name = "subdivide.infer_covariances";
+  const TriangleMesh& m = in.require_mesh(name);
+  m.validate(name);
+  auto t = ctx.phase("infer");
+  StageData out;
+  out.covariance_mesh = infer_covariances(m.vertices.cast<double>(), faces_of(m), p, name);
   return out;
 }
 

@@ -3,11 +3,11 @@
 #include <sys/resource.h>
 #include <unistd.h>
 
+#include <fmt/format.h>
+#include <tbb/parallel_for.h>
 #include <algorithm>
 #include <cmath>
-#include <fmt/format.h>
 #include <numbers>
-#include <tbb/parallel_for.h>
 
 #include "scanbench/core/errors.h"
 #include "scanbench/core/radix_sort.h"
@@ -74,8 +74,8 @@ Topology build_topology(const PolygonFaces& faces, int nv, std::string_view wher
     for (int c = b; c < e; ++c) {
       const int v = faces.indices[c];
       if (v < 0 || v >= nv)
-        throw InputError(fmt::format("{}: face {} has vertex index {} outside [0, {})", where, f,
-                                     v, nv));
+        throw InputError(
+            fmt::format("{}: face {} has vertex index {} outside [0, {})", where, f, v, nv));
       for (int c2 = b; c2 < c; ++c2)
         if (faces.indices[c2] == v)
           throw InputError(fmt::format("{}: face {} repeats vertex {}", where, f, v));
@@ -102,17 +102,18 @@ Topology build_topology(const PolygonFaces& faces, int nv, std::string_view wher
     while (j < nc && keys[j].key == keys[i].key)
       ++j;
     if (j - i > 2)
-      throw InputError(fmt::format("{}: face {}: edge ({}, {}) is shared by {} faces "
-                                   "(non-manifold)",
-                                   where, t.face_of[keys[i + 2].corner], t.vert(keys[i].corner),
-                                   t.target(keys[i].corner), j - i));
+      throw InputError(
+          fmt::format("{}: face {}: edge ({}, {}) is shared by {} faces "
+                      "(non-manifold)",
+                      where, t.face_of[keys[i + 2].corner], t.vert(keys[i].corner),
+                      t.target(keys[i].corner), j - i));
     int c0 = keys[i].corner, c1 = j - i == 2 ? keys[i + 1].corner : -1;
     if (c1 >= 0) {
       if (t.vert(c0) == t.vert(c1))
-        throw InputError(fmt::format("{}: face {}: edge ({}, {}) has the same direction in faces "
-                                     "{} and {} (inconsistent orientation)",
-                                     where, t.face_of[c1], t.vert(c0), t.target(c0),
-                                     t.face_of[c0], t.face_of[c1]));
+        throw InputError(fmt::format(
+            "{}: face {}: edge ({}, {}) has the same direction in faces "
+            "{} and {} (inconsistent orientation)",
+            where, t.face_of[c1], t.vert(c0), t.target(c0), t.face_of[c0], t.face_of[c1]));
       t.twin[c0] = c1;
       t.twin[c1] = c0;
     }
@@ -150,9 +151,10 @@ Topology build_topology(const PolygonFaces& faces, int nv, std::string_view wher
         ++starts;
       }
     if (starts > 1)
-      throw InputError(fmt::format("{}: face {}: vertex {} joins {} separate fans of faces "
-                                   "(non-manifold vertex)",
-                                   where, t.face_of[start], v, starts));
+      throw InputError(
+          fmt::format("{}: face {}: vertex {} joins {} separate fans of faces "
+                      "(non-manifold vertex)",
+                      where, t.face_of[start], v, starts));
     t.boundary[v] = starts == 1;
     int c = start, k = b;
     do {
@@ -163,9 +165,10 @@ Topology build_topology(const PolygonFaces& faces, int nv, std::string_view wher
       c = p;
     } while (c != start);
     if (k != e)
-      throw InputError(fmt::format("{}: face {}: vertex {} joins separate fans of faces "
-                                   "(non-manifold vertex)",
-                                   where, t.face_of[start], v));
+      throw InputError(
+          fmt::format("{}: face {}: vertex {} joins separate fans of faces "
+                      "(non-manifold vertex)",
+                      where, t.face_of[start], v));
   }
   return t;
 }
@@ -411,9 +414,10 @@ LimitJets<D> limit_jets(const ValueMatrix<D>& values, const PolygonFaces& faces,
   if (!loop)
     for (int f = 0; f < t.nf; ++f)
       if (faces.size(f) != 4)
-        throw InputError(fmt::format("{}: face {} has {} vertices; Catmull-Clark limit masks need "
-                                     "quads (subdivide at least one level)",
-                                     where, f, faces.size(f)));
+        throw InputError(
+            fmt::format("{}: face {} has {} vertices; Catmull-Clark limit masks need "
+                        "quads (subdivide at least one level)",
+                        where, f, faces.size(f)));
   const int d = static_cast<int>(values.rows()), nv = t.nv;
   LimitJets<D> j;
   for (auto* m : {&j.value, &j.du, &j.dv, &j.duu, &j.duv, &j.dvv})

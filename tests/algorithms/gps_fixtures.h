@@ -95,7 +95,9 @@ inline Mesh open_quad_cube() {
 }
 
 /// (2k+1)^2 lattice vertices (i, j) in [-k, k]^2, index (j + k)(2k+1) + (i + k).
-inline int lattice_centre(int k) { return k * (2 * k + 1) + k; }
+inline int lattice_centre(int k) {
+  return k * (2 * k + 1) + k;
+}
 
 /// Regular triangle lattice: vertex (i, j) at h (i + j/2, j sqrt(3)/2) with height z(x, y);
 /// every interior vertex has valence 6 and neighbour k at angle 60k degrees.

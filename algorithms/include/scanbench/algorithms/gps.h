@@ -36,8 +36,8 @@
 #include <string>
 #include <vector>
 
-#include "scanbench/algorithms/covariance_mesh_draft.h"
 #include "scanbench/algorithms/subdivision.h"
+#include "scanbench/core/covariance_mesh.h"
 #include "scanbench/core/params.h"
 #include "scanbench/core/run_context.h"
 #include "scanbench/core/triangle_mesh.h"
@@ -56,11 +56,6 @@ Vector9d gaussian_to_dual(const Eigen::Vector3d& mu, const Eigen::Matrix3d& sigm
 /// F^-1(q) of eq. 12. Returns false (outputs untouched) when [q_quad] is not positive definite.
 bool dual_to_gaussian(const Vector9d& q, Eigen::Vector3d& mu, Eigen::Matrix3d& sigma);
 
-/// Throws InputError("<where>: vertex i: covariance ...") for a covariance that is not finite,
-/// symmetric positive definite (smallest eigenvalue <= 1e-300 or <= 1e-14 lambda_max), or a
-/// non-finite mean.
-void check_covariances(const CovarianceMesh& m, std::string_view where);
-
 /// Parameters of subdivide.loop / subdivide.catmull_clark / subdivide.gp_loop /
 /// subdivide.gp_catmull_clark.
 struct SubdivideParams {
@@ -77,8 +72,8 @@ struct SubdivideParams {
               "subdivision levels (each multiplies the faces by 4); refused before allocating "
               "when the result would not fit in memory");
     d.flag("limit", &SubdivideParams::limit,
-              "project the last level's vertices to the limit surface (limit masks; GPS Appendix "
-              "B: in the dual space, then F^-1)");
+           "project the last level's vertices to the limit surface (limit masks; GPS Appendix "
+           "B: in the dual space, then F^-1)");
     d.choice("beta", &SubdivideParams::beta, {"loop", "warren"},
              "Loop vertex weight: loop = (5/8 - (3/8 + cos(2pi/n)/4)^2)/n (Loop 1987, CGAL), "
              "warren = 3/(8n) (libigl, the GPS authors' demo)");
@@ -173,5 +168,23 @@ struct FigureInput {
 ///    cube_axis_z (corners at x > 0 elongated along z: diag(.001, .001, .1), the others 0.1 I;
 ///    one constant covariance everywhere, anisotropic or not, is plain Catmull-Clark by eq. 14).
 std::vector<FigureInput> gps_figure_inputs();
+
+}  // namespace scanbench::algorithms
+
+#include "scanbench/core/stage_data.h"
+
+namespace scanbench::algorithms {
+
+/// Registry adapters (algorithms/src/registry.cpp): subdivide.loop and subdivide.catmull_clark
+/// (mesh -> mesh; Catmull-Clark quads are split into two triangles in the output mesh, and a
+/// triangle input is handled by the scheme), subdivide.gp_loop and subdivide.gp_catmull_clark
+/// (covariance mesh -> covariance mesh and its mean mesh; primary: the mean mesh), and
+/// subdivide.infer_covariances (mesh -> covariance mesh). The stage name prefixes every error.
+StageData subdivide_loop_stage(const StageData& in, const SubdivideParams& p, RunContext& ctx);
+StageData subdivide_catmull_clark_stage(const StageData& in, const SubdivideParams& p,
+                                        RunContext& ctx);
+StageData gp_loop_stage(const StageData& in, const SubdivideParams& p, RunContext& ctx);
+StageData gp_catmull_clark_stage(const StageData& in, const SubdivideParams& p, RunContext& ctx);
+StageData infer_covariances_stage(const StageData& in, const InferenceParams& p, RunContext& ctx);
 
 }  // namespace scanbench::algorithms
