@@ -1,5 +1,7 @@
 #include "scanbench/algorithms/registry.h"
 
+#include <concepts>
+
 #include "scanbench/algorithms/cgal_peers.h"
 #include "scanbench/algorithms/clop.h"
 #include "scanbench/algorithms/csw.h"
@@ -15,6 +17,16 @@ namespace {
 // Steps that summarise points in a Gaussian mixture and output points (the mixture rides along).
 constexpr StageIo kPointsToMixture{DataKind::Points, DataKind::Points | DataKind::Mixture,
                                    DataKind::Points};
+
+// Passes the whole stage data to f. make_entry tries `f(const PointCloud&, ...)` first, and a
+// StageData converts implicitly from a PointCloud, so a plain `const StageData&` function would be
+// handed the points alone; the constraint rules that call out.
+template <class P>
+auto whole_stage(StageData (*f)(const StageData&, const P&, RunContext&)) {
+  return [f](const std::same_as<StageData> auto& in, const P& p, RunContext& ctx) {
+    return f(in, p, ctx);
+  };
+}
 
 }  // namespace
 
@@ -91,29 +103,29 @@ const AlgorithmRegistry& registry() {
         "subdivide.loop",
         "Loop subdivision (Loop 1987) with boundary rules (edge 1/2 1/2, vertex 1/8 3/4 1/8); "
         "beta of Loop (CGAL) or Warren (libigl); limit positions by the limit mask.",
-        subdivide_loop_stage, mesh_io));
+        whole_stage(subdivide_loop_stage), mesh_io));
     reg.add(make_entry<SubdivideParams>(
         "subdivide.catmull_clark",
         "Catmull-Clark subdivision (1978) of any polygon mesh with boundary rules; limit "
         "positions by the limit mask; the output quads are split into triangles.",
-        subdivide_catmull_clark_stage, mesh_io));
+        whole_stage(subdivide_catmull_clark_stage), mesh_io));
     reg.add(make_entry<SubdivideParams>(
         "subdivide.gp_loop",
         "Gaussian-product Loop subdivision (GPS paper sec. 4-5): Loop on the dual vertices "
         "q = (vech(Sigma^-1), Sigma^-1 mu) (eq. 10-12), mapped back by eq. 12; limit positions by "
         "the limit mask in the dual space. Output: the covariance mesh and its mean mesh.",
-        gp_loop_stage, gp_io));
+        whole_stage(gp_loop_stage), gp_io));
     reg.add(make_entry<SubdivideParams>(
         "subdivide.gp_catmull_clark",
         "Gaussian-product Catmull-Clark subdivision (GPS paper sec. 4-5, Fig. 9): Catmull-Clark "
         "on the dual vertices (eq. 10-12). Output: the covariance mesh and its mean mesh.",
-        gp_catmull_clark_stage, gp_io));
+        whole_stage(gp_catmull_clark_stage), gp_io));
     reg.add(make_entry<InferenceParams>(
         "subdivide.infer_covariances",
         "Covariances for an ordinary mesh (GPS sec. 6.1): face-based (eq. 16-17) or vertex-based "
         "(eq. 15), biased by sigma_0^2 I (sigma_0 relative to the bbox diagonal) or by the "
         "authors' demo's 0.05 lambda_max.",
-        infer_covariances_stage,
+        whole_stage(infer_covariances_stage),
         StageIo{DataKind::Mesh, DataKind::CovarianceMesh, DataKind::CovarianceMesh}));
     return reg;
   }();

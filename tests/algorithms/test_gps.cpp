@@ -12,12 +12,15 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <cmath>
+#include <cstdlib>
+#include <filesystem>
 #include <functional>
 #include <numbers>
 
 #include "gps_fixtures.h"
 #include "scanbench/algorithms/gps.h"
 #include "scanbench/core/errors.h"
+#include "scanbench/core/io.h"
 #include "scanbench/core/procedural.h"
 #include "scanbench/core/rng.h"
 
@@ -651,6 +654,24 @@ TEST(MeasuredClaim, GpLoopOfInferredCovariancesIsCloserToTheOriginalThanLoop) {
       RecordProperty(fmt::format("{}_levels{}_loop", s.name, levels), std::to_string(loop));
       RecordProperty(fmt::format("{}_levels{}_gp_loop", s.name, levels), std::to_string(gp));
     }
+  }
+}
+
+// The shipped Fig. 9/10 inputs (configs/gps/<name>.ply) are the generator's meshes. Regenerate
+// them with SCANBENCH_WRITE_GPS_FIGURES=1 test_gps --gtest_filter='*ShippedFigure*'.
+TEST(Figure9And10, ShippedInputsEqualTheGenerator) {
+  const std::filesystem::path dir =
+      std::filesystem::path(SCANBENCH_TEST_DATA) / ".." / ".." / "configs" / "gps";
+  const char* write = std::getenv("SCANBENCH_WRITE_GPS_FIGURES");
+  for (const FigureInput& f : gps_figure_inputs()) {
+    const auto path = dir / (f.name + ".ply");
+    if (write != nullptr && std::string(write) == "1")
+      write_covariance_mesh(f.mesh, path, PlyFormat::Ascii);
+    const CovarianceMesh r = read_covariance_mesh(path);
+    EXPECT_EQ(r.means, f.mesh.means) << f.name;
+    EXPECT_EQ(r.covariances, f.mesh.covariances) << f.name;
+    EXPECT_EQ(r.face_offsets, f.mesh.face_offsets) << f.name;
+    EXPECT_EQ(r.face_vertices, f.mesh.face_vertices) << f.name;
   }
 }
 
