@@ -1,11 +1,17 @@
 #include "scanbench/algorithms/registry.h"
 
+#include <concepts>
 #include "scanbench/algorithms/bhattacharyya_triangulation.h"
 #include "scanbench/algorithms/bilateral_normals.h"
 #include "scanbench/algorithms/cgal_peers.h"
 #include "scanbench/algorithms/clop.h"
 #include "scanbench/algorithms/csw.h"
 #include "scanbench/algorithms/gpf.h"
+
+#include "scanbench/algorithms/cgal_peers.h"
+#include "scanbench/algorithms/clop.h"
+#include "scanbench/algorithms/csw.h"
+#include "scanbench/algorithms/gps.h"
 #include "scanbench/algorithms/hem.h"
 #include "scanbench/algorithms/lop.h"
 #include "scanbench/algorithms/pca_normals.h"
@@ -120,6 +126,38 @@ const AlgorithmRegistry& registry() {
         "triangle exists. Needs no oriented normals. Chain it after mixture.hem.",
         triangulate_bhattacharyya_step,
         StageIo{DataKind::Mixture, DataKind::CovarianceMesh, DataKind::CovarianceMesh}));
+    // Subdivision surfaces (GPS paper, Preiner et al. 2019) and their linear baselines.
+    const StageIo mesh_io{DataKind::Mesh, DataKind::Mesh, DataKind::Mesh};
+    const StageIo gp_io{DataKind::CovarianceMesh, DataKind::CovarianceMesh | DataKind::Mesh,
+                        DataKind::Mesh};
+    reg.add(make_entry<SubdivideParams>(
+        "subdivide.loop",
+        "Loop subdivision (Loop 1987) with boundary rules (edge 1/2 1/2, vertex 1/8 3/4 1/8); "
+        "beta of Loop (CGAL) or Warren (libigl); limit positions by the limit mask.",
+        subdivide_loop_stage, mesh_io));
+    reg.add(make_entry<SubdivideParams>(
+        "subdivide.catmull_clark",
+        "Catmull-Clark subdivision (1978) of any polygon mesh with boundary rules; limit "
+        "positions by the limit mask; the output quads are split into triangles.",
+        subdivide_catmull_clark_stage, mesh_io));
+    reg.add(make_entry<SubdivideParams>(
+        "subdivide.gp_loop",
+        "Gaussian-product Loop subdivision (GPS paper sec. 4-5): Loop on the dual vertices "
+        "q = (vech(Sigma^-1), Sigma^-1 mu) (eq. 10-12), mapped back by eq. 12; limit positions by "
+        "the limit mask in the dual space. Output: the covariance mesh and its mean mesh.",
+        gp_loop_stage, gp_io));
+    reg.add(make_entry<SubdivideParams>(
+        "subdivide.gp_catmull_clark",
+        "Gaussian-product Catmull-Clark subdivision (GPS paper sec. 4-5, Fig. 9): Catmull-Clark "
+        "on the dual vertices (eq. 10-12). Output: the covariance mesh and its mean mesh.",
+        gp_catmull_clark_stage, gp_io));
+    reg.add(make_entry<InferenceParams>(
+        "subdivide.infer_covariances",
+        "Covariances for an ordinary mesh (GPS sec. 6.1): face-based (eq. 16-17) or vertex-based "
+        "(eq. 15), biased by sigma_0^2 I (sigma_0 relative to the bbox diagonal) or by the "
+        "authors' demo's 0.05 lambda_max.",
+        infer_covariances_stage,
+        StageIo{DataKind::Mesh, DataKind::CovarianceMesh, DataKind::CovarianceMesh}));
     return reg;
   }();
   return r;

@@ -4,10 +4,11 @@
 
 namespace scanbench::harness {
 
-void add_bench_scanner(CLI::App* bench, Cli& cli);   // cmd_bench_scanner.cpp
-void add_bench_distance(CLI::App* bench, Cli& cli);  // cmd_bench_distance.cpp
-void add_bench_resample(CLI::App* bench, Cli& cli);  // cmd_bench_resample.cpp
-void add_bench_filter(CLI::App* bench, Cli& cli);    // cmd_bench_filter.cpp
+void add_bench_scanner(CLI::App* bench, Cli& cli);    // cmd_bench_scanner.cpp
+void add_bench_distance(CLI::App* bench, Cli& cli);   // cmd_bench_distance.cpp
+void add_bench_resample(CLI::App* bench, Cli& cli);   // cmd_bench_resample.cpp
+void add_bench_filter(CLI::App* bench, Cli& cli);     // cmd_bench_filter.cpp
+void add_bench_subdivide(CLI::App* bench, Cli& cli);  // cmd_bench_subdivide.cpp
 
 void add_bench_command(Cli& cli) {
   CLI::App* bench = cli.app.add_subcommand(
@@ -18,6 +19,7 @@ void add_bench_command(Cli& cli) {
   add_bench_distance(bench, cli);
   add_bench_resample(bench, cli);
   add_bench_filter(bench, cli);
+  add_bench_subdivide(bench, cli);
 
   if (bench->get_subcommands({}).empty()) cli.app.remove_subcommand(bench);
 }
