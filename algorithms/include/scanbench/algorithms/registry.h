@@ -68,7 +68,9 @@ AlgorithmRegistry::Entry make_entry(std::string name, std::string doc, F f, Stag
     }
     P p = params_from_json<P>(params, name);
     StageData out;
-    if constexpr (std::is_invocable_v<F, const PointCloud&, const P&, RunContext&>) {
+    // A function of `const StageData&` gets everything (a PointCloud would convert to a
+    // StageData holding only the points); one of `const PointCloud&` gets the points.
+    if constexpr (!std::is_invocable_v<F, const StageData&, const P&, RunContext&>) {
       auto r = f(in.points, p, ctx);
       if constexpr (std::is_same_v<decltype(r), PointCloud>) {
         out.points = std::move(r);
