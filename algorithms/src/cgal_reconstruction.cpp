@@ -101,7 +101,7 @@ StageData cgal_scale_space(const StageData& in, const CgalScaleSpaceParams& p, R
   using Alpha = CGAL::Scale_space_reconstruction_3::Alpha_shape_mesher<Kernel>;
   using Front = CGAL::Scale_space_reconstruction_3::Advancing_front_mesher<Kernel>;
   Reconstruction r(points.begin(), points.end());
-  std::vector<std::array<unsigned int, 3>> facets;
+  std::vector<std::array<std::size_t, 3>> facets;
   {
     auto timer = ctx.phase("cgal");
     double squared_radius = p.radius * diag * p.radius * diag;

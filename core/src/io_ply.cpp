@@ -280,7 +280,7 @@ void write_mesh_ply(const TriangleMesh& mesh, const std::filesystem::path& path)
 PointCloud read_point_cloud(const std::filesystem::path& path) {
   const std::string ext = lower_extension(path);
   if (io_detail::is_xyz_extension(ext))
-    return io_detail::read_xyz(io_detail::slurp(path), path.string());
+    return io_detail::cloud_from_xyz(io_detail::slurp(path), path.string());
   if (ext == ".off") {
     return io_detail::cloud_from_off(io_detail::parse_off(io_detail::slurp(path), path.string()),
                                      path.string());
@@ -438,7 +438,7 @@ StageData read_stage_file(const std::filesystem::path& path) {
   StageData d;
   const std::string ext = lower_extension(path);
   if (io_detail::is_xyz_extension(ext)) {
-    d.points = io_detail::read_xyz(io_detail::slurp(path), path.string());
+    d.points = io_detail::cloud_from_xyz(io_detail::slurp(path), path.string());
     return d;
   }
   if (ext == ".off") {

@@ -10,7 +10,7 @@
 
 namespace scanbench::io_detail {
 
-PointCloud read_xyz(std::string_view text, const std::string& name) {
+PointCloud cloud_from_xyz(std::string_view text, const std::string& name) {
   Lines lines(text);
   std::string_view line;
   std::string_view tok;

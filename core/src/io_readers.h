@@ -54,7 +54,7 @@ PointCloud cloud_from_off(const OffData& off, const std::string& name);
 TriangleMesh mesh_from_off(const OffData& off, const std::string& name);
 /// XYZ / PWN text: one point per line, `x y z` or `x y z nx ny nz` (CGAL's read_XYZ and Open3D's
 /// xyz/xyzn/pwn); see io.h for the exact rules.
-PointCloud read_xyz(std::string_view text, const std::string& name);
+PointCloud cloud_from_xyz(std::string_view text, const std::string& name);
 /// True for the extensions of the plain point formats (.xyz, .pwn; .off is a mesh or points).
 bool is_xyz_extension(std::string_view lower_ext);
 

@@ -19,7 +19,10 @@
 // fixed-seed) or `jet` (jet fitting, Cazals and Pouget 2005, `neighbors` nearest). Meshers:
 // `alpha_shape` (the regular facets of the alpha shape of squared radius `radius`^2; radius 0 =
 // the weighted_pca smoother's estimate, hence a ParamError with the jet smoother;
-// `separate_shells`, `force_manifold`, `border_angle` as CGAL's Alpha_shape_mesher) or
+// `separate_shells`, `force_manifold`, `border_angle` as CGAL's Alpha_shape_mesher; our default
+// force_manifold is true, CGAL's is false: then every facet whose two sides are both outside
+// the alpha shape (every facet of a thin sampled surface) is output twice, once per orientation,
+// and a sampled unit sphere comes out as two coincident layers of area 25.1 = 2 x 4 pi) or
 // `advancing_front` (as above, radius_ratio_bound and beta; max_facet_length 0 = unbounded).
 //
 // Both return only the vertices referenced by a facet (in input order). Throws InputError for
@@ -53,7 +56,7 @@ struct CgalScaleSpaceParams {
   std::string mesher = "alpha_shape";
   double radius = 0.0;
   bool separate_shells = false;
-  bool force_manifold = false;
+  bool force_manifold = true;
   double border_angle = 45.0;
   double max_facet_length = 0.0;
   double radius_ratio_bound = 5.0;
@@ -76,7 +79,8 @@ struct CgalScaleSpaceParams {
     d.flag("separate_shells", &CgalScaleSpaceParams::separate_shells,
            "alpha_shape: separate the surface into shells (CGAL)");
     d.flag("force_manifold", &CgalScaleSpaceParams::force_manifold,
-           "alpha_shape: drop facets that make the surface non-manifold (CGAL)");
+           "alpha_shape: one layer (CGAL's force_manifold; its default false outputs each "
+           "facet with exterior on both sides twice, once per orientation)");
     d.real("border_angle", &CgalScaleSpaceParams::border_angle, Range::closed(0.0, 180.0), "deg",
            "alpha_shape: angle limit of the border facets kept (CGAL)");
     d.real("max_facet_length", &CgalScaleSpaceParams::max_facet_length, Range::closed(0.0, 1.0),
