@@ -146,37 +146,36 @@ Eigen::Matrix3Xf csw_normals(const GaussianMixture& m, const Eigen::Matrix3Xf& p
   return out;
 }
 
-AlgorithmOutput csw(const PointCloud& in, const CswParams& p, RunContext& ctx) {
+PointCloud csw(const StageData& data, const CswParams& p, RunContext& ctx) {
   constexpr const char* stage = "normals.csw";
+  const PointCloud& in = data.points;
   in.validate(stage);
   if (in.empty()) throw InputError(fmt::format("{}: the input has no points", stage));
+  const GaussianMixture& mixture =
+      data.require_mixture(fmt::format("{} (chain mixture.hem -> normals.csw)", stage));
   const double diag = in.bbox().diagonal();
   if (!(diag > 0.0))
     throw InputError(fmt::format("{}: the input's bounding box has a zero diagonal", stage));
   const double h = p.h * diag;
-  AlgorithmOutput out;
-  {
-    auto timer = ctx.phase("hem");
-    out.mixture = hem_mixture(in.positions, hem_params_of(p, h), h, diag, ctx);
-  }
   Eigen::Matrix3Xf q;
   Eigen::Matrix3Xf initial;
   if (p.resample) {
     ClopParams cp;
-    static_cast<ClopSettings&>(cp) = p;  // every CLOP and HEM setting of p
+    static_cast<ClopProjectionSettings&>(cp) = p;
+    cp.weighted = p.weighted;
     const Index m = kernels::particle_count(p.particles, in.size(), stage);
     {
       auto timer = ctx.phase("init");
       q = kernels::initial_particles(in.positions, m, ctx.stream_seed("particles"),
                                      static_cast<float>(0.01 * h));
     }
-    clop_project(*out.mixture, q, cp, h, ctx);
+    clop_project(mixture, q, cp, h, ctx);
   } else {
     q = in.positions;
     if (in.has_normals()) initial = in.normals;
   }
   Eigen::Matrix3Xf normals =
-      csw_normals(*out.mixture, q, initial, p.normal_h * diag, p.csw_iterations, ctx);
+      csw_normals(mixture, q, initial, p.normal_h * diag, p.csw_iterations, ctx);
 
   // Orientation from the nearest input point's sensor or normal (see csw.h).
   const bool sensors = in.has_scan_ids() && in.sensor_origins.cols() > 0;
@@ -192,8 +191,9 @@ AlgorithmOutput csw(const PointCloud& in, const CswParams& p, RunContext& ctx) {
       }
     });
   }
-  out.points.positions = std::move(q);
-  out.points.normals = std::move(normals);
+  PointCloud out;
+  out.positions = std::move(q);
+  out.normals = std::move(normals);
   return out;
 }
 

@@ -9,12 +9,15 @@
 #include "scanbench/algorithms/gpf.h"
 
 #include "scanbench/algorithms/cgal_peers.h"
+#include "scanbench/algorithms/cgal_reconstruction.h"
 #include "scanbench/algorithms/clop.h"
 #include "scanbench/algorithms/csw.h"
+#include "scanbench/algorithms/external.h"
 #include "scanbench/algorithms/gps.h"
 #include "scanbench/algorithms/hem.h"
 #include "scanbench/algorithms/lop.h"
 #include "scanbench/algorithms/pca_normals.h"
+#include "scanbench/algorithms/poisson.h"
 
 namespace scanbench::algorithms {
 
@@ -23,6 +26,11 @@ namespace {
 // Steps that summarise points in a Gaussian mixture and output points (the mixture rides along).
 constexpr StageIo kPointsToMixture{DataKind::Points, DataKind::Points | DataKind::Mixture,
                                    DataKind::Points};
+// Steps that consume points and a mixture (of a preceding mixture.hem) and output points.
+constexpr StageIo kPointsAndMixtureToPoints{DataKind::Points | DataKind::Mixture, DataKind::Points,
+                                            DataKind::Points};
+// Reconstructions: points in, a triangle mesh out (the points ride along).
+constexpr StageIo kPointsToMesh{DataKind::Points, DataKind::Mesh, DataKind::Mesh};
 
 }  // namespace
 
@@ -49,11 +57,13 @@ const AlgorithmRegistry& registry() {
         clop, kPointsToMixture));
     reg.add(make_entry<CswParams>(
         "normals.csw",
-        "Continuous spherical Weiszfeld normals (CLOP paper sec. 9, eq. 29-34) on the CLOP "
-        "particles (or the input points with resample=false): wrapped normal axes merged by HEM, "
-        "spherical kernel H = pi, spatial localisation by the eq. 24 kernel integral of width "
-        "normal_h; start from the input normals or the continuous PCA normal.",
-        csw, kPointsToMixture));
+        "Continuous spherical Weiszfeld normals (CLOP paper sec. 9, eq. 29-34) from the mixture of "
+        "a preceding mixture.hem step (chain mixture.hem -> normals.csw; its wrapped normal axes "
+        "merged by HEM, eq. 29-30) for CLOP particles projected onto that mixture (sec. 6-8) or "
+        "the input points with resample=false; spherical kernel H = pi, spatial localisation by "
+        "the eq. 24 kernel integral of width normal_h; start from the input normals or the "
+        "continuous PCA normal.",
+        csw, kPointsAndMixtureToPoints));
     reg.add(make_entry<PcaNormalsParams>(
         "normals.pca",
         "k-nearest-neighbour PCA normals (Hoppe et al. 1992): smallest eigenvector of the "
@@ -158,6 +168,36 @@ const AlgorithmRegistry& registry() {
         "authors' demo's 0.05 lambda_max.",
         infer_covariances_stage,
         StageIo{DataKind::Mesh, DataKind::CovarianceMesh, DataKind::CovarianceMesh}));
+    reg.add(make_entry<PoissonParams>(
+        "reconstruct.poisson",
+        "Screened Poisson surface reconstruction (Kazhdan and Hoppe 2013; the GPS paper's sec. 6 "
+        "baseline) through COLMAP 3.8's `colmap poisson_mesher` (PoissonRecon 8.0, one thread, "
+        "private temp dir, timeout); needs oriented normals (chain normals.pca -> "
+        "reconstruct.poisson); no trimming by default (COLMAP's trim 10 empties a sphere at "
+        "depth 8).",
+        poisson, kPointsToMesh));
+    reg.add(make_entry<CgalAdvancingFrontParams>(
+        "peer.cgal_advancing_front",
+        "CGAL 5.5 advancing_front_surface_reconstruction (Cohen-Steiner and Da 2004; peer): "
+        "greedy Delaunay-based interpolating surface, radius_ratio_bound and beta.",
+        cgal_advancing_front, kPointsToMesh));
+    reg.add(make_entry<CgalScaleSpaceParams>(
+        "peer.cgal_scale_space",
+        "CGAL 5.5 Scale_space_surface_reconstruction_3 (Digne et al. 2011; peer): weighted PCA or "
+        "jet smoothing for `iterations` scales, alpha-shape or advancing-front meshing, facets "
+        "back-projected onto the input points.",
+        cgal_scale_space, kPointsToMesh));
+    reg.add(make_entry<ExternalParams>(
+        "external.points",
+        "Any program as a step: `command` with {in} (the points as PLY), {out} (a point cloud, "
+        "`extension` .ply or point-only .off) and {name} for name=value pairs of `vars`; run by "
+        "/bin/sh in a private temp dir with a timeout; non-zero exit, timeout and exit 0 with "
+        "no or empty output are errors.",
+        external_points));
+    reg.add(make_entry<ExternalParams>(
+        "external.mesh",
+        "As external.points, but {out} is a triangle mesh (.ply or .off), the step's product.",
+        external_mesh, kPointsToMesh));
     return reg;
   }();
   return r;

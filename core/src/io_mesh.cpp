@@ -17,90 +17,23 @@
 #include "scanbench/core/errors.h"
 #include "scanbench/core/io.h"
 #include "scanbench/core/procedural.h"
+#include "text_lines.h"
 
 namespace scanbench {
 
 namespace {
+
+using io_detail::Lines;
+using io_detail::parse_number;
+using io_detail::slurp;
+using io_detail::space;
+using io_detail::Tokens;
 
 std::string lower_extension(const std::filesystem::path& path) {
   std::string ext = path.extension().string();
   for (char& c : ext)
     c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   return ext;
-}
-
-std::string slurp(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw IoError(fmt::format("{}: cannot open for reading", path.string()));
-  std::string data((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (in.bad()) throw IoError(fmt::format("{}: read failed", path.string()));
-  return data;
-}
-
-bool space(char c) {
-  return c == ' ' || c == '\t' || c == '\r' || c == '\n' || c == '\v' || c == '\f';
-}
-
-// Lines of a text file with '#' comments removed and surrounding whitespace trimmed; keeps the
-// 1-based line number for messages.
-class Lines {
- public:
-  explicit Lines(std::string_view text) : text_(text) {}
-  // Next non-empty line; false at the end.
-  bool next(std::string_view& line) {
-    while (pos_ < text_.size()) {
-      const std::size_t end = std::min(text_.find('\n', pos_), text_.size());
-      std::string_view l = text_.substr(pos_, end - pos_);
-      pos_ = end + 1;
-      ++number_;
-      if (const std::size_t hash = l.find('#'); hash != std::string_view::npos)
-        l = l.substr(0, hash);
-      while (!l.empty() && space(l.front()))
-        l.remove_prefix(1);
-      while (!l.empty() && space(l.back()))
-        l.remove_suffix(1);
-      if (!l.empty()) {
-        line = l;
-        return true;
-      }
-    }
-    return false;
-  }
-  std::size_t number() const { return number_; }
-
- private:
-  std::string_view text_;
-  std::size_t pos_ = 0;
-  std::size_t number_ = 0;
-};
-
-// Whitespace-separated tokens of one line.
-class Tokens {
- public:
-  explicit Tokens(std::string_view s) : s_(s) {}
-  bool next(std::string_view& tok) {
-    while (i_ < s_.size() && space(s_[i_]))
-      ++i_;
-    if (i_ == s_.size()) return false;
-    const std::size_t start = i_;
-    while (i_ < s_.size() && !space(s_[i_]))
-      ++i_;
-    tok = s_.substr(start, i_ - start);
-    return true;
-  }
-
- private:
-  std::string_view s_;
-  std::size_t i_ = 0;
-};
-
-template <class T>
-bool parse_number(std::string_view tok, T& out) {
-  const char* first = tok.data();
-  const char* last = tok.data() + tok.size();
-  if (first != last && *first == '+') ++first;
-  const auto [p, ec] = std::from_chars(first, last, out);
-  return ec == std::errc() && p == last;
 }
 
 TriangleMesh to_mesh(const std::vector<float>& xyz, const std::vector<int>& tri) {
@@ -228,7 +161,15 @@ float read_le_float(const char* p) {
 
 namespace io_detail {
 
-TriangleMesh read_off(std::string_view text, const std::string& name) {
+std::string slurp(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw IoError(fmt::format("{}: cannot open for reading", path.string()));
+  std::string data((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  if (in.bad()) throw IoError(fmt::format("{}: read failed", path.string()));
+  return data;
+}
+
+OffData parse_off(std::string_view text, const std::string& name) {
   Lines lines(text);
   std::string_view line;
   auto fail = [&](const std::string& what) -> void {
@@ -239,6 +180,7 @@ TriangleMesh read_off(std::string_view text, const std::string& name) {
   std::string_view tok;
   head.next(tok);
   bool homogeneous = false;
+  bool with_normals = false;
   std::vector<std::string_view> counts;
   if (tok.size() >= 3 && tok.substr(tok.size() - 3) == "OFF") {
     std::string_view prefix = tok.substr(0, tok.size() - 3);
@@ -249,7 +191,7 @@ TriangleMesh read_off(std::string_view text, const std::string& name) {
     };
     eat("ST");
     eat("C");
-    eat("N");
+    with_normals = eat("N");
     homogeneous = eat("4");
     if (eat("n")) fail("nOFF (arbitrary dimension) is not supported");
     if (!prefix.empty()) fail(fmt::format("unknown OFF header '{}'", tok));
@@ -284,7 +226,8 @@ TriangleMesh read_off(std::string_view text, const std::string& name) {
   if (static_cast<std::uint64_t>(nv + nf) > text.size()) {
     fail(fmt::format("counts {} vertices and {} faces exceed the file size", nv, nf));
   }
-  std::vector<float> xyz;
+  OffData off;
+  std::vector<float>& xyz = off.xyz;
   xyz.reserve(static_cast<std::size_t>(3 * nv));
   for (std::int64_t v = 0; v < nv; ++v) {
     if (!lines.next(line)) {
@@ -302,8 +245,17 @@ TriangleMesh read_off(std::string_view text, const std::string& name) {
       if (!std::isfinite(x)) fail(fmt::format("vertex {}: non-finite coordinate", v));
       xyz.push_back(x);
     }
+    if (with_normals) {
+      for (int k = 0; k < 3; ++k) {
+        float x = 0.0f;
+        if (!t.next(tok) || !parse_number(tok, x) || !std::isfinite(x)) {
+          fail(fmt::format("vertex {}: expected a finite normal after the coordinates", v));
+        }
+        off.normals.push_back(x);
+      }
+    }
   }
-  std::vector<int> tri;
+  std::vector<int>& tri = off.tri;
   tri.reserve(static_cast<std::size_t>(3 * nf));
   std::vector<int> poly;
   for (std::int64_t f = 0; f < nf; ++f) {
@@ -331,7 +283,16 @@ TriangleMesh read_off(std::string_view text, const std::string& name) {
     }
   }
   if (lines.next(line)) fail("unexpected content after the last face");
-  TriangleMesh m = to_mesh(xyz, tri);
+  off.faces = nf;
+  return off;
+}
+
+TriangleMesh read_off(std::string_view text, const std::string& name) {
+  return mesh_from_off(parse_off(text, name), name);
+}
+
+TriangleMesh mesh_from_off(const OffData& off, const std::string& name) {
+  TriangleMesh m = to_mesh(off.xyz, off.tri);
   check_mesh(m, name);
   return m;
 }

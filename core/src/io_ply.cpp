@@ -278,7 +278,18 @@ void write_mesh_ply(const TriangleMesh& mesh, const std::filesystem::path& path)
 }  // namespace io_detail
 
 PointCloud read_point_cloud(const std::filesystem::path& path) {
-  require_ply_extension(path, "point cloud");
+  const std::string ext = lower_extension(path);
+  if (io_detail::is_xyz_extension(ext))
+    return io_detail::cloud_from_xyz(io_detail::slurp(path), path.string());
+  if (ext == ".off") {
+    return io_detail::cloud_from_off(io_detail::parse_off(io_detail::slurp(path), path.string()),
+                                     path.string());
+  }
+  if (ext != ".ply") {
+    throw IoError(fmt::format(
+        "{}: unsupported point cloud format '{}' (expected .ply, .xyz, .pwn, point-only .off)",
+        path.string(), path.extension().string()));
+  }
   return io_detail::cloud_from_ply(ply::read(path), path.string());
 }
 
@@ -425,7 +436,21 @@ void write_covariance_mesh(const CovarianceMesh& mesh, const std::filesystem::pa
 
 StageData read_stage_file(const std::filesystem::path& path) {
   StageData d;
-  if (lower_extension(path) != ".ply") {
+  const std::string ext = lower_extension(path);
+  if (io_detail::is_xyz_extension(ext)) {
+    d.points = io_detail::cloud_from_xyz(io_detail::slurp(path), path.string());
+    return d;
+  }
+  if (ext == ".off") {
+    const io_detail::OffData off = io_detail::parse_off(io_detail::slurp(path), path.string());
+    if (off.faces == 0) {
+      d.points = io_detail::cloud_from_off(off, path.string());
+    } else {
+      d.mesh = io_detail::mesh_from_off(off, path.string());
+    }
+    return d;
+  }
+  if (ext != ".ply") {
     d.mesh = read_mesh(path);
     return d;
   }
@@ -460,6 +485,28 @@ void write_stage_kind(const StageData& data, DataKind kind, const std::filesyste
       write_covariance_mesh(data.require_covariance_mesh(path.string()), path);
       return;
   }
+}
+
+void write_point_cloud_rgb(const PointCloud& cloud, const std::filesystem::path& path,
+                           std::uint8_t gray) {
+  require_ply_extension(path, "point cloud");
+  cloud.validate(path.string());
+  ply::File f;
+  f.comments.push_back("scanbench point cloud");
+  ply::Element ve;
+  ve.name = "vertex";
+  ve.count = static_cast<std::size_t>(cloud.size());
+  append_xyz(ve, cloud.positions, {"x", "y", "z"});
+  if (cloud.has_normals()) append_xyz(ve, cloud.normals, {"nx", "ny", "nz"});
+  for (const char* c : {"red", "green", "blue"}) {
+    ply::Property p;
+    p.name = c;
+    p.type = ply::Type::UInt8;
+    p.values.assign(ve.count, static_cast<double>(gray));
+    ve.properties.push_back(std::move(p));
+  }
+  f.elements.push_back(std::move(ve));
+  ply::write(f, path);
 }
 
 GaussianMixture read_mixture(const std::filesystem::path& path) {

@@ -59,7 +59,8 @@ void add_algo_command(Cli& cli) {
   sub->add_option("name", opts->name, "Algorithm name, e.g. resample.wlop")->required();
   sub->add_option("-i,--input", opts->inputs,
                   "Input file, repeatable, one per kind the algorithm consumes: a point cloud "
-                  "(.ply), a mixture (.ply with element component), a mesh (.ply with faces, "
+                  "(.ply, .xyz, .pwn or an .off without faces), a mixture (.ply with element "
+                  "component), a mesh (.ply with faces, "
                   ".off, .obj, .stl) or a covariance mesh (.ply with covxx..covzz per vertex)")
       ->required();
   sub->add_option("-o,--output", opts->output,

@@ -57,11 +57,13 @@ TEST(AlgorithmRegistry, SchemasRejectUnknownKeys) {
   }
 }
 
-// Stage data holding every kind an entry may consume: the small scan, its HEM mixture, a coarse
-// sphere mesh and that mesh with isotropic covariances.
+// Stage data holding every kind an entry may consume: the small scan with its PCA normals
+// (reconstruct.poisson needs oriented normals), its HEM mixture, a coarse sphere mesh and that
+// mesh with isotropic covariances.
 StageData every_kind() {
-  StageData d = small_scan();
   RunContext ctx(3);
+  const auto& pca = registry().at("normals.pca");
+  StageData d = pca.fn(small_scan(), pca.params.validate(Json::object(), "test"), ctx).points;
   const auto& hem = registry().at("mixture.hem");
   d.mixture = hem.fn(d, hem.params.validate(Json::object(), "test"), ctx).mixture;
   SphereParams sp;
@@ -80,13 +82,23 @@ StageData every_kind() {
   return d;
 }
 
+// Parameters an entry cannot run without (external.*: the command to run).
+Json test_params(const std::string& name) {
+  if (name == "external.points") return Json{{"command", "cp {in} {out}"}};
+  if (name == "external.mesh") {
+    return Json{{"command", "printf 'OFF\\n3 1 0\\n0 0 0\\n1 0 0\\n0 1 0\\n3 0 1 2\\n' > {out}"},
+                {"extension", ".off"}};
+  }
+  return Json::object();
+}
+
 TEST(AlgorithmRegistry, EveryEntryRunsByNameOnASmallScan) {
   const StageData all = every_kind();
   ASSERT_FALSE(registry().entries().empty());
   for (const auto& e : registry().entries()) {
     SCOPED_TRACE(e.name);
     RunContext ctx(5);
-    const Json params = e.params.validate(Json::object(), e.name);
+    const Json params = e.params.validate(test_params(e.name), e.name);
     EXPECT_TRUE(e.fn.io.produces.has(e.fn.io.primary));
     // The entry gets exactly what it consumes, nothing else.
     StageData in;

@@ -1,7 +1,7 @@
 // libFuzzer target for core's hand-written readers (PLY codec and its mesh/cloud/mixture mapping,
-// OFF, STL). The first byte picks the reader, the rest is the file content. A reader may only
-// return a valid object or throw IoError; any other exception, crash, leak or sanitizer report is
-// a bug. Build and run: see tests/fuzz/CMakeLists.txt.
+// OFF, STL, XYZ/PWN, point-only OFF). The first byte picks the reader, the rest is the file
+// content. A reader may only return a valid object or throw IoError; any other exception, crash,
+// leak or sanitizer report is a bug. Build and run: see tests/fuzz/CMakeLists.txt.
 #include <cstddef>
 #include <cstdint>
 #include <sstream>
@@ -17,7 +17,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   const std::string_view body(reinterpret_cast<const char*>(data) + 1, size - 1);
   const std::string name = "fuzz";
   try {
-    switch (data[0] % 5) {
+    switch (data[0] % 7) {
       case 0: {
         std::istringstream in{std::string(body)};
         (void)scanbench::io_detail::mesh_from_ply(scanbench::ply::read(in, name), name);
@@ -36,8 +36,15 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       case 3:
         (void)scanbench::io_detail::read_off(body, name);
         break;
-      default:
+      case 4:
         (void)scanbench::io_detail::read_stl(body, name);
+        break;
+      case 5:
+        (void)scanbench::io_detail::cloud_from_xyz(body, name);
+        break;
+      default:
+        (void)scanbench::io_detail::cloud_from_off(scanbench::io_detail::parse_off(body, name),
+                                                   name);
         break;
     }
   } catch (const scanbench::IoError&) {

@@ -54,9 +54,11 @@ inline constexpr std::array<double, 3> kClopFitSigmas = {0.11772, 0.03287, 0.010
 /// in units where alpha(r) = theta(r) / (r / h) (i.e. h = 1 scaling).
 double clop_alpha_hat(double r, double h);
 
-/// Declares the CLOP parameters (shared by ClopParams and CswParams).
+/// Declares the parameters of the CLOP projection (shared by ClopParams and CswParams, which
+/// projects particles onto a given mixture with resample=true) on T derived from
+/// ClopProjectionSettings.
 template <class T>
-void declare_clop_params(ParamDeclarer<T>& d) {
+void declare_clop_projection_params(ParamDeclarer<T>& d) {
   d.real("h", &T::h, Range::open_min(0.0, 1.0), "diag",
          "kernel support radius h, theta(r) = exp(-16 r^2/h^2) (LOP/CLOP convention)");
   d.real("mu", &T::mu, Range::half_open(0.0, 0.5), "", "repulsion weight mu of q = F1 + mu F2");
@@ -70,11 +72,17 @@ void declare_clop_params(ParamDeclarer<T>& d) {
          "repulsion kernel cutoff as a fraction of h (section 8: 0.5)");
   d.flag("interleave", &T::interleave,
          "recompute the repulsion only every second iteration and in the last (section 8)");
+}
+
+/// Declares the CLOP parameters: the projection's and HEM's.
+template <class T>
+void declare_clop_params(ParamDeclarer<T>& d) {
+  declare_clop_projection_params(d);
   declare_hem_params(d);
 }
 
-/// The CLOP settings with their defaults, held once (ClopParams and CswParams derive from it).
-struct ClopSettings : HemSettings {
+/// The settings of the CLOP projection with their defaults, held once.
+struct ClopProjectionSettings {
   double h = 0.02;
   double mu = 0.4;
   int iterations = 10;
@@ -82,6 +90,9 @@ struct ClopSettings : HemSettings {
   double repulsion_cutoff = 0.5;
   bool interleave = true;
 };
+
+/// The CLOP settings with their defaults (ClopParams derives from it).
+struct ClopSettings : HemSettings, ClopProjectionSettings {};
 
 struct ClopParams : ClopSettings {
   static void declare(ParamDeclarer<ClopParams>& d) { declare_clop_params(d); }

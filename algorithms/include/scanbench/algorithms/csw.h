@@ -2,10 +2,13 @@
 // normals.csw: continuous spherical Weiszfeld normals (Preiner et al. 2014, "Continuous Projection
 // for Fast L1 Reconstruction", section 9; REFERENCE.md section 3).
 //
-// The HEM mixture of the input (scanbench/algorithms/hem.h) carries on every Gaussian a wrapped
-// normal (axis mu_s, spread sigma_s^2) merged with the spatial responsibilities (eq. 29-30). The
-// particles are the CLOP particles of the input (`resample`, scanbench/algorithms/clop.h) or the
-// input points themselves. Each particle normal n starts from
+// The step consumes points and the Gaussian mixture of a preceding mixture.hem step (chain
+// `mixture.hem -> normals.csw`; scanbench/algorithms/hem.h), which carries on every Gaussian a
+// wrapped normal (axis mu_s, spread sigma_s^2) merged with the spatial responsibilities (eq.
+// 29-30); the HEM parameters belong to that step. The particles are the CLOP particles projected
+// onto that mixture (`resample`: a seeded subset of the points, then clop_project of
+// scanbench/algorithms/clop.h, sections 6-8, with this step's h, mu, iterations...) or the input
+// points themselves. Each particle normal n starts from
 //  - the input normal (only when not resampling and the input has normals), else
 //  - the continuous PCA normal: the smallest eigenvector of sum_s omega_s (Sigma_s +
 //    (mu_s - c)(mu_s - c)^T), c = sum_s omega_s mu_s / sum_s omega_s (the L2 counterpart),
@@ -24,20 +27,28 @@
 // Orientation: the normals are unoriented axes; each is flipped towards the sensor of the nearest
 // input point when the input has scan ids and sensor origins, else to agree with the nearest
 // input point's normal when the input has normals, else left as the iteration returns it.
+// In the chain mixture.hem -> normals.csw the input points are mixture.hem's output points: the
+// component means, with the (unoriented) normal axes as normals and no sensors. `particles` is
+// then a share of the means (or an absolute count > 1), and the orientation follows the nearest
+// mean's axis, i.e. the normals are unoriented in effect (as the unoriented normal metrics score
+// them). Before this step consumed a mixture it ran HEM itself on the scan (particles a share of
+// the scan, oriented toward its sensors).
 #include "scanbench/algorithms/clop.h"
 #include "scanbench/algorithms/registry.h"
 #include "scanbench/core/params.h"
 #include "scanbench/core/point_cloud.h"
 #include "scanbench/core/run_context.h"
+#include "scanbench/core/stage_data.h"
 
 namespace scanbench::algorithms {
 
-/// CSW settings; the CLOP and HEM settings (used when resample is true; h also sets the density
-/// weights of the mixture) come from ClopSettings.
-struct CswParams : ClopSettings {
+/// CSW settings; the CLOP projection settings (used when resample is true) come from
+/// ClopProjectionSettings. The mixture's own settings are mixture.hem's.
+struct CswParams : ClopProjectionSettings {
   bool resample = true;
   double normal_h = 0.02;
   int csw_iterations = 10;
+  bool weighted = true;
 
   static void declare(ParamDeclarer<CswParams>& d) {
     d.flag("resample", &CswParams::resample,
@@ -47,7 +58,9 @@ struct CswParams : ClopSettings {
            "against each Gaussian, eq. 24 weights)");
     d.integer("csw_iterations", &CswParams::csw_iterations, Range::closed(0, 1000), "",
               "continuous spherical Weiszfeld steps (eq. 31-34; the paper used 13)");
-    declare_clop_params(d);
+    declare_clop_projection_params(d);
+    d.flag("weighted", &CswParams::weighted,
+           "with resample: WLOP particle density weights w_i' in the CLOP repulsion (eq. 5)");
   }
 };
 
@@ -59,8 +72,9 @@ Eigen::Matrix3Xf csw_normals(const GaussianMixture& m, const Eigen::Matrix3Xf& p
                              const Eigen::Matrix3Xf& initial, double normal_h_abs, int iterations,
                              RunContext& ctx);
 
-/// normals.csw on `in` (lengths relative to in's bbox diagonal). Output: the particles (or the
-/// input points) with normals, and the mixture. Throws InputError on an empty or invalid cloud.
-AlgorithmOutput csw(const PointCloud& in, const CswParams& p, RunContext& ctx);
+/// normals.csw on the points and mixture of `in` (lengths relative to the points' bbox
+/// diagonal). Output: the particles (or the input points) with normals. Throws InputError on
+/// empty or invalid points, a missing mixture or one without normal axes.
+PointCloud csw(const StageData& in, const CswParams& p, RunContext& ctx);
 
 }  // namespace scanbench::algorithms

@@ -10,6 +10,15 @@
 //  - point clouds: .ply with element `vertex` (x, y, z; optional nx, ny, nz; weight; scan_id; any
 //    further float property kept by name) and an optional element `sensor` (x, y, z), one per
 //    scan id. Writing is deterministic (no timestamps), so equal clouds give equal bytes.
+//    Also read (not written), as CGAL's read_XYZ / read_OFF and Open3D read them:
+//    .xyz and .pwn text, one point per line: `x y z` or `x y z nx ny nz`; '#' comments and blank
+//    lines skipped; an optional first line holding only the point count (checked). Every line
+//    must have the first line's number of values (at least 3); another count is kept: values
+//    4.. become float properties `column4`, `column5`... (CGAL would read columns 4-6 of a
+//    9-column file as a normal; we do not guess). Six columns whose last three are all zero are
+//    points without normals (CGAL writes zeros then). Non-numbers, NaN/inf, fewer than 3 values
+//    or a changing column count are IoError("<path>: line <n>: ...").
+//    Point-only .off (an OFF with 0 faces, as CGAL's data/points_3/kitten.off; NOFF with normals).
 //  - Gaussian mixtures: .ply with element `component` and properties x, y, z, covxx, covxy,
 //    covxz, covyy, covyz, covzz, weight (the convention of the reference HEM tools) plus optional
 //    nx, ny, nz, normal_spread for the normal-axis distribution.
@@ -17,6 +26,7 @@
 //  covxz,
 //    covyy, covyz, covzz; written as double) and element `face` (list vertex_indices; polygons
 //    kept).
+#include <cstdint>
 #include <filesystem>
 
 #include "scanbench/core/covariance_mesh.h"
@@ -32,9 +42,16 @@ enum class PlyFormat { Ascii, BinaryLittleEndian };
 TriangleMesh read_mesh(const std::filesystem::path& path);
 void write_mesh(const TriangleMesh& mesh, const std::filesystem::path& path);
 
+/// .ply, .xyz, .pwn or point-only .off (by extension; see above).
 PointCloud read_point_cloud(const std::filesystem::path& path);
 void write_point_cloud(const PointCloud& cloud, const std::filesystem::path& path,
                        PlyFormat format = PlyFormat::BinaryLittleEndian);
+
+/// Binary PLY of positions and normals (when present) as float x y z [nx ny nz] plus uchar red
+/// green blue, all set to `gray`: the layout external tools built on PoissonRecon require (COLMAP's
+/// poisson_mesher reads nothing, and exits 0, from a PLY without uchar colours).
+void write_point_cloud_rgb(const PointCloud& cloud, const std::filesystem::path& path,
+                           std::uint8_t gray = 128);
 
 GaussianMixture read_mixture(const std::filesystem::path& path);
 void write_mixture(const GaussianMixture& mixture, const std::filesystem::path& path,
@@ -46,7 +63,8 @@ void write_covariance_mesh(const CovarianceMesh& mesh, const std::filesystem::pa
 
 /// Reads a file as the stage data it holds, told apart by content: a PLY with element `component`
 /// is a mixture; a PLY whose vertices have covxx..covzz a covariance mesh; a PLY with faces a mesh;
-/// any other PLY a point cloud; .off, .obj and .stl are meshes.
+/// any other PLY a point cloud; .xyz and .pwn are point clouds; an .off is a mesh, or a point cloud
+/// when it has 0 faces; .obj and .stl are meshes.
 StageData read_stage_file(const std::filesystem::path& path);
 /// Writes the `kind` of `data` (throws InputError when `data` does not hold it).
 void write_stage_kind(const StageData& data, DataKind kind, const std::filesystem::path& path);

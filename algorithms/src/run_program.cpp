@@ -1,0 +1,156 @@
+#include "run_program.h"
+
+#include <fcntl.h>
+#include <fmt/format.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <chrono>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <thread>
+
+#include "scanbench/core/errors.h"
+
+extern char** environ;
+
+namespace scanbench::algorithms::detail {
+
+namespace fs = std::filesystem;
+
+TempDir::TempDir(std::string_view stage) {
+  std::string pattern =
+      (fs::temp_directory_path() / fmt::format("scanbench-{}-XXXXXX", stage)).string();
+  if (::mkdtemp(pattern.data()) == nullptr) {
+    throw Error(fmt::format("{}: cannot create a temporary directory {}: {}", stage, pattern,
+                            std::strerror(errno)));
+  }
+  path_ = pattern;
+}
+
+TempDir::~TempDir() {
+  std::error_code ec;
+  fs::remove_all(path_, ec);  // best effort: a destructor must not throw
+}
+
+std::string log_tail(const fs::path& workdir, int lines) {
+  for (const char* name : {"stderr.txt", "stdout.txt"}) {
+    std::ifstream in(workdir / name);
+    std::vector<std::string> kept;
+    std::string line;
+    while (std::getline(in, line)) {
+      if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
+      kept.push_back(line);
+      if (kept.size() > static_cast<std::size_t>(lines)) kept.erase(kept.begin());
+    }
+    if (kept.empty()) continue;
+    std::string out;
+    for (const auto& l : kept)
+      out += (out.empty() ? "" : " | ") + l;
+    return out;
+  }
+  return "";
+}
+
+namespace {
+
+std::string with_log(std::string message, const fs::path& workdir) {
+  const std::string tail = log_tail(workdir);
+  return tail.empty() ? message + " (no output on stderr or stdout)" : message + ": " + tail;
+}
+
+}  // namespace
+
+void run_program(const std::vector<std::string>& argv, const fs::path& workdir, double timeout_s,
+                 std::string_view stage, RunContext& ctx) {
+  if (argv.empty() || argv[0].empty()) throw Error(fmt::format("{}: empty command", stage));
+  const std::string program = argv[0];
+  std::vector<char*> args;
+  for (const auto& a : argv)
+    args.push_back(const_cast<char*>(a.c_str()));
+  args.push_back(nullptr);
+
+  // posix_spawn rather than fork: the caller is multi-threaded (TBB).
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  const std::string out = (workdir / "stdout.txt").string();
+  const std::string err = (workdir / "stderr.txt").string();
+  posix_spawn_file_actions_addopen(&actions, 0, "/dev/null", O_RDONLY, 0);
+  posix_spawn_file_actions_addopen(&actions, 1, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
+  posix_spawn_file_actions_addopen(&actions, 2, err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
+  posix_spawn_file_actions_addchdir_np(&actions, workdir.c_str());
+  posix_spawnattr_t attr;
+  posix_spawnattr_init(&attr);
+  posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETPGROUP);
+  posix_spawnattr_setpgroup(&attr, 0);
+  pid_t pid = 0;
+  const int rc = ::posix_spawnp(&pid, program.c_str(), &actions, &attr, args.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  posix_spawnattr_destroy(&attr);
+  if (rc != 0) {
+    throw Error(fmt::format("{}: cannot run '{}': {}", stage, program, std::strerror(rc)));
+  }
+
+  using Clock = std::chrono::steady_clock;
+  const auto deadline = Clock::now() + std::chrono::duration<double>(timeout_s);
+  int status = 0;
+  auto kill_group = [&] {
+    ::kill(-pid, SIGKILL);
+    while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+    }
+  };
+  for (auto pause = std::chrono::milliseconds(1);;
+       pause = std::min(pause * 2, std::chrono::milliseconds(50))) {
+    const pid_t w = ::waitpid(pid, &status, WNOHANG);
+    if (w == pid) break;
+    if (w < 0 && errno != EINTR) {
+      throw Error(
+          fmt::format("{}: waiting for '{}' failed: {}", stage, program, std::strerror(errno)));
+    }
+    if (Clock::now() > deadline) {
+      kill_group();
+      throw Error(
+          with_log(fmt::format("{}: '{}' timed out after {} s (killed)", stage, program, timeout_s),
+                   workdir));
+    }
+    try {
+      ctx.check_cancelled(stage);
+    } catch (...) {
+      kill_group();
+      throw;
+    }
+    std::this_thread::sleep_for(pause);
+  }
+  // The program's children may outlive it; they belong to its group.
+  ::kill(-pid, SIGKILL);
+  if (WIFSIGNALED(status)) {
+    throw Error(with_log(fmt::format("{}: '{}' was killed by signal {} ({})", stage, program,
+                                     WTERMSIG(status), strsignal(WTERMSIG(status))),
+                         workdir));
+  }
+  const int code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  if (code != 0) {
+    throw Error(
+        with_log(fmt::format("{}: '{}' exited with code {}", stage, program, code), workdir));
+  }
+}
+
+void require_output(const fs::path& path, const fs::path& workdir, std::string_view program,
+                    std::string_view what, std::string_view stage) {
+  std::error_code ec;
+  const bool exists = fs::is_regular_file(path, ec);
+  const auto size = exists ? fs::file_size(path, ec) : 0;
+  if (!exists || size == 0) {
+    throw Error(
+        with_log(fmt::format("{}: '{}' exited with code 0 but wrote {} {} {}", stage, program,
+                             exists ? "an empty" : "no", what, path.filename().string()),
+                 workdir));
+  }
+}
+
+}  // namespace scanbench::algorithms::detail
