@@ -50,6 +50,12 @@ install_packages() {
     >"$dir/apt.log" 2>&1 || die "apt-get install ${missing[*]} failed (see $dir/apt.log)"
 }
 
+# Runs "$@" without this script's descriptors above 2: a daemon that inherited a lock or a pipe
+# (this script's lock, a caller's build lock, a test's popen pipe) would hold it as long as it runs.
+closing_fds() {
+  bash -c 'for f in /proc/$$/fd/*; do n=${f##*/}; if ((n > 2)); then eval "exec $n>&-"; fi; done 2>/dev/null; exec "$@"' _ "$@"
+}
+
 pid_alive() { [[ -f "$1" ]] && kill -0 "$(cat "$1")" 2>/dev/null; }
 
 munge_answers() { munge -n 2>/dev/null | unmunge >/dev/null 2>&1; }
@@ -68,7 +74,7 @@ start_munge() {
   mkdir -p /run/munge /var/log/munge /var/lib/munge
   chown munge:munge /run/munge /var/log/munge /var/lib/munge
   chmod 0755 /run/munge
-  runuser -u munge -- /usr/sbin/munged </dev/null >/dev/null 2>&1 || die "munged did not start"
+  closing_fds runuser -u munge -- /usr/sbin/munged </dev/null >/dev/null 2>&1 || die "munged did not start"
   for _ in $(seq 50); do
     munge_answers && break
     sleep 0.1
@@ -140,12 +146,15 @@ start() {
   start_munge
   write_conf
   if ! pid_alive "$dir/slurmctld.pid.ours"; then
-    # setsid + redirections: the daemons outlive this script and hold none of its pipes.
-    setsid /usr/sbin/slurmctld -D -f "$conf" </dev/null >>"$dir/log/slurmctld.out" 2>&1 &
+    # setsid + closing_fds + redirections: the daemons outlive this script and hold none of its
+    # descriptors. setsid does not fork here (not a group leader), so $! is the daemon's PID.
+    setsid bash -c 'for f in /proc/$$/fd/*; do n=${f##*/}; if ((n > 2)); then eval "exec $n>&-"; fi; done 2>/dev/null; exec "$@"' _ \
+      /usr/sbin/slurmctld -D -f "$conf" </dev/null >>"$dir/log/slurmctld.out" 2>&1 &
     echo $! >"$dir/slurmctld.pid.ours"
   fi
   if ! pid_alive "$dir/slurmd.pid.ours"; then
-    setsid /usr/sbin/slurmd -D -N localhost -f "$conf" </dev/null >>"$dir/log/slurmd.out" 2>&1 &
+    setsid bash -c 'for f in /proc/$$/fd/*; do n=${f##*/}; if ((n > 2)); then eval "exec $n>&-"; fi; done 2>/dev/null; exec "$@"' _ \
+      /usr/sbin/slurmd -D -N localhost -f "$conf" </dev/null >>"$dir/log/slurmd.out" 2>&1 &
     echo $! >"$dir/slurmd.pid.ours"
   fi
   local state=""

@@ -173,15 +173,17 @@ void add_run_command(Cli& cli) {
   add_run_options(sub, *a);
   add_slurm_options(sub, *a);
   sub->callback([&cli, a, sub] {
+    std::string misuse;  // reported as one line (ParamError) when the action runs
     if (a->executor == "local") {
       for (const char* opt : {"--partition", "--array-limit", "--chunk", "--sbatch-arg", "--wait"})
-        if (sub->get_option(opt)->count() > 0) {
-          throw CLI::ValidationError(opt, "needs --executor slurm");
+        if (misuse.empty() && sub->get_option(opt)->count() > 0) {
+          misuse = fmt::format("{}: needs --executor slurm", opt);
         }
     } else if (sub->get_option("--jobs")->count() > 0) {
-      throw CLI::ValidationError("--jobs", "is for the local executor (with slurm: --array-limit)");
+      misuse = "--jobs: is for the local executor (with --executor slurm: --array-limit)";
     }
-    cli.action = [a] {
+    cli.action = [a, misuse] {
+      if (!misuse.empty()) throw ParamError(misuse);
       do_run(*a, config_root() / "default.json", "");
       return 0;
     };
