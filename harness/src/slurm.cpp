@@ -578,11 +578,8 @@ int run_slurm_task(const fs::path& dir, const std::string& submission) {
   o.jobs = 1;
   RunHooks hooks;
   hooks.started = [&](const Job& job) {
-    const Json m = {{"task", task},
-                    {"array_job", array_job},
-                    {"slurm_job", slurm_job},
-                    {"host", host},
-                    {"date", utc_now()}};
+    const Json m = {{"task", task}, {"array_job", array_job}, {"slurm_job", slurm_job},
+                    {"host", host}, {"pid", getpid()},        {"date", utc_now()}};
     write_file_atomic(sub / "started" / job.id, m.dump() + "\n");
   };
   hooks.stop = [] { return g_stop_requested != 0; };

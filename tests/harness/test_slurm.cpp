@@ -233,10 +233,12 @@ TEST(SlurmE2E, ArrayOfTwelveJobsEqualsLocalRun) {
   fs::remove_all(dir);
 }
 
-// scancel of a running task (chunks of 2 jobs): its running job is recorded as interrupted with
-// Slurm's reason, the chunk's second job has no record, the merge job lists it with the command
-// that resubmits; a submission into the busy folder is refused; --resume then completes the
-// folder with nothing lost or duplicated, equal to a local run.
+// Two running tasks (chunks of 2 jobs) are stopped: one by scancel (its running job is recorded
+// as interrupted by the task, with Slurm's CANCELLED line), one killed outright like on a node
+// failure (SIGKILL to the task: the merge job records its running job from scontrol). The
+// chunks' second jobs have no record: the merge job lists them with the command that resubmits.
+// A submission into the busy folder is refused. --resume then completes the folder with nothing
+// lost or duplicated, equal to a local run.
 TEST(SlurmE2E, ScancelOneTaskThenResumeCompletesTheFolder) {
   REQUIRE_CLUSTER();
   const fs::path dir = make_temp_dir("slurm-cancel");
@@ -249,59 +251,72 @@ TEST(SlurmE2E, ScancelOneTaskThenResumeCompletesTheFolder) {
   const Json sub = Json::parse(slurp(out / "slurm" / "001" / "submission.json"));
   const std::vector<std::string> jobs = sub["jobs"].get<std::vector<std::string>>();
   ASSERT_EQ(jobs.size(), 12u);
+  auto index_of = [&](const std::string& id) {
+    return static_cast<std::size_t>(std::find(jobs.begin(), jobs.end(), id) - jobs.begin());
+  };
 
-  // Wait for a task running the first job of its chunk.
-  std::string victim_job, victim_task;
+  // Wait for two tasks running the first job of their chunk at the same time.
+  std::vector<std::pair<std::string, std::string>> victims;  // (job id, Slurm task "12_3")
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
-  while (victim_job.empty() && std::chrono::steady_clock::now() < deadline) {
+  while (victims.size() < 2 && std::chrono::steady_clock::now() < deadline) {
+    victims.clear();
     const Json s = status_of(out);
     if (s.is_object()) {
       for (const auto& item : s["running"]) {
         const std::string id = item["id"].get<std::string>();
-        const auto k = std::find(jobs.begin(), jobs.end(), id) - jobs.begin();
         std::smatch m;
         const std::string detail = item["detail"].get<std::string>();
-        if (k % 2 == 0 && std::regex_search(detail, m, std::regex("Slurm job (\\d+_\\d+)"))) {
-          victim_job = id;
-          victim_task = m[1];
-          break;
+        if (index_of(id) % 2 == 0 &&
+            std::regex_search(detail, m, std::regex("Slurm job (\\d+_\\d+)"))) {
+          victims.emplace_back(id, m[1]);
         }
       }
     }
-    if (victim_job.empty()) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    if (victims.size() < 2) std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
-  ASSERT_FALSE(victim_job.empty()) << "no task was seen running";
+  ASSERT_EQ(victims.size(), 2u) << "two tasks were not seen running at once";
 
-  // The folder is busy: another submission is refused, with one line and exit 2.
+  const Json marker = Json::parse(slurp(out / "slurm" / "001" / "started" / victims[1].first));
+  ASSERT_EQ(sh("scancel " + victims[0].second).code, 0);
+  ASSERT_EQ(sh("kill -KILL " + std::to_string(marker["pid"].get<int>())).code, 0);
+
+  // The folder is still busy (the other tasks, the merge job): another submission is refused,
+  // with one line and exit 2.
   const auto busy = sh(sb() + " run " + cfg + " -o " + out.string() + " --executor slurm --resume");
   EXPECT_EQ(busy.code, 2) << busy.out;
   EXPECT_NE(busy.out.find("still writing this folder"), std::string::npos) << busy.out;
   EXPECT_EQ(std::count(busy.out.begin(), busy.out.end(), '\n'), 1) << busy.out;
   EXPECT_EQ(count_submissions(out), 1);
 
-  ASSERT_EQ(sh("scancel " + victim_task).code, 0);
   const Json idle = wait_until_idle(out);
   ASSERT_TRUE(idle.is_object());
-  EXPECT_EQ(idle["counts"]["done"], 10) << idle.dump(1);
-  EXPECT_EQ(idle["counts"]["failed"], 1) << idle.dump(1);
-  EXPECT_EQ(idle["counts"]["without_record"], 1) << idle.dump(1);
-  const auto k = std::find(jobs.begin(), jobs.end(), victim_job) - jobs.begin();
-  const std::string never_started = jobs[static_cast<std::size_t>(k) + 1];
-  const Json rec = Json::parse(slurp(out / "jobs" / (victim_job + ".json")));
-  EXPECT_EQ(rec["status"], "interrupted") << rec.dump();
-  EXPECT_NE(rec["error"].get<std::string>().find("CANCELLED"), std::string::npos) << rec["error"];
-  EXPECT_FALSE(fs::exists(out / "jobs" / (never_started + ".json")));
+  EXPECT_EQ(idle["counts"]["done"], 8) << idle.dump(1);
+  EXPECT_EQ(idle["counts"]["failed"], 2) << idle.dump(1);
+  EXPECT_EQ(idle["counts"]["without_record"], 2) << idle.dump(1);
+  const Json cancelled = Json::parse(slurp(out / "jobs" / (victims[0].first + ".json")));
+  EXPECT_EQ(cancelled["status"], "interrupted") << cancelled.dump();
+  EXPECT_NE(cancelled["error"].get<std::string>().find("CANCELLED AT"), std::string::npos)
+      << cancelled["error"];
+  const Json killed = Json::parse(slurp(out / "jobs" / (victims[1].first + ".json")));
+  EXPECT_EQ(killed["status"], "interrupted") << killed.dump();
+  EXPECT_NE(killed["error"].get<std::string>().find(victims[1].second + " ended in state "),
+            std::string::npos)
+      << killed["error"];
   const std::string merge_log = slurp(out / "slurm" / "001" / "merge.out");
-  EXPECT_NE(merge_log.find("1 job without a record"), std::string::npos) << merge_log;
-  EXPECT_NE(merge_log.find(never_started), std::string::npos) << merge_log;
+  EXPECT_NE(merge_log.find("2 jobs without a record"), std::string::npos) << merge_log;
+  for (const auto& [id, task] : victims) {
+    const std::string never_started = jobs[index_of(id) + 1];
+    EXPECT_FALSE(fs::exists(out / "jobs" / (never_started + ".json")));
+    EXPECT_NE(merge_log.find(never_started), std::string::npos) << merge_log;
+  }
   EXPECT_NE(merge_log.find("--executor slurm --resume"), std::string::npos) << merge_log;
-  EXPECT_EQ(read_jsonl(out / "runs.jsonl").size(), 11u);
+  EXPECT_EQ(read_jsonl(out / "runs.jsonl").size(), 10u);
 
-  // --resume submits the interrupted job and the one without a record, and nothing else.
+  // --resume submits the interrupted jobs and those without a record, and nothing else.
   const auto resumed = sh(sb() + " run " + cfg + " -o " + out.string() +
                           " --executor slurm --array-limit 2 --resume --wait");
   ASSERT_EQ(resumed.code, 0) << resumed.out;
-  EXPECT_NE(resumed.out.find("10 already done, 2 submitted"), std::string::npos) << resumed.out;
+  EXPECT_NE(resumed.out.find("8 already done, 4 submitted"), std::string::npos) << resumed.out;
   const auto local = sh(sb() + " run " + cfg + " -o " + (dir / "local").string() + " -j 2 -q");
   ASSERT_EQ(local.code, 0) << local.out;
   const auto a = read_jsonl(dir / "local" / "runs.jsonl");
