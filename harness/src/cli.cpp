@@ -28,6 +28,9 @@ int run_cli(int argc, char** argv) {
   add_compare_command(cli);
   add_report_command(cli);
   add_nightly_command(cli);
+  add_status_command(cli);
+  add_merge_command(cli);
+  add_slurm_task_command(cli);
 
   try {
     cli.app.parse(argc, argv);

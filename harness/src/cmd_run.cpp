@@ -1,4 +1,6 @@
 // scanbench run [CONFIG] [-o DIR] [--jobs N] [--resume] [--filter REGEX]
+//               [--executor local|slurm [--partition P] [--array-limit N] [--chunk N]
+//                [--sbatch-arg ARG]... [--wait]]
 // scanbench job SPEC RESULT            (hidden: the child process of one job)
 // scanbench nightly [-o DIR] [--baseline DIR] [--update-baseline]
 #include <fmt/format.h>
@@ -14,6 +16,7 @@
 #include "scanbench/harness/records.h"
 #include "scanbench/harness/report.h"
 #include "scanbench/harness/runner.h"
+#include "scanbench/harness/slurm.h"
 #include "scanbench/harness/table.h"
 
 namespace scanbench::harness {
@@ -30,6 +33,9 @@ struct RunArgs {
   bool retry_failed = false;
   std::string filter;
   bool quiet = false;
+  // --executor slurm (run only)
+  std::string executor = "local";
+  SlurmOptions slurm;
 };
 
 void add_run_options(CLI::App* sub, RunArgs& a) {
@@ -53,27 +59,35 @@ std::string stamp() {
   return s;
 }
 
-/// Runs the config and prints the summary; returns the results folder.
-fs::path do_run(const RunArgs& a, const fs::path& default_config, const std::string& default_out) {
-  const fs::path config = a.config.empty() ? default_config : fs::path(a.config);
-  const Experiment e = load_experiment(config);
-  RunOptions o;
-  o.out = a.out.empty() ? fs::path(default_out.empty() ? "results/" + e.name : default_out)
-                        : fs::path(a.out);
-  o.jobs = a.jobs;
-  o.resume = a.resume;
-  o.retry_failed = a.retry_failed;
-  o.filter = a.filter;
-  o.quiet = a.quiet;
-  const RunSummary s = run_experiment(e, o);
-  const std::vector<Json> records = load_job_records(o.out);
+void add_slurm_options(CLI::App* sub, RunArgs& a) {
+  sub->add_option("--executor", a.executor,
+                  "local: child processes on this machine (default); slurm: one Slurm job array "
+                  "and a dependent merge job (README, \"On a cluster\")")
+      ->check(CLI::IsMember({"local", "slurm"}));
+  sub->add_option("--partition", a.slurm.partition, "Slurm partition (default: the cluster's)");
+  sub->add_option("--array-limit", a.slurm.array_limit,
+                  "At most this many array tasks at once (sbatch --array=...%N)")
+      ->check(CLI::Range(1, 1000000));
+  sub->add_option("--chunk", a.slurm.chunk, "Jobs per array task (default 1)")
+      ->check(CLI::Range(1, 1000000));
+  sub->add_option("--sbatch-arg", a.slurm.sbatch_args,
+                  "Extra sbatch argument, after scanbench's own (repeatable), e.g. "
+                  "--sbatch-arg=--account=proj")
+      ->allow_extra_args(false);
+  sub->add_flag("--wait", a.slurm.wait,
+                "Wait until the array and the merge job have ended, then print the summary");
+}
+
+/// The summary printed after a run: statuses, the tables, the failed jobs.
+void print_summary(const std::string& name, const RunSummary& s, const fs::path& out) {
+  const std::vector<Json> records = load_job_records(out);
   std::vector<Json> ok;
   for (const auto& r : records)
     if (r.value("status", std::string()) == "ok") ok.push_back(r);
   std::string statuses;
   for (const auto& [k, v] : s.by_status)
     statuses += fmt::format("{}{} {}", statuses.empty() ? "" : ", ", v, k);
-  fmt::print("\n{}: {} jobs selected, {} already done, {} ran ({})\n", e.name, s.planned, s.skipped,
+  fmt::print("\n{}: {} jobs selected, {} already done, {} ran ({})\n", name, s.planned, s.skipped,
              s.ran, statuses.empty() ? "none" : statuses);
   if (!records.empty()) {
     fmt::print("\n{}\n", render_table(build_table(records, TableSpec{}), "md"));
@@ -89,7 +103,61 @@ fs::path do_run(const RunArgs& a, const fs::path& default_config, const std::str
                  r.value("key", std::string()), r.value("error", std::string()));
     }
   }
-  fmt::print("records: {}/runs.jsonl, {}/runs.csv\n", o.out.string(), o.out.string());
+  fmt::print("records: {}/runs.jsonl, {}/runs.csv\n", out.string(), out.string());
+}
+
+/// --executor slurm: submits, and with --wait waits and prints the summary of the submitted jobs.
+void do_slurm_run(const Experiment& e, const RunOptions& o, const SlurmOptions& so) {
+  const SlurmSubmission sub = submit_slurm(e, o, so);
+  RunSummary s = sub.prepared.summary;
+  if (sub.id.empty()) {
+    fmt::print("{}: {} jobs selected, {} already done: nothing to submit (merged {}/runs.jsonl)\n",
+               e.name, s.planned, s.skipped, o.out.string());
+    return;
+  }
+  const fs::path dir = fs::absolute(o.out).lexically_normal();
+  fmt::print(
+      "{}: {} jobs selected, {} already done, {} submitted as submission {}: Slurm array job {} "
+      "({} tasks{}), merge job {} (afterany)\n"
+      "  logs: {}/slurm/{}/task-<i>.out, merge.out; per job {}/logs/<id>.log\n",
+      e.name, s.planned, s.skipped, sub.prepared.todo.size(), sub.id, sub.array_job, sub.tasks,
+      so.array_limit > 0 ? fmt::format(", at most {} at once", so.array_limit) : "", sub.merge_job,
+      dir.string(), sub.id, dir.string());
+  if (!so.wait) {
+    fmt::print("  follow it with: scanbench status {}\n", dir.string());
+    return;
+  }
+  std::fflush(stdout);
+  wait_for_submission(dir, sub);
+  for (std::size_t i : sub.prepared.todo) {
+    const fs::path rec = dir / "jobs" / (sub.prepared.plan.jobs[i].id + ".json");
+    if (!fs::exists(rec)) continue;
+    ++s.ran;
+    ++s.by_status[read_json_file(rec).value("status", std::string("?"))];
+  }
+  print_summary(e.name, s, dir);
+  const FolderStatus st = folder_status(dir);
+  if (!st.not_run.empty()) fmt::print("\n{}", render_status(st));
+}
+
+/// Runs the config and prints the summary; returns the results folder.
+fs::path do_run(const RunArgs& a, const fs::path& default_config, const std::string& default_out) {
+  const fs::path config = a.config.empty() ? default_config : fs::path(a.config);
+  const Experiment e = load_experiment(config);
+  RunOptions o;
+  o.out = a.out.empty() ? fs::path(default_out.empty() ? "results/" + e.name : default_out)
+                        : fs::path(a.out);
+  o.jobs = a.jobs;
+  o.resume = a.resume;
+  o.retry_failed = a.retry_failed;
+  o.filter = a.filter;
+  o.quiet = a.quiet;
+  if (a.executor == "slurm") {
+    do_slurm_run(e, o, a.slurm);
+    return o.out;
+  }
+  const RunSummary s = run_experiment(e, o);
+  print_summary(e.name, s, o.out);
   return o.out;
 }
 
@@ -103,8 +171,19 @@ void add_run_command(Cli& cli) {
       "in isolated child processes, write records, runs.jsonl and runs.csv");
   sub->add_option("config", a->config, "Experiment JSON (default configs/default.json)");
   add_run_options(sub, *a);
-  sub->callback([&cli, a] {
-    cli.action = [a] {
+  add_slurm_options(sub, *a);
+  sub->callback([&cli, a, sub] {
+    std::string misuse;  // reported as one line (ParamError) when the action runs
+    if (a->executor == "local") {
+      for (const char* opt : {"--partition", "--array-limit", "--chunk", "--sbatch-arg", "--wait"})
+        if (misuse.empty() && sub->get_option(opt)->count() > 0) {
+          misuse = fmt::format("{}: needs --executor slurm", opt);
+        }
+    } else if (sub->get_option("--jobs")->count() > 0) {
+      misuse = "--jobs: is for the local executor (with --executor slurm: --array-limit)";
+    }
+    cli.action = [a, misuse] {
+      if (!misuse.empty()) throw ParamError(misuse);
       do_run(*a, config_root() / "default.json", "");
       return 0;
     };

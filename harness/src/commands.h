@@ -37,4 +37,9 @@ void add_compare_command(Cli& cli);
 void add_report_command(Cli& cli);
 void add_nightly_command(Cli& cli);
 
+/// Slurm (slurm.h): status of a results folder, merge, the hidden array task.
+void add_status_command(Cli& cli);
+void add_merge_command(Cli& cli);
+void add_slurm_task_command(Cli& cli);
+
 }  // namespace scanbench::harness

@@ -49,6 +49,14 @@ std::string mesh_hash(const TriangleMesh& m) {
   return content_hash(bytes);
 }
 
+/// "<host>.<pid>": a name private to this process even when tasks on several nodes share the
+/// results folder (pids repeat across nodes).
+std::string private_tag() {
+  char host[256] = {0};
+  if (gethostname(host, sizeof(host) - 1) != 0) host[0] = 0;
+  return fmt::format("{}.{}", host, getpid());
+}
+
 bool same_points(const PointCloud& a, const PointCloud& b) {
   if (a.positions.cols() != b.positions.cols()) return false;
   return std::memcmp(a.positions.data(), b.positions.data(),
@@ -80,8 +88,10 @@ Json execute_job(const Job& job, const fs::path& out) {
     const auto p = params_from_json<scanner::ScannerParams>(job.scanner_params,
                                                             "scanner " + job.scanner_label);
     const scanner::Scan s = scanner::scan(mesh, p, ctx);
-    // Write under a private name, then rename (sidecar first: the PLY marks completion).
-    const fs::path tmp = out / "scans" / fmt::format(".{}.{}.ply", scan_hash, getpid());
+    // Write under a private name, then rename (sidecar first: the PLY marks completion). Jobs
+    // running at once (local children, Slurm tasks) may both scan: the bytes are the same (one
+    // seed), each rename is atomic, so a reader sees no file or a whole one.
+    const fs::path tmp = out / "scans" / fmt::format(".{}.{}.ply", scan_hash, private_tag());
     scanner::write_scan(s, tmp);
     fs::rename(scanner::sidecar_path(tmp), scanner::sidecar_path(ply));
     fs::rename(tmp, ply);
@@ -219,7 +229,7 @@ Json execute_job(const Job& job, const fs::path& out) {
     if (!fs::exists(vdb)) {
       fs::create_directories(vdb.parent_path());
       const fs::path tmp =
-          vdb.parent_path() / fmt::format(".{}.{}", getpid(), vdb.filename().string());
+          vdb.parent_path() / fmt::format(".{}.{}", private_tag(), vdb.filename().string());
       gt.field().write_vdb(tmp, "distance");
       fs::rename(tmp, vdb);
     }

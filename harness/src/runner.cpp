@@ -212,8 +212,10 @@ Json finish_record(const Child& c, int wstatus, const struct rusage& ru, const J
 
 }  // namespace
 
-RunSummary run_experiment(const Experiment& e, const RunOptions& opts) {
-  const Plan plan = expand(e);
+PreparedRun prepare_run(const Experiment& e, const RunOptions& opts) {
+  PreparedRun prep;
+  prep.plan = expand(e);
+  const Plan& plan = prep.plan;
   std::optional<std::regex> filter;
   if (!opts.filter.empty()) {
     try {
@@ -268,38 +270,44 @@ RunSummary run_experiment(const Experiment& e, const RunOptions& opts) {
       std::fprintf(stderr, "note: %s\n", n.c_str());
   }
 
-  RunSummary summary;
-  std::deque<const Job*> todo;
-  for (const auto& job : plan.jobs) {
+  RunSummary& summary = prep.summary;
+  for (std::size_t i = 0; i < plan.jobs.size(); ++i) {
+    const Job& job = plan.jobs[i];
     if (filter && !std::regex_search(job.key, *filter)) continue;
     ++summary.planned;
     if (opts.resume && recorded.count(job.id)) {
-      bool skip = true;
-      if (opts.retry_failed) {
-        const Json r = read_json_file(out / "jobs" / (job.id + ".json"));
-        skip = r.value("status", std::string()) == "ok";
-      }
-      if (skip) {
+      const std::string status =
+          read_json_file(out / "jobs" / (job.id + ".json")).value("status", std::string());
+      // "interrupted": the scheduler stopped the job (records.h), it has no outcome of its own.
+      const bool again = status == "interrupted" || (opts.retry_failed && status != "ok");
+      if (!again) {
         ++summary.skipped;
         continue;
       }
     }
-    todo.push_back(&job);
+    prep.todo.push_back(i);
   }
-  if (!opts.quiet) {
-    std::fprintf(stderr,
-                 "%s: %zu jobs planned, %d selected, %d already done, %zu to run (%d at a "
-                 "time) -> %s\n",
-                 e.name.c_str(), plan.jobs.size(), summary.planned, summary.skipped, todo.size(),
-                 opts.jobs, out.string().c_str());
-  }
+  return prep;
+}
 
+void run_jobs(const std::vector<const Job*>& jobs, const RunOptions& opts, RunSummary& summary,
+              const RunHooks& hooks) {
+  const fs::path out = opts.out;
+  std::deque<const Job*> todo(jobs.begin(), jobs.end());
   const fs::path exe = opts.exe.empty() ? fs::read_symlink("/proc/self/exe") : opts.exe;
   const Json context = run_context_json();
   Progress progress(static_cast<int>(todo.size()), std::max(1, opts.jobs), opts.quiet);
   std::vector<Child> running;
-  while (!todo.empty() || !running.empty()) {
-    while (!todo.empty() && static_cast<int>(running.size()) < std::max(1, opts.jobs)) {
+  bool stopping = false;
+  while ((!todo.empty() && !stopping) || !running.empty()) {
+    if (!stopping && hooks.stop && hooks.stop()) {
+      // Stop now: kill the running children (their records say why, see amend) and start no more.
+      stopping = true;
+      for (auto& c : running)
+        kill(c.pid, SIGKILL);
+    }
+    while (!stopping && !todo.empty() &&
+           static_cast<int>(running.size()) < std::max(1, opts.jobs)) {
       Child c;
       c.job = todo.front();
       todo.pop_front();
@@ -309,6 +317,7 @@ RunSummary run_experiment(const Experiment& e, const RunOptions& opts) {
       Json spec = {{"job", c.job->to_json()}, {"out", fs::absolute(out).string()}};
       write_file_atomic(c.spec, spec.dump());
       fs::remove(c.result);
+      if (hooks.started) hooks.started(*c.job);
       c.date = utc_now();
       c.start = Clock::now();
       c.pid = spawn(exe, c, c.job->memory_limit_mb);
@@ -320,7 +329,8 @@ RunSummary run_experiment(const Experiment& e, const RunOptions& opts) {
       struct rusage ru {};
       const pid_t r = wait4(it->pid, &wstatus, WNOHANG, &ru);
       if (r == it->pid) {
-        const Json record = finish_record(*it, wstatus, ru, context);
+        Json record = finish_record(*it, wstatus, ru, context);
+        if (hooks.amend) hooks.amend(*it->job, record);
         write_file_atomic(out / "jobs" / (it->job->id + ".json"), record.dump(1) + "\n");
         const std::string status = record["status"].get<std::string>();
         ++summary.ran;
@@ -341,15 +351,52 @@ RunSummary run_experiment(const Experiment& e, const RunOptions& opts) {
     }
     if (!reaped) std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
+}
 
-  // Merge: the plan's jobs with records, in plan order.
+std::vector<Json> merge_records(const fs::path& out) {
+  // The plan's jobs with records, in plan order (records of jobs no longer planned are left out).
   std::vector<Json> records;
-  for (const auto& job : plan.jobs) {
-    const fs::path p = out / "jobs" / (job.id + ".json");
+  const Json plan = read_json_file(out / "plan.json");
+  for (const auto& job : plan.at("jobs")) {
+    const fs::path p = out / "jobs" / (job.at("id").get<std::string>() + ".json");
     if (fs::exists(p)) records.push_back(read_json_file(p));
   }
   write_merged(out, records);
-  return summary;
+  return records;
+}
+
+RunSummary run_experiment(const Experiment& e, const RunOptions& opts) {
+  PreparedRun prep = prepare_run(e, opts);
+  std::vector<const Job*> todo;
+  for (std::size_t i : prep.todo)
+    todo.push_back(&prep.plan.jobs[i]);
+  if (!opts.quiet) {
+    std::fprintf(stderr,
+                 "%s: %zu jobs planned, %d selected, %d already done, %zu to run (%d at a "
+                 "time) -> %s\n",
+                 e.name.c_str(), prep.plan.jobs.size(), prep.summary.planned, prep.summary.skipped,
+                 todo.size(), opts.jobs, opts.out.string().c_str());
+  }
+  run_jobs(todo, opts, prep.summary);
+  merge_records(opts.out);
+  return prep.summary;
+}
+
+Json failure_record(const Job& job, const std::string& status, const std::string& error,
+                    const fs::path& out) {
+  Json r = base_record(job);
+  r["status"] = status;
+  r["error"] = error;
+  r["metrics"] = Json::object();
+  r["timing"] = Json::object();
+  r["limits"] = {{"timeout_s", job.timeout_s}, {"memory_limit_mb", job.memory_limit_mb}};
+  r["artifacts"] = Json::object();
+  if (fs::exists(out / "logs" / (job.id + ".log")))
+    r["artifacts"]["log"] = "logs/" + job.id + ".log";
+  Json ctx = run_context_json();
+  ctx["threads"] = job.threads;
+  r["context"] = ctx;
+  return r;
 }
 
 int run_job_file(const fs::path& spec_path, const fs::path& result_path) {

@@ -16,8 +16,12 @@
 // "histograms","timing":{"total_s":[...],"cpu_s":[...],"phases":{name:[...]},"scan_s",
 // "scan_cached","metrics_s","job_wall_s"},"peak_rss_mb","sizes","artifacts","context"}.
 // status: "ok", "error" (a typed exception: bad input or parameters), "crash" (killed by a
-// signal), "timeout" (killed after timeout_s), "memory" (allocation failed under
-// memory_limit_mb).
+// signal), "timeout" (killed after timeout_s, or by a Slurm time limit), "memory" (allocation
+// failed under memory_limit_mb, or Slurm's OUT_OF_MEMORY), "interrupted" (the scheduler stopped
+// the job: scancel, node failure, preemption; `run --resume` runs it again, see slurm.h).
+//
+// With --executor slurm the folder also holds DIR/slurm/<NNN>/ per submission (slurm.h) and the
+// merge job writes DIR/tables.md and DIR/index.html.
 #include <filesystem>
 #include <string>
 #include <vector>

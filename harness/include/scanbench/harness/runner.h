@@ -10,8 +10,10 @@
 // `--resume` skips every job that has one, so the next run completes the sweep with nothing lost
 // or duplicated. DIR/runs.jsonl and DIR/runs.csv are rewritten from the records at the end.
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <string>
+#include <vector>
 
 #include "scanbench/harness/experiment.h"
 
@@ -34,9 +36,44 @@ struct RunSummary {
   std::map<std::string, int> by_status;  ///< of the jobs that ran
 };
 
-/// Expands and runs `e` into opts.out. Throws ParamError when out already holds records and
-/// resume is off, or when the filter is not a valid regex.
+/// Expands and runs `e` into opts.out: prepare_run, run_jobs, merge_records. Throws ParamError
+/// when out already holds records and resume is off, or when the filter is not a valid regex.
 RunSummary run_experiment(const Experiment& e, const RunOptions& opts);
+
+/// A run prepared in its results folder: the plan and the jobs still to run.
+struct PreparedRun {
+  Plan plan;
+  std::vector<std::size_t> todo;  ///< indices into plan.jobs, in plan order
+  RunSummary summary;             ///< planned and skipped (ran is left 0)
+};
+
+/// The first half of every run, whatever executes the jobs: expands `e`, creates the folder's
+/// sub-folders, refuses a folder with records of this plan unless opts.resume, removes the
+/// leftovers in DIR/tmp, writes DIR/config.json and DIR/plan.json, and selects the jobs: those
+/// matching opts.filter, less (with resume) those with a record, except records with status
+/// "interrupted" (the scheduler stopped the job) and, with retry_failed, every status but "ok".
+PreparedRun prepare_run(const Experiment& e, const RunOptions& opts);
+
+/// Hooks of an executor around run_jobs (the Slurm array task uses them; see slurm.h).
+struct RunHooks {
+  std::function<void(const Job&)> started;  ///< just before the child of a job is started
+  std::function<bool()> stop;  ///< polled: true kills the running children, starts no more
+  std::function<void(const Job&, Json& record)> amend;  ///< may rewrite a record before writing
+};
+
+/// Runs `jobs` in child processes, opts.jobs at a time, each under its limits, and writes
+/// DIR/jobs/<id>.json per finished job; adds the outcomes to `summary`.
+void run_jobs(const std::vector<const Job*>& jobs, const RunOptions& opts, RunSummary& summary,
+              const RunHooks& hooks = {});
+
+/// Writes DIR/runs.jsonl and DIR/runs.csv from the records of DIR/plan.json's jobs, in plan
+/// order (a job has one record file, so nothing is duplicated); returns those records.
+std::vector<Json> merge_records(const std::filesystem::path& out);
+
+/// The record of a job that ended without a result of its own (e.g. its Slurm task was
+/// cancelled): the job's description, `status` and `error`, no metrics.
+Json failure_record(const Job& job, const std::string& status, const std::string& error,
+                    const std::filesystem::path& out);
 
 /// The child side: runs one job in this process and returns the partial record (status "ok",
 /// metrics, histograms, timing, sizes, artifacts). Typed errors propagate to the caller.
