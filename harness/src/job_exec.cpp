@@ -183,7 +183,8 @@ Json execute_job(const Job& job, const fs::path& out) {
       write_mesh(*final_out.mesh, base.string() + ".mesh.ply");
       artifacts["mesh"] = "outputs/" + job.id + ".mesh.ply";
     }
-    // Heatmap of the point-to-plane error E(q) = <q - p, N_p> (REFERENCE 6) on four views.
+    // Heatmap of the point-to-plane error E(q) = <q - p, N_p> (CLOP paper section 10.2) on four
+    // views.
     if (final_out.points.size() > 0) {
       const auto cps = gt.closest_points(final_out.points.positions);
       Eigen::VectorXf err(final_out.points.size());

@@ -1,6 +1,6 @@
 #pragma once
 // normals.csw: continuous spherical Weiszfeld normals (Preiner et al. 2014, "Continuous Projection
-// for Fast L1 Reconstruction", section 9; REFERENCE.md section 3).
+// for Fast L1 Reconstruction", section 9).
 //
 // The HEM mixture of the input (scanbench/algorithms/hem.h) carries on every Gaussian a wrapped
 // normal (axis mu_s, spread sigma_s^2) merged with the spatial responsibilities (eq. 29-30). The
