@@ -12,6 +12,7 @@
 #include <Eigen/Cholesky>
 #include <Eigen/LU>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <vector>
 
@@ -70,7 +71,7 @@ TEST(ClopOracle, InitialIterationMatchesMonteCarloOfEq23) {
   }
   ClopParams p;
   p.iterations = 1;  // eq. 24 only
-  for (const Eigen::Vector3f q0 :
+  for (const Eigen::Vector3f& q0 :
        {Eigen::Vector3f(0.0f, 0.0f, 0.0f), Eigen::Vector3f(0.15f, -0.1f, 0.05f)}) {
     Eigen::Matrix3Xf q = q0;
     RunContext ctx(1);
@@ -88,40 +89,53 @@ TEST(ClopOracle, InitialIterationMatchesMonteCarloOfEq23) {
 struct Brute {
   const GaussianMixture& m;
   double h;
+  // Per component and kernel k (0..2: eq. 19's fit Gaussians, 3: eq. 24's theta): Lambda^-1 and
+  // the weight prefactor w_s w_k sigma_k^3 h^3 |Lambda|^-1/2 (eq. 24: w_s |Lambda|^-1/2).
+  std::vector<std::array<Matrix3d, 4>> inv;
+  std::vector<std::array<double, 4>> pre;
 
-  Vector3d initial(const Vector3d& q) const {  // eq. 24 over every component
-    const double var = h * h / 32.0;
-    Vector3d num = Vector3d::Zero();
-    double den = 0.0;
+  Brute(const GaussianMixture& mixture, double width) : m(mixture), h(width) {
     for (Eigen::Index s = 0; s < m.size(); ++s) {
-      const Matrix3d lambda = m.covariance(s).cast<double>() + var * Matrix3d::Identity();
-      const Matrix3d inv = lambda.inverse();
-      const Vector3d d = m.means.col(s).cast<double>() - q;
-      const double w =
-          m.weights(s) / std::sqrt(lambda.determinant()) * std::exp(-0.5 * d.dot(inv * d));
-      num += w * (q + var * inv * d);
-      den += w;
+      std::array<Matrix3d, 4> i4;
+      std::array<double, 4> p4;
+      for (int k = 0; k < 4; ++k) {
+        const double var = variance(k);
+        const Matrix3d lambda = m.covariance(s).cast<double>() + var * Matrix3d::Identity();
+        i4[static_cast<std::size_t>(k)] = lambda.inverse();
+        p4[static_cast<std::size_t>(k)] =
+            m.weights(s) *
+            (k < 3 ? kClopFitWeights[static_cast<std::size_t>(k)] * std::pow(var, 1.5) : 1.0) /
+            std::sqrt(lambda.determinant());
+      }
+      inv.push_back(i4);
+      pre.push_back(p4);
     }
-    return num / den;
   }
 
-  Vector3d attraction(const Vector3d& q) const {  // eq. 19-22 over every component
+  double variance(int k) const {
+    return k < 3 ? kClopFitSigmas[static_cast<std::size_t>(k)] *
+                       kClopFitSigmas[static_cast<std::size_t>(k)] * h * h
+                 : h * h / 32.0;
+  }
+
+  // eq. 24 (k = 3 only) or eq. 19-22 (k = 0..2) over every component, no cutoff.
+  Vector3d step(const Vector3d& q, bool initial) const {
     Vector3d num = Vector3d::Zero();
     double den = 0.0;
-    for (Eigen::Index s = 0; s < m.size(); ++s) {
-      const Vector3d d = m.means.col(s).cast<double>() - q;
-      for (int k = 0; k < 3; ++k) {
-        const double var = kClopFitSigmas[k] * kClopFitSigmas[k] * h * h;
-        const Matrix3d lambda = m.covariance(s).cast<double>() + var * Matrix3d::Identity();
-        const Matrix3d inv = lambda.inverse();
-        const double w = m.weights(s) * kClopFitWeights[k] * std::pow(var, 1.5) /
-                         std::sqrt(lambda.determinant()) * std::exp(-0.5 * d.dot(inv * d));
-        num += w * var * (inv * d);
+    for (std::size_t s = 0; s < inv.size(); ++s) {
+      const Vector3d d = m.means.col(static_cast<Eigen::Index>(s)).cast<double>() - q;
+      for (int k = initial ? 3 : 0; k < (initial ? 4 : 3); ++k) {
+        const Matrix3d& li = inv[s][static_cast<std::size_t>(k)];
+        const Vector3d t = li * d;
+        const double w = pre[s][static_cast<std::size_t>(k)] * std::exp(-0.5 * d.dot(t));
+        num += w * variance(k) * t;
         den += w;
       }
     }
     return q + num / den;
   }
+  Vector3d initial(const Vector3d& q) const { return step(q, true); }
+  Vector3d attraction(const Vector3d& q) const { return step(q, false); }
 
   // eq. 5 with eta(r) = -r (beta = theta(r)/r, r clamped at 0.01 h as in LOP) and WLOP's w_i',
   // every pair within `cutoff`.

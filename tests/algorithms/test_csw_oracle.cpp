@@ -8,6 +8,7 @@
 // spatial weight of the eq. 24 kernel of width normal_h (the continuous theta of eq. 27).
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
 #include <Eigen/LU>
 #include <cmath>
 #include <vector>
@@ -45,9 +46,10 @@ Vector3d brute_force_step(const GaussianMixture& m, const Vector3d& q, const Vec
     if (axis.dot(n) < 0.0) axis = -axis;  // unoriented axes: the pole nearer n
     const double dg = std::acos(std::min(1.0, axis.dot(n)));
     const Vector3d tangent = axis - axis.dot(n) * n;
-    const Vector2d xs = tangent.norm() > 0.0
-                            ? Vector2d(tangent.dot(e1), tangent.dot(e2)) / tangent.norm() * dg
-                            : Vector2d::Zero();
+    const Vector2d xs =
+        tangent.norm() > 0.0
+            ? Vector2d(Vector2d(tangent.dot(e1), tangent.dot(e2)) / tangent.norm() * dg)
+            : Vector2d(Vector2d::Zero());
     const double sig2 = m.normal_spreads(s);
     const double ws = spatial_weight(m, s, q, nh);
     for (int k = 0; k < 3; ++k) {
