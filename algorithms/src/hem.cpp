@@ -18,6 +18,7 @@
 #include <type_traits>
 #include <utility>
 
+#include "hem_internal.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/kdtree.h"
 #include "scanbench/core/rng.h"
@@ -34,40 +35,8 @@ using Eigen::Vector3f;
 using Hits = std::vector<std::pair<Index, float>>;
 using Range = std::pair<std::size_t, std::size_t>;
 
-// Double precision inside HEM: the likelihood exponent w_i|P| and the determinants of flat
-// Gaussians are where float loses everything.
-struct Component {
-  Vector3d mu;
-  Matrix3d cov;
-  double w;
-  Vector3d axis;
-  double spread;
-  double lmax;    // largest eigenvalue of cov
-  double logdet;  // log |cov|
-};
-
-// An allocator that default-initialises (leaves a Component's fields unset): every field is
-// written by the parallel loop that fills the vector, which also first-touches its pages there
-// instead of in a serial zero fill.
-template <class T>
-struct DefaultInitAllocator : std::allocator<T> {
-  template <class U>
-  struct rebind {
-    using other = DefaultInitAllocator<U>;
-  };
-  DefaultInitAllocator() = default;
-  template <class U>
-  DefaultInitAllocator(const DefaultInitAllocator<U>&) noexcept {}
-  template <class U>
-  void construct(U* ptr) noexcept(std::is_nothrow_default_constructible_v<U>) {
-    ::new (static_cast<void*>(ptr)) U;
-  }
-  template <class U, class... Args>
-  void construct(U* ptr, Args&&... args) {
-    ::new (static_cast<void*>(ptr)) U(std::forward<Args>(args)...);
-  }
-};
-using Components = std::vector<Component, DefaultInitAllocator<Component>>;
+using hem_detail::Component;
+using hem_detail::Components;
 
 constexpr double kLog2Pi = 1.8378770664093453;
 // Relative slack of float distance bounds; the exact tests decide membership.
@@ -94,6 +63,10 @@ void store_conditioned(Component& c, const Matrix3d& sym, Vector3d ev, double ab
 
 // The covariance guard: symmetric, eigenvalues clamped (closed-form 3x3 eigenvalues; the
 // iterative solver only for the rare matrix that needs clamping).
+}  // namespace
+
+namespace hem_detail {
+
 void set_conditioned(Component& c, const Matrix3d& cov, double abs_floor) {
   const Matrix3d s = 0.5 * (cov + cov.transpose());
   Eigen::SelfAdjointEigenSolver<Matrix3d> es;
@@ -103,6 +76,12 @@ void set_conditioned(Component& c, const Matrix3d& cov, double abs_floor) {
     return Matrix3d(es.eigenvectors());
   });
 }
+
+}  // namespace hem_detail
+
+namespace {
+
+using hem_detail::set_conditioned;
 
 // Eigen decomposition of a symmetric 3x3 matrix: the closed form where its eigenvectors are
 // provably accurate (residual |A v - lambda v| below 1e-6 of the eigenvalue gap, so the angle
@@ -476,6 +455,10 @@ std::vector<double> density_weights(const Grid& g, double h) {
   return v;
 }
 
+}  // namespace
+
+namespace hem_detail {
+
 Components initial_mixture(const Eigen::Matrix3Xf& pts, const HemParams& p, double h_abs,
                            double abs_floor) {
   const Index n = pts.cols();
@@ -754,14 +737,19 @@ Components initial_mixture(const Eigen::Matrix3Xf& pts, const HemParams& p, doub
   for (Index j = 0; j < n; ++j)
     if (!(nn[static_cast<std::size_t>(j)] > 0.0)) tree_initial(j, p.init_radius_factor * median_nn);
 
-  double total = 0.0;  // fixed order: thread-independent
-  for (std::size_t j = 0; j < comps.size(); ++j) {
-    comps[j].w = p.weighted ? 1.0 / density[j] : 1.0;
-    total += comps[j].w;
-  }
-  for (auto& c : comps)
-    c.w /= total;  // eq. 26 renormalised
+  // Eq. 26 as written, w_j = (v_j |P|)^-1 (unweighted: 1/|P|), NOT renormalised: the HEM
+  // likelihood exponent w_i |P| of eq. 9 is then 1/v_j at level 0 and the sum of the merged
+  // children's 1/v_j (eq. 10) above it, as in the paper and the authors' code. hem_mixture()
+  // normalises the final weights to sum 1 (only their ratios matter to CLOP's eq. 18 and 23).
+  const double n_points = static_cast<double>(comps.size());
+  for (std::size_t j = 0; j < comps.size(); ++j)
+    comps[j].w = (p.weighted ? 1.0 / density[j] : 1.0) / n_points;
   return comps;
+}
+
+bool chosen_as_parent(std::uint64_t level_seed, Index i, double probability) {
+  Rng rng(derive_seed(level_seed, static_cast<std::uint64_t>(i)));
+  return rng.uniform() < probability;
 }
 
 struct Child {
@@ -777,10 +765,9 @@ Components cluster_level(const Components& comps, const HemParams& p, std::uint6
   std::vector<Index> parents;
   std::vector<Index> others;  // the components that are not parents, in index order
   tbb::parallel_for(tbb::blocked_range<Index>(0, n, 4096), [&](const tbb::blocked_range<Index>& r) {
-    for (Index i = r.begin(); i < r.end(); ++i) {
-      Rng rng(derive_seed(level_seed, static_cast<std::uint64_t>(i)));
-      is_parent[static_cast<std::size_t>(i)] = rng.uniform() < p.parent_probability ? 1 : 0;
-    }
+    for (Index i = r.begin(); i < r.end(); ++i)
+      is_parent[static_cast<std::size_t>(i)] =
+          chosen_as_parent(level_seed, i, p.parent_probability) ? 1 : 0;
   });
   for (Index i = 0; i < n; ++i)
     (is_parent[static_cast<std::size_t>(i)] ? parents : others).push_back(i);
@@ -917,7 +904,7 @@ Components cluster_level(const Components& comps, const HemParams& p, std::uint6
   return next;
 }
 
-}  // namespace
+}  // namespace hem_detail
 
 GaussianMixture hem_mixture(const Eigen::Matrix3Xf& points, const HemParams& p, double h_abs,
                             double diagonal, RunContext& ctx, HemStats* stats) {
@@ -929,14 +916,14 @@ GaussianMixture hem_mixture(const Eigen::Matrix3Xf& points, const HemParams& p, 
   const double abs_floor = (1e-7 * diag) * (1e-7 * diag);
   const double n_points = static_cast<double>(points.cols());
 
-  Components comps = initial_mixture(points, p, h_abs, abs_floor);
+  Components comps = hem_detail::initial_mixture(points, p, h_abs, abs_floor);
   if (stats) stats->level_sizes = {static_cast<Index>(comps.size())};
   const std::uint64_t seed = ctx.stream_seed("hem");
   for (int level = 0; level < p.levels; ++level) {
     ctx.check_cancelled("mixture.hem");
     const std::size_t before = comps.size();
-    comps = cluster_level(comps, p, derive_seed(seed, static_cast<std::uint64_t>(level)), n_points,
-                          abs_floor);
+    comps = hem_detail::cluster_level(
+        comps, p, derive_seed(seed, static_cast<std::uint64_t>(level)), n_points, abs_floor);
     if (stats) stats->level_sizes.push_back(static_cast<Index>(comps.size()));
     const double removed = static_cast<double>(before - comps.size());
     if (removed < p.min_reduction * static_cast<double>(before)) break;

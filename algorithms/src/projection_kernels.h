@@ -2,7 +2,7 @@
 // Internal kernels of the locally optimal projection family (LOP, WLOP, CLOP), shared by
 // lop.cpp and clop.cpp. Private to the algorithms module (not installed, not a public header).
 //
-// Conventions (REFERENCE.md sections 1-2, CLOP paper section 3 and 7):
+// Conventions (CLOP paper sections 3, 7 and 8):
 //  - theta(r) = exp(-16 r^2 / h^2) = exp(-r^2 / (h/4)^2), h an absolute length (callers convert
 //    their "fraction of the bbox diagonal" parameter once). theta(h) = exp(-16) ~ 1.1e-7, so every
 //    neighbour search uses the support radius h (the repulsion optionally a smaller cutoff).

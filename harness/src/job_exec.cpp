@@ -208,7 +208,8 @@ Json execute_job(const Job& job, const fs::path& out) {
       write_covariance_mesh(*final_out.covariance_mesh, base.string() + ".covmesh.ply");
       artifacts["covariance_mesh"] = "outputs/" + job.id + ".covmesh.ply";
     }
-    // Heatmap of the point-to-plane error E(q) = <q - p, N_p> (REFERENCE 6) on four views.
+    // Heatmap of the point-to-plane error E(q) = <q - p, N_p> (CLOP paper section 10.2) on four
+    // views.
     if (final_out.points.size() > 0) {
       const auto cps = gt.closest_points(final_out.points.positions);
       Eigen::VectorXf err(final_out.points.size());

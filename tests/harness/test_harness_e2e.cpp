@@ -312,14 +312,27 @@ TEST(HarnessE2E, BenchResampleWritesCasesAndRatios) {
   std::map<std::string, Json> cases;
   for (const Json& c : b["cases"])
     cases[c.at("name").get<std::string>()] = c;
+  // A resampler that did nothing would return a subset of the scan: the scan's own error and
+  // regularity (input p2plane_mean about 0.0028, nn_dist_cv about 0.39).
+  const double input_error = b.at("input").at("p2plane_mean").get<double>();
+  const double input_cv = b.at("input").at("nn_dist_cv").get<double>();
+  ASSERT_GT(input_error, 0.0);
   for (const char* name : {"clop", "wlop", "cgal_wlop", "clop_kernel_density"}) {
     ASSERT_TRUE(cases.count(name)) << name;
     const Json& c = cases[name];
     EXPECT_GT(c.at("median_s").get<double>(), 0.0) << name;
-    // Resampling the noisy sphere lands near the surface: a small positive error.
     EXPECT_GT(c.at("p2plane_mean").get<double>(), 0.0) << name;
-    EXPECT_LT(c.at("p2plane_mean").get<double>(), 0.01) << name;
     EXPECT_GT(c.at("nn_dist_cv").get<double>(), 0.0) << name;
+    if (std::string(name) == "wlop") {
+      // Known and open: on this strongly curved quick case our WLOP (mu 0.4, 10 iterations)
+      // ends no closer to the surface than the scan (0.00310 vs 0.00280; 0.00131 with mu 0,
+      // CGAL's WLOP 0.00135), so it is only held to "not much worse" here.
+      EXPECT_LT(c.at("p2plane_mean").get<double>(), 1.25 * input_error) << name;
+      continue;
+    }
+    // Measured about 0.5 x the scan's error and 0.4 x its nn_dist_cv (CLOP, CGAL's WLOP).
+    EXPECT_LT(c.at("p2plane_mean").get<double>(), 0.7 * input_error) << name;
+    EXPECT_LT(c.at("nn_dist_cv").get<double>(), 0.7 * input_cv) << name;
   }
   EXPECT_GT(cases["clop"].at("mixture_components").get<int>(), 0);
   for (const char* ratio : {"wlop_over_clop", "cgal_wlop_over_clop",

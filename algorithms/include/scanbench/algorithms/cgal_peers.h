@@ -3,7 +3,7 @@
 // against (not to define) the methods of scanbench. CGAL stays inside cgal_peers.cpp.
 //
 // peer.cgal_wlop wraps CGAL::wlop_simplify_and_regularize_point_set (Huang et al. 2009 as
-// implemented in CGAL), which differs from the CLOP paper's WLOP (REFERENCE.md section 1):
+// implemented in CGAL), which differs from the WLOP the CLOP paper reviews (sections 3 and 7):
 //  - its kernel is exp(-4 r^2 / R^2) with R = `neighbor_radius`, i.e. exp(-r^2/(R/2)^2);
 //  scanbench's
 //    kernel is exp(-16 r^2 / h^2) = exp(-r^2/(h/4)^2). The same kernel width therefore needs

@@ -1,6 +1,6 @@
 #pragma once
 // resample.clop: Continuous LOP (Preiner et al. 2014, "Continuous Projection for Fast L1
-// Reconstruction", sections 6-8; REFERENCE.md section 3).
+// Reconstruction", sections 6-8).
 //
 // The input P is reduced to a weighted Gaussian mixture M by mixture.hem (scanbench/algorithms/
 // hem.h; timed as phase "hem"); the particles Q are then projected onto M:
@@ -21,13 +21,21 @@
 //    cutoff, the whole repulsion kernel being cut) and, when `interleave`, recomputed only in every
 //    second iteration (the previous F2 vector is reused; the last iteration always recomputes).
 //  - kernel theta(r) = exp(-16 r^2 / h^2), h a fraction of the input's bbox diagonal.
-//  - Components are gathered per particle through kd-trees over the component means, one per
-//    size class (largest covariance eigenvalue within a factor 2), batched by cells of particles.
-//    A term (component, kernel) is dropped when its exponent -(mu_s - q)^T Lambda_sk^-1 (mu_s -
-//    q) / 2 is below -16: the same e^-16 truncation as LOP's support radius h (for a point-like
-//    Gaussian the eq. 24 cutoff is exactly h). The search radius of a class, sqrt(32
-//    (lambda_class + s^2)) with s^2 = sigma_1^2 h^2 (attraction) or h^2/32 (eq. 24), holds
-//    every term that is kept.
+//  - Components are gathered per cell of particles (cells of side h/4, doubled up to h where
+//    particles are sparse) from uniform grids over the component means, one grid per size class
+//    (largest covariance eigenvalue within a factor 2; algorithms/src/mixture_index.h). A term
+//    (component, kernel) is dropped when its exponent -(mu_s - q)^T Lambda_sk^-1 (mu_s - q) / 2
+//    is below -16: the same e^-16 truncation as LOP's support radius h (for a point-like Gaussian
+//    the eq. 24 cutoff is exactly h). The search radius of a class, sqrt(32 (lambda_class + s^2))
+//    with s^2 = sigma_1^2 h^2 (attraction) or h^2/32 (eq. 24), holds every term that is kept.
+//  - The repulsion is a particle-particle sum over the project's neighbour grid
+//    (algorithms/src/neighbor_grid.h), the same kernels as resample.wlop.
+// Where this differs from the paper (README, "CLOP family: deviations from the paper"):
+//  - eq. 5 of the paper has no particle weights; with `weighted` on, CLOP's repulsion carries
+//    WLOP's w_i' (Huang et al. 2009), so that weighted CLOP and WLOP share one F2.
+//  - the initial kernel radius of eq. 12 follows the mean distance to init_neighbors (4) nearest
+//    neighbours, where Algorithm 1 line 2 uses the nearest one (init_neighbors = 1 restores it).
+//  - the first iteration uses h; the authors' code doubles h there (not in the paper).
 // Phase timers: "init" (particle selection, mixture preparation), "hem", "attraction" (eq. 24
 // and every F1), "repulsion" (density weights and F2). Results depend only on the input, the
 // parameters and ctx.seed(), never on the thread count.

@@ -1,6 +1,6 @@
 #pragma once
 // normals.csw: continuous spherical Weiszfeld normals (Preiner et al. 2014, "Continuous Projection
-// for Fast L1 Reconstruction", section 9; REFERENCE.md section 3).
+// for Fast L1 Reconstruction", section 9).
 //
 // The step consumes points and the Gaussian mixture of a preceding mixture.hem step (chain
 // `mixture.hem -> normals.csw`; scanbench/algorithms/hem.h), which carries on every Gaussian a

@@ -5,15 +5,17 @@
 // Reduces a point cloud P to a Gaussian mixture M = {w_s, mu_s, Sigma_s} that carries, on every
 // component, a wrapped-normal distribution of normal axes (axis, spread sigma^2) for CSW normals.
 //
-//  - Level 0 (Algorithm 1 lines 1-9): one Gaussian per point. r = init_radius_factor x the point's
-//    nearest-neighbour distance; Sigma_r = covariance of the n points within r (the point itself
-//    included); Sigma0 = Sigma_r * r / (sigma_max * cbrt(n)) + c I (eq. 12), c = cov_bias * r^2.
-//    Weighted mixtures (eq. 26): w_j = 1 / (v_j |P|) renormalised to sum 1, with the WLOP density
-//    v_j = 1 + sum_{j' != j} theta(|p_j - p_j'|), theta(r) = exp(-16 r^2 / h^2). density =
-//    "support" (default) sums it over WLOP's whole support |p_j - p_j'| <= h (theta(h) = 1.1e-7),
-//    WLOP's own v_j, which balances sampling densities as the paper's Fig. 6 shows. "kernel"
-//    sums it over the neighbours within r in the same pass as Sigma_r, the literal reading of
-//    Algorithm 1 line 3 and section 7 ("accumulate the sum (25) along with the points'
+//  - Level 0 (Algorithm 1 lines 1-9): one Gaussian per point. r = init_radius_factor x the mean
+//    distance to the point's init_neighbors nearest distinct points (default 4; Algorithm 1 line
+//    2 uses the nearest one, init_neighbors = 1); Sigma_r = covariance of the n points within r
+//    (the point itself included); Sigma0 = Sigma_r * r / (sigma_max * cbrt(n)) + c I (eq. 12), c =
+//    cov_bias * r^2. Weighted mixtures (eq. 26): w_j = 1 / (v_j |P|) as written (not renormalised
+//    inside HEM, so the eq. 9 exponent w_j |P| is 1/v_j; the result's weights are normalised), with
+//    the density v_j = 1 + sum_{j' != j} theta(|p_j - p_j'|), theta(r) = exp(-16 r^2 / h^2).
+//    density = "support" (default) sums it over WLOP's whole support |p_j - p_j'| <= h (theta(h)
+//    = 1.1e-7), WLOP's own v_j, which balances sampling densities as the paper's Fig. 6 shows.
+//    "kernel" sums it over the neighbours within r in the same pass as Sigma_r, the literal reading
+//    of Algorithm 1 line 3 and section 7 ("accumulate the sum (25) along with the points'
 //    covariances in the initial kernel pass"); as r follows the local spacing, that v_j counts
 //    about the same neighbours everywhere and balances densities only in part (measured: on a
 //    plane 4x denser on one half, that half keeps 0.69 of the mass; 0.50 with "support", 0.80
@@ -27,9 +29,10 @@
 //    parents are never children (each parent is its own child). Responsibilities
 //    r_is = w_s L_is / sum_s' w_s' L_is' with the HEM likelihood (eq. 9)
 //    L_is = [g(mu_i | Theta_s) exp(-tr(Sigma_s^-1 Sigma_i) / 2)]^(w_i |P|), evaluated as log L and
-//    normalised by log-sum-exp (no clamping). M-step eq. 10 for the Gaussians and eq. 29-30 for
-//    the normal axes (child axes flipped into the parent's hemisphere first). Children in no
-//    parent's set (orphans) are carried unchanged.
+//    normalised by log-sum-exp (no clamping); w_i |P| is the number of points the child stands
+//    for, 1/v_j-weighted (eq. 26 and 10), as in the paper and the authors' code. M-step eq. 10 for
+//    the Gaussians and eq. 29-30 for the normal axes (child axes flipped into the parent's
+//    hemisphere first). Children in no parent's set (orphans) are carried unchanged.
 //  - Stops after `levels` levels, or after a level that removed fewer than min_reduction of the
 //    components (the paper's 2.5%).
 //  - Covariances are symmetrised and their eigenvalues clamped to a floor (1e-6 of the largest

@@ -4,22 +4,23 @@
 //
 // Particles Q(0) are a seeded subset of the input points P (or, when more particles than points
 // are requested, every point plus jittered copies). The first iteration is the L2 weighted mean
-// (eq. 2); every further iteration sets q_i <- F1(q_i, P) + mu F2(q_i, Q) with
-//   F1 = sum_j p_j (alpha_j / v_j) / sum_j (alpha_j / v_j),   alpha_j = theta(|p_j - q|) / |p_j -
-//   q| F2 = sum_i' (q - q_i') beta_i' w_i' / sum_i' beta_i' w_i', beta = theta(r) / r  (eta(r) =
-//   -r)
-// (eq. 3-6, 25). WLOP: v_j = 1 + sum_j' theta(|p_j - p_j'|) once for the input, w_i' = 1 +
-// sum theta(|q_i' - q_i''|) every iteration; LOP: v = w = 1. All particles move simultaneously
-// (Jacobi update), so the result does not depend on the thread count.
+// (eq. 2); every further iteration sets q_i <- F1(q_i, P) + mu F2(q_i, Q) (eq. 3) with
+//   F1(q) = sum_j p_j (alpha_j / v_j) / sum_j (alpha_j / v_j),  alpha_j = theta(|p_j - q|) / |p_j -
+//   q|
+//                                                                (eq. 4, 6; WLOP: eq. 25)
+//   F2(q) = sum_i' (q - q_i') beta_i' w_i' / sum_i' beta_i' w_i',  beta_i' = theta(r) / r  with
+//           r = |q - q_i'|, since eta(r) = -r gives |eta'(r)| = 1   (eq. 5, 6; WLOP weights w_i')
+// WLOP: v_j = 1 + sum_{j' != j} theta(|p_j - p_j'|) once for the input, w_i' = 1 + sum_{i'' != i'}
+// theta(|q_i' - q_i''|) every iteration (Huang et al. 2009; section 7); LOP: v = w = 1.
 //
-// Kernel: theta(r) = exp(-16 r^2 / h^2) (the LOP/CLOP convention; CGAL's WLOP uses exp(-4 r^2/h^2),
-// i.e. h_CGAL = h/2 for the same kernel), h a fraction of the input's bounding-box diagonal.
-// Every sum runs over the support radius h (theta(h) = exp(-16) ~ 1e-7; nothing beyond h counts,
-// so a particle with no other particle within h feels no repulsion). Neighbours come from core's
-// KdTree, queried once per cell of side h/2 of particles and filtered per particle to the exact
-// ball with vectorised float kernels; distances are clamped below at 0.01 h inside alpha and beta.
-// Particles move simultaneously and each particle's sums run in a fixed order, so the output is
-// bit-identical for any thread count.
+// Kernel: theta(r) = exp(-16 r^2 / h^2) (the LOP/CLOP convention, section 3; CGAL's WLOP uses
+// exp(-4 r^2/R^2), i.e. R = h/2 for the same kernel), h a fraction of the input's bounding-box
+// diagonal. Every sum runs over the support radius h (theta(h) = exp(-16) ~ 1.1e-7; nothing beyond
+// h counts, so a particle with no other particle within h feels no repulsion). Neighbours come
+// from the project's uniform neighbour grid (algorithms/src/neighbor_grid.h, cells of side h/2),
+// streamed per particle and summed with vectorised float kernels; distances are clamped below at
+// 0.01 h inside alpha and beta. All particles move simultaneously (Jacobi update) and each
+// particle's sums run in a fixed order, so the output is bit-identical for any thread count.
 #include "scanbench/core/params.h"
 #include "scanbench/core/point_cloud.h"
 #include "scanbench/core/run_context.h"
@@ -51,9 +52,9 @@ struct LopParams {
 };
 
 /// LOP (v = w = 1). Output: the particle positions only (no other attribute; the particles are
-/// not input points). Seed stream "particles" of ctx. Phase timers: "init" (kd-tree, particle
-/// selection, L2 iteration), "attraction", "repulsion".
-/// Throws InputError for an empty or invalid input, ParamError for an invalid particle count.
+/// not input points). Seed stream "particles" of ctx. Phase timers: "init" (neighbour grid,
+/// particle selection, L2 iteration), "attraction", "repulsion". Throws InputError for an empty or
+/// invalid input, ParamError for an invalid particle count.
 PointCloud lop(const PointCloud& input, const LopParams& p, RunContext& ctx);
 
 /// WLOP (density weights v_j of the input once and w_i of the particles every iteration).

@@ -1,5 +1,5 @@
 #pragma once
-// The few typed exceptions of scanbench (CONVENTIONS 6). Library code never terminates the
+// The few typed exceptions of scanbench. Library code never terminates the
 // process: it throws one of these with a one-line message that starts with the stage or file
 // ("scan: ...", "bunny.ply: vertex 12: ..."), and the CLI or the harness reports it.
 #include <stdexcept>

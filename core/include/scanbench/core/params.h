@@ -1,5 +1,5 @@
 #pragma once
-// Declared parameters (CONVENTIONS 3). A parameter struct holds its defaults in member
+// Declared parameters. A parameter struct holds its defaults in member
 // initialisers and lists every parameter once in a static `declare` function:
 //
 //   struct LopParams {

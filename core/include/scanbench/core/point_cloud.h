@@ -1,5 +1,5 @@
 #pragma once
-// PointCloud: structure-of-arrays on Eigen storage (CONVENTIONS 5). Positions are required; every
+// PointCloud: structure-of-arrays on Eigen storage. Positions are required; every
 // other attribute is either empty or has one entry per point. validate() checks exactly that.
 #include <Eigen/Core>
 #include <map>

@@ -1,6 +1,6 @@
 #pragma once
 // Registries: algorithms, metrics, scanner presets and datasets are registered by dotted name in
-// one explicit list per module (CONVENTIONS 4: no static initialisers). A Registry<Fn> is a
+// one explicit list per module (no static initialisers). A Registry<Fn> is a
 // vector of entries with lookup by name; each module defines its Fn and fills its list in one
 // function (e.g. algorithms::registry()).
 #include <algorithm>

@@ -1,6 +1,6 @@
 #pragma once
 // Two-sided distances between the output points O and a fixed, seeded set S of uniform
-// area-weighted ground-truth surface samples (GroundTruth::surface_samples), REFERENCE 6:
+// area-weighted ground-truth surface samples (GroundTruth::surface_samples):
 //   accuracy     = mean over o in O of d(o, mesh)            (exact oracle, or the field path)
 //   completeness = mean over s in S of min_o |s - o|          (kd-tree over O)
 //   chamfer      = accuracy + completeness                    (means, not sums)

@@ -57,7 +57,8 @@ class DistanceField {
   /// (voxel size, band, kind). Throws IoError.
   void write_vdb(const std::filesystem::path& path, const std::string& grid_name) const;
 
-  /// Volumetric comparison of two fields with the same voxel size (REFERENCE 6 extension):
+  /// Volumetric comparison of two fields with the same voxel size (an extension of the point
+  /// metrics):
   ///  mean_abs_diff = mean over the union of both bands of | |d_a| - |d_b| |, each distance
   ///  clamped to its field's band width (a voxel outside a band counts as band width);
   ///  iou = |inside_a ∩ inside_b| / |inside_a ∪ inside_b| in voxels when both are Signed, else

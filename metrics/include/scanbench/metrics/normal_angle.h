@@ -1,5 +1,5 @@
 #pragma once
-// Unoriented normal error (REFERENCE 6): for output point q with unit normal n and the face normal
+// Unoriented normal error: for output point q with unit normal n and the face normal
 // n_gt of its exact closest ground-truth face, angle = arccos |n . n_gt| in degrees (0..90).
 // Reported: normal_angle_mean_deg, normal_angle_rms_deg, normal_pgp5 and normal_pgp10 (share of
 // points with angle < 5 and < 10 degrees), plus a histogram over 0..90 degrees. The output's

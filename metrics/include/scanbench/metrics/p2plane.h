@@ -1,5 +1,5 @@
 #pragma once
-// Point-to-plane error (CLOP paper section 10.2, REFERENCE 6): for output point q with closest
+// Point-to-plane error (CLOP paper section 10.2): for output point q with closest
 // ground-truth point p (exact oracle) and N_p the unit normal of the closest face,
 // E(q) = <q - p, N_p>. Reported over |E|: mean, RMS, max, p50, p90, p99 (type-7 quantiles), each
 // absolute and as a fraction of the ground-truth diagonal (`_rel`), plus a histogram of |E|.

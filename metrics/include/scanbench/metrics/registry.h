@@ -1,6 +1,6 @@
 #pragma once
 // The metric registry: every metric by dotted name with its declared parameters. A metric maps
-// (ground truth, output) to a JSON object of named values (REFERENCE section 6 keys) and may add
+// (ground truth, output) to a JSON object of named values (the keys listed below) and may add
 // histograms under "histograms".
 //
 // Registered metrics (metrics/src/registry.cpp), their keys, and the reporting convention:

@@ -1,8 +1,9 @@
 #pragma once
-// Regularity of the output points (REFERENCE 6): d_i = distance from output point i to its
-// nearest other output point (kd-tree; coincident points give 0). Reported: nn_dist_mean
-// (length), nn_dist_var (population variance, 1/n; `_rel` divides by diagonal^2) and nn_dist_cv =
-// std / mean (scale free; null when the mean is 0). Needs at least 2 points.
+// Regularity of the output points (Huang et al. 2009; CLOP paper sections 8 and 10.2): d_i =
+// distance from output point i to its nearest other output point (kd-tree; coincident points give
+// 0). Reported: nn_dist_mean (length), nn_dist_var (population variance, 1/n; `_rel` divides by
+// diagonal^2) and nn_dist_cv = std / mean (scale free; null when the mean is 0). Needs at least 2
+// points.
 #include "scanbench/metrics/registry.h"
 
 namespace scanbench::metrics {

@@ -1,7 +1,7 @@
 #pragma once
 // The virtual scanner: turns a ground-truth triangle mesh into a point cloud with the artifacts of
-// real range acquisition (REFERENCE.md section 7: Berger et al. 2013 "reconbench", HELIOS++,
-// SCUTSurface). Rays are cast with Embree (an implementation detail of scanner-sim/src).
+// real range acquisition (after Berger et al. 2013 "A benchmark for surface reconstruction",
+// HELIOS++, SCUTSurface). Rays are cast with Embree (an implementation detail of scanner-sim/src).
 //
 // The rig. `views` range cameras sit around the object at distance range_min + diag/2 from the
 // centre of its bounding box (diag = bbox diagonal; Berger et al.: sensors on a sphere of radius
