@@ -169,7 +169,7 @@ TEST(Metrics, ReconstructedMeshVolume) {
       evaluate_mesh(gt, icosphere(4, 1.03f), nullptr, {}, Json::object(), ctx, 20000);
   EXPECT_NEAR(bigger["volume_iou"].get<double>(), 1.0 / (1.03 * 1.03 * 1.03), 0.02);
   EXPECT_GT(bigger["volume_mean_abs_diff"].get<double>(), 0.0);
-  // Point metrics on the mesh samples: a sphere scaled by 1.03 lies about 0.03 outside.
+  // Surface metrics on the mesh samples: a sphere scaled by 1.03 lies about 0.03 outside.
   EXPECT_NEAR(bigger["accuracy"].get<double>(), 0.03, 0.002);
   EXPECT_EQ(bigger["output_mesh_samples"].get<int>(), 20000);
   // Open output mesh: no IoU.
@@ -184,18 +184,20 @@ TEST(Metrics, EveryRegisteredMetricRunsByName) {
   out.properties.clear();
   RunContext ctx(1);
   const Json params = {{"outliers.residue", {{"noise", 0.001}}},
-                       {"accuracy.chamfer", {{"samples", 1000}}}};
+                       {"accuracy.chamfer", {{"samples", 1000}}},
+                       {"surface.chamfer", {{"samples", 1000}}}};
   for (const auto& e : registry().entries()) {
     Json r;
-    if (e.name == "mesh.volume") {
-      r = evaluate_mesh(gt, m, nullptr, {e.name}, params, ctx, 200);
+    if (e.fn.scores == Scores::Mesh) {
+      r = evaluate_mesh(gt, m, &out, {e.name}, params, ctx, 200);
     } else {
       r = evaluate(gt, out, nullptr, {e.name}, params, ctx);
     }
     EXPECT_TRUE(r["metric_params"].contains(e.name)) << e.name;
     EXPECT_GT(r.size(), 6u) << e.name;
+    EXPECT_TRUE(r["skipped"].empty()) << e.name << r["skipped"].dump();
   }
-  EXPECT_EQ(registry().entries().size(), 6u);
+  EXPECT_EQ(registry().entries().size(), 10u);
 }
 
 TEST(Metrics, BadInputThrowsTypedErrors) {
