@@ -9,6 +9,7 @@
 #include "scanbench/core/errors.h"
 #include "scanbench/harness/records.h"
 #include "scanbench/harness/stats.h"
+#include "scanbench/metrics/registry.h"
 
 namespace scanbench::harness {
 
@@ -58,21 +59,20 @@ Tolerance parse_tolerance(const Json& j, const std::string& where, Tolerance t) 
   return t;
 }
 
-int default_direction(const std::string& key) {
-  for (const char* h : {"fscore", "precision", "recall", "share", "within"})
-    if (key.find(h) != std::string::npos) return 1;
-  if (key.rfind("n_", 0) == 0 || key.rfind("gt_", 0) == 0) return 0;
-  for (const char* h : {"count", "points", "samples", "threshold", "scan_noise", "fallback"})
-    if (key.find(h) != std::string::npos) return 0;
-  return -1;
-}
-
 std::string fmt_num(double v) {
   if (std::isnan(v)) return "-";
   return fmt::format("{:.4g}", v);
 }
 
 }  // namespace
+
+int quantity_direction(const std::string& q) {
+  if (q.rfind("time.", 0) == 0 || q == "peak_rss_mb") return -1;
+  if (q.rfind("sizes.", 0) == 0) return 0;
+  const auto b = metrics::key_direction(q);
+  if (!b) return 0;  // declared by no metric (e.g. a record of an older build): informational
+  return *b == metrics::Better::Lower ? -1 : (*b == metrics::Better::Higher ? 1 : 0);
+}
 
 CompareOptions CompareOptions::from_json(const Json& j, const std::string& where) {
   CompareOptions o;
@@ -93,7 +93,7 @@ CompareOptions CompareOptions::from_json(const Json& j, const std::string& where
     if (!j["metrics"].is_object()) throw ParamError(where + "/metrics: expected an object");
     for (const auto& [k, v] : j["metrics"].items()) {
       Tolerance t = o.default_tolerance;
-      t.better = default_direction(k);
+      t.better = quantity_direction(k);
       o.metric_tolerances[k] = parse_tolerance(v, where + "/metrics/" + k, t);
     }
   }
@@ -112,7 +112,7 @@ Tolerance CompareOptions::tolerance(const std::string& metric) const {
   auto it = metric_tolerances.find(metric);
   if (it != metric_tolerances.end()) return it->second;
   Tolerance t = default_tolerance;
-  t.better = default_direction(metric);
+  t.better = quantity_direction(metric);
   return t;
 }
 

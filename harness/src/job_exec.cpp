@@ -20,6 +20,7 @@
 #include "scanbench/metrics/evaluate.h"
 #include "scanbench/metrics/ground_truth.h"
 #include "scanbench/metrics/heatmap.h"
+#include "scanbench/metrics/surface.h"
 #include "scanbench/scanner/scanner.h"
 
 namespace scanbench::harness {
@@ -57,10 +58,34 @@ std::string private_tag() {
   return fmt::format("{}.{}", host, getpid());
 }
 
-bool same_points(const PointCloud& a, const PointCloud& b) {
-  if (a.positions.cols() != b.positions.cols()) return false;
-  return std::memcmp(a.positions.data(), b.positions.data(),
-                     sizeof(float) * static_cast<std::size_t>(a.positions.size())) == 0;
+template <class M>
+bool same_bytes(const M& a, const M& b) {
+  return a.rows() == b.rows() && a.cols() == b.cols() &&
+         std::memcmp(a.data(), b.data(),
+                     sizeof(typename M::Scalar) * static_cast<std::size_t>(a.size())) == 0;
+}
+
+// Repeat identity of what the chain is scored on (its primary kind), bit for bit: the points'
+// positions, the mesh's vertices and faces, or the covariance mesh's means, covariances and
+// faces (not the points a mesh step carries through).
+bool same_output(const StageData& a, const StageData& b, DataKind primary) {
+  switch (primary) {
+    case DataKind::Mesh:
+      return a.mesh && b.mesh && same_bytes(a.mesh->vertices, b.mesh->vertices) &&
+             same_bytes(a.mesh->faces, b.mesh->faces);
+    case DataKind::CovarianceMesh:
+      return a.covariance_mesh && b.covariance_mesh &&
+             same_bytes(a.covariance_mesh->means, b.covariance_mesh->means) &&
+             same_bytes(a.covariance_mesh->covariances, b.covariance_mesh->covariances) &&
+             a.covariance_mesh->face_offsets == b.covariance_mesh->face_offsets &&
+             a.covariance_mesh->face_vertices == b.covariance_mesh->face_vertices;
+    case DataKind::Mixture:
+      return a.mixture && b.mixture && same_bytes(a.mixture->weights, b.mixture->weights) &&
+             same_bytes(a.mixture->means, b.mixture->means) &&
+             same_bytes(a.mixture->covariances, b.mixture->covariances);
+    default:
+      return same_bytes(a.points.positions, b.points.positions);
+  }
 }
 
 }  // namespace
@@ -113,6 +138,10 @@ Json execute_job(const Job& job, const fs::path& out) {
   std::vector<double> total, cpu;
   StageData final_out;
   bool identical = true;
+  // What the chain is scored on: the primary kind of its last step (a mesh for a reconstruction,
+  // the mean mesh of a covariance mesh, else the points).
+  const DataKind primary =
+      algorithm_entry(job.chain.back().at("algorithm").get<std::string>()).fn.io.primary;
   for (int rep = 0; rep < job.repeats; ++rep) {
     StageData cur;
     cur.points = cloud;
@@ -141,7 +170,7 @@ Json execute_job(const Job& job, const fs::path& out) {
     if (rep == 0) {
       final_out = std::move(cur);
     } else {
-      identical = identical && same_points(final_out.points, cur.points);
+      identical = identical && same_output(final_out, cur, primary);
     }
   }
   timing["total_s"] = total;
@@ -151,28 +180,33 @@ Json execute_job(const Job& job, const fs::path& out) {
     ph[k] = v;
   timing["phases"] = ph;
   res["repeat_outputs_identical"] = identical;
-  // What the chain is scored on: the primary kind of its last step (a mesh for a reconstruction,
-  // the mean mesh of a covariance mesh, else the points).
-  const DataKind primary =
-      algorithm_entry(job.chain.back().at("algorithm").get<std::string>()).fn.io.primary;
+  // The scored mesh (mean mesh of a covariance mesh); sizes describe the scored output (a mesh
+  // output's points are the input carried through, not an output).
   std::optional<TriangleMesh> scored_mesh;
   if (primary == DataKind::Mesh) scored_mesh = final_out.mesh;
   if (primary == DataKind::CovarianceMesh) scored_mesh = final_out.covariance_mesh->mean_mesh();
   res["output_kind"] = kind_name(primary);
-  sizes["output_points"] = final_out.points.size();
-  if (final_out.mixture) sizes["mixture_components"] = final_out.mixture->size();
-  if (final_out.mesh) sizes["mesh_faces"] = final_out.mesh->num_faces();
-  if (final_out.covariance_mesh) {
-    sizes["covariance_mesh_vertices"] = final_out.covariance_mesh->num_vertices();
-    sizes["covariance_mesh_faces"] = final_out.covariance_mesh->num_faces();
+  if (scored_mesh) {
+    sizes["mesh_vertices"] = primary == DataKind::CovarianceMesh
+                                 ? final_out.covariance_mesh->num_vertices()
+                                 : scored_mesh->num_vertices();
+    sizes["mesh_faces"] = primary == DataKind::CovarianceMesh
+                              ? final_out.covariance_mesh->num_faces()
+                              : scored_mesh->num_faces();
+  } else {
+    sizes["output_points"] = final_out.points.size();
   }
+  if (final_out.mixture) sizes["mixture_components"] = final_out.mixture->size();
 
   // Metrics.
   ctx.clear_phases();
   const auto t_metrics = Clock::now();
   const metrics::GroundTruth gt(mesh, ctx.stream_seed("ground_truth"));
   Json m =
-      scored_mesh
+      primary == DataKind::CovarianceMesh
+          ? metrics::evaluate_covariance_mesh(gt, *final_out.covariance_mesh, &cloud, job.metrics,
+                                              job.metric_params, ctx)
+      : scored_mesh
           ? metrics::evaluate_mesh(gt, *scored_mesh, &cloud, job.metrics, job.metric_params, ctx)
           : metrics::evaluate(gt, final_out.points, &cloud, job.metrics, job.metric_params, ctx);
   timing["metrics_s"] = seconds_since(t_metrics);
@@ -208,21 +242,29 @@ Json execute_job(const Job& job, const fs::path& out) {
       write_covariance_mesh(*final_out.covariance_mesh, base.string() + ".covmesh.ply");
       artifacts["covariance_mesh"] = "outputs/" + job.id + ".covmesh.ply";
     }
-    // Heatmap of the point-to-plane error E(q) = <q - p, N_p> (CLOP paper section 10.2) on four
-    // views.
-    if (final_out.points.size() > 0) {
+    // Heatmap on four views. Points: the point-to-plane error E(q) = <q - p, N_p> (CLOP paper
+    // sec. 10.2) of every output point. Mesh outputs: the distance to the ground truth of the same
+    // seeded samples of the output surface the metrics scored (metrics::output_surface_samples).
+    metrics::HeatmapParams hp;
+    hp.width = hp.height = 256;
+    const std::string title = fmt::format("{} / {} / {} {}", job.dataset_label, job.scanner_label,
+                                          job.variant, job.point_label);
+    if (scored_mesh) {
+      const PointCloud samples = metrics::output_surface_samples(
+          *scored_mesh, m.value("output_mesh_samples", Eigen::Index{100000}), ctx);
+      const Eigen::VectorXf d = gt.distances(samples.positions, metrics::DistancePath::Exact);
+      metrics::write_heatmap(samples, d, gt.bbox(), gt.diagonal(), hp,
+                             base.string() + ".heatmap.png", title + ": surface |d|");
+      artifacts["heatmap"] = "outputs/" + job.id + ".heatmap.png";
+    } else if (final_out.points.size() > 0) {
       const auto cps = gt.closest_points(final_out.points.positions);
       Eigen::VectorXf err(final_out.points.size());
       for (Eigen::Index i = 0; i < err.size(); ++i) {
         const auto& c = cps[static_cast<std::size_t>(i)];
         err[i] = (final_out.points.positions.col(i) - c.point).dot(c.normal);
       }
-      metrics::HeatmapParams hp;
-      hp.width = hp.height = 256;
       metrics::write_heatmap(final_out.points, err, gt.bbox(), gt.diagonal(), hp,
-                             base.string() + ".heatmap.png",
-                             fmt::format("{} / {} / {} {}: |E|", job.dataset_label,
-                                         job.scanner_label, job.variant, job.point_label));
+                             base.string() + ".heatmap.png", title + ": |E|");
       artifacts["heatmap"] = "outputs/" + job.id + ".heatmap.png";
     }
     // The ground truth's distance field, once per mesh.

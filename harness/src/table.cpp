@@ -129,6 +129,7 @@ std::string default_metric(const std::vector<Json>& records) {
   for (const auto& r : records) {
     const Json m = r.value("metrics", Json::object());
     if (m.contains("p2plane_mean_rel")) return "p2plane_mean_rel";
+    if (m.contains("chamfer_rel")) return "chamfer_rel";  // mesh outputs (surface.chamfer)
     for (const auto& [k, v] : m.items()) {
       if (first.empty() && v.is_number()) first = k;
     }
@@ -145,8 +146,8 @@ Table build_table(const std::vector<Json>& records, const TableSpec& spec) {
     check_field(f);
   Table t;
   t.metric = spec.metric.empty() ? default_metric(records) : spec.metric;
-  t.higher_better =
-      CompareOptions{}.tolerance(t.metric).better > 0 && t.metric.rfind("time.", 0) != 0;
+  t.better = quantity_direction(t.metric);
+  t.higher_better = t.better > 0;
   t.row_title = spec.rows;
   t.col_title = spec.cols;
   std::map<std::string, std::size_t> ri, ci;
@@ -193,6 +194,7 @@ Table build_table(const std::vector<Json>& records, const TableSpec& spec) {
     }
   }
   for (auto& row : t.cells) {
+    if (t.better == 0) break;  // informational: no best
     double best = t.higher_better ? -INFINITY : INFINITY;
     for (const auto& c : row) {
       if (c.n == 0 || std::isnan(c.median)) continue;
@@ -215,8 +217,9 @@ std::string render_table(const Table& t, const std::string& format) {
     if (c.n > 1) s += " ± " + format_number(c.spread);
     return s;
   };
-  const std::string title =
-      fmt::format("{} ({} is better)", t.metric, t.higher_better ? "higher" : "lower");
+  const std::string title = t.better == 0 ? fmt::format("{} (informational)", t.metric)
+                                          : fmt::format("{} ({} is better)", t.metric,
+                                                        t.higher_better ? "higher" : "lower");
   std::string out;
   if (format == "md") {
     out = fmt::format("**{}**; median ± std over repeats, best per row in bold\n\n", title);

@@ -1,20 +1,21 @@
 #include "scanbench/metrics/evaluate.h"
 
+#include <optional>
+
 #include "scanbench/metrics/registry.h"
-#include "scanbench/metrics/surface_sampling.h"
+#include "scanbench/metrics/surface.h"
 
 namespace scanbench::metrics {
 
 namespace {
 
-bool needs_closest(const std::string& name) {
-  return name == "accuracy.p2plane" || name == "accuracy.chamfer" || name == "normals.angle" ||
-         name == "outliers.residue";
-}
+struct MeshOutput {
+  const TriangleMesh* mesh = nullptr;
+  const CovarianceMesh* covariance_mesh = nullptr;
+};
 
-Json run(const GroundTruth& gt, const PointCloud& output, const PointCloud* scan,
-         const TriangleMesh* output_mesh, const std::vector<std::string>& metric_names,
-         const Json& metric_params, RunContext& ctx) {
+Json run(const GroundTruth& gt, const PointCloud& output, const PointCloud* scan, MeshOutput mesh,
+         const std::vector<std::string>& metric_names, const Json& metric_params, RunContext& ctx) {
   output.validate("evaluate: output");
   if (output.empty()) throw InputError("evaluate: output has no points");
   if (scan) scan->validate("evaluate: scan");
@@ -41,18 +42,33 @@ Json run(const GroundTruth& gt, const PointCloud& output, const PointCloud* scan
   Json effective = Json::object();
   Json skipped = Json::object();
 
+  const bool is_mesh = mesh.mesh != nullptr;
   std::vector<ClosestPoint> closest;
   bool have_closest = false;
-  MetricInput in{gt, output, scan, output_mesh, nullptr};
+  // The exact oracle of the output mesh (Embree BVH on it), built when a metric needs it.
+  std::optional<GroundTruth> output_oracle;
+  MetricInput in{gt, output, scan, mesh.mesh, mesh.covariance_mesh, nullptr, nullptr};
   for (const auto* e : selected) {
     const Json params =
         metric_params.contains(e->name) ? metric_params.at(e->name) : Json::object();
     effective[e->name] = e->params.validate(params, "metric_params." + e->name);
-    if (needs_closest(e->name) && !have_closest) {
+    // A metric of the other output kind is skipped with its reason, also when named: one metric
+    // list serves chains ending in points and in meshes.
+    if (scores_mesh(e->fn.scores) != is_mesh) {
+      skipped[e->name] = std::string("scores ") + scores_name(e->fn.scores) + "; this output is " +
+                         (is_mesh ? "a mesh" : "points");
+      continue;
+    }
+    if (e->fn.needs_closest && !have_closest) {
       auto t = ctx.phase("metric.closest_points");
       closest = gt.closest_points(output.positions);
       have_closest = true;
       in.closest = &closest;
+    }
+    if (e->fn.needs_output_oracle && !output_oracle) {
+      auto t = ctx.phase("metric.output_oracle");
+      output_oracle.emplace(*mesh.mesh, ctx.stream_seed("eval.output_oracle"));
+      in.output_oracle = &*output_oracle;
     }
     Json result;
     try {
@@ -67,12 +83,15 @@ Json run(const GroundTruth& gt, const PointCloud& output, const PointCloud* scan
       if (key == "histograms") {
         for (auto& [hk, hv] : value.items())
           histograms[hk] = hv;
-      } else {
-        record[key] = value;
+        continue;
       }
+      if (!e->fn.find_key(key))
+        throw Error("metric " + e->name + " emitted key '" + key +
+                    "' without declaring its direction (metrics/src/registry.cpp)");
+      record[key] = value;
     }
   }
-  record["output_points"] = output.size();
+  if (!is_mesh) record["output_points"] = output.size();
   record["gt_diagonal"] = gt.diagonal();
   record["gt_closed"] = gt.closed();
   record["metric_params"] = std::move(effective);
@@ -81,23 +100,39 @@ Json run(const GroundTruth& gt, const PointCloud& output, const PointCloud* scan
   return record;
 }
 
+Json run_mesh(const GroundTruth& gt, const TriangleMesh& output_mesh,
+              const CovarianceMesh* covariance_mesh, const PointCloud* scan,
+              const std::vector<std::string>& metric_names, const Json& metric_params,
+              RunContext& ctx, Eigen::Index samples) {
+  output_mesh.validate("evaluate: output mesh");
+  if (!(output_mesh.area() > 0.0)) throw InputError("evaluate: output mesh has zero area");
+  const PointCloud pts = output_surface_samples(output_mesh, samples, ctx);
+  Json r = run(gt, pts, scan, MeshOutput{&output_mesh, covariance_mesh}, metric_names,
+               metric_params, ctx);
+  r["output_mesh_samples"] = samples;
+  return r;
+}
+
 }  // namespace
 
 Json evaluate(const GroundTruth& gt, const PointCloud& output, const PointCloud* scan,
               const std::vector<std::string>& metric_names, const Json& metric_params,
               RunContext& ctx) {
-  return run(gt, output, scan, nullptr, metric_names, metric_params, ctx);
+  return run(gt, output, scan, MeshOutput{}, metric_names, metric_params, ctx);
 }
 
 Json evaluate_mesh(const GroundTruth& gt, const TriangleMesh& output_mesh, const PointCloud* scan,
                    const std::vector<std::string>& metric_names, const Json& metric_params,
                    RunContext& ctx, Eigen::Index samples) {
-  output_mesh.validate("evaluate: output mesh");
-  PointCloud pts = sample_surface(output_mesh, samples, ctx.stream_seed("eval.mesh_samples"));
-  pts.properties.clear();
-  Json r = run(gt, pts, scan, &output_mesh, metric_names, metric_params, ctx);
-  r["output_mesh_samples"] = samples;
-  return r;
+  return run_mesh(gt, output_mesh, nullptr, scan, metric_names, metric_params, ctx, samples);
+}
+
+Json evaluate_covariance_mesh(const GroundTruth& gt, const CovarianceMesh& output,
+                              const PointCloud* scan, const std::vector<std::string>& metric_names,
+                              const Json& metric_params, RunContext& ctx, Eigen::Index samples) {
+  output.validate("evaluate: output covariance mesh");
+  const TriangleMesh mean = output.mean_mesh();
+  return run_mesh(gt, mean, &output, scan, metric_names, metric_params, ctx, samples);
 }
 
 }  // namespace scanbench::metrics

@@ -2,26 +2,114 @@
 
 #include "scanbench/metrics/chamfer.h"
 #include "scanbench/metrics/ground_truth.h"
+#include "scanbench/metrics/mesh_facts.h"
 #include "scanbench/metrics/mesh_volume.h"
 #include "scanbench/metrics/normal_angle.h"
 #include "scanbench/metrics/outlier_residue.h"
 #include "scanbench/metrics/p2plane.h"
 #include "scanbench/metrics/regularity.h"
+#include "scanbench/metrics/surface.h"
 
 namespace scanbench::metrics {
 
+const char* scores_name(Scores s) {
+  switch (s) {
+    case Scores::Points:
+      return "points";
+    case Scores::Normals:
+      return "normals";
+    default:
+      return "mesh";
+  }
+}
+
+const char* better_name(Better b) {
+  switch (b) {
+    case Better::Lower:
+      return "lower";
+    case Better::Higher:
+      return "higher";
+    default:
+      return "none";
+  }
+}
+
+const MetricKey* Metric::find_key(std::string_view key) const {
+  for (const auto& k : keys)
+    if (k.key == key) return &k;
+  return nullptr;
+}
+
+void Metric::describe(Json& j) const {
+  j["scores"] = scores_name(scores);
+  Json k = Json::object();
+  for (const auto& mk : keys)
+    k[mk.key] = better_name(mk.better);
+  j["keys"] = k;
+}
+
 namespace {
 
+constexpr Better kLower = Better::Lower;
+constexpr Better kHigher = Better::Higher;
+constexpr Better kNone = Better::None;
+
+// The declared keys of one metric: plain keys, and lengths (key and key_rel, same direction).
+struct Keys {
+  std::vector<MetricKey> v;
+  Keys& plain(std::string k, Better b) {
+    v.push_back({std::move(k), b});
+    return *this;
+  }
+  Keys& length(const std::string& k, Better b) {
+    v.push_back({k, b});
+    v.push_back({k + "_rel", b});
+    return *this;
+  }
+};
+
+struct Needs {
+  bool closest = false;
+  bool output_oracle = false;
+};
+
 template <class P, class F>
-MetricRegistry::Entry make_metric(std::string name, std::string doc, F f) {
+MetricRegistry::Entry make_metric(std::string name, std::string doc, Scores scores, Keys keys,
+                                  Needs needs, F f) {
   MetricRegistry::Entry e;
   e.name = name;
   e.doc = std::move(doc);
   e.params = schema_of<P>();
-  e.fn = [f, name](const MetricInput& in, const Json& params, RunContext&) {
+  e.fn.scores = scores;
+  e.fn.keys = std::move(keys.v);
+  e.fn.needs_closest = needs.closest;
+  e.fn.needs_output_oracle = needs.output_oracle;
+  e.fn.run = [f, name](const MetricInput& in, const Json& params, RunContext&) {
     return f(in, params_from_json<P>(params, "metric " + name));
   };
   return e;
+}
+
+Keys chamfer_keys() {
+  return Keys{}
+      .length("accuracy", kLower)
+      .length("completeness", kLower)
+      .length("chamfer", kLower)
+      .length("hausdorff", kLower)
+      .plain("precision", kHigher)
+      .plain("recall", kHigher)
+      .plain("fscore", kHigher)
+      .length("fscore_tau", kNone)
+      .plain("chamfer_samples", kNone)
+      .plain("chamfer_field_fallbacks", kNone);
+}
+
+Keys normal_keys() {
+  return Keys{}
+      .plain("normal_angle_mean_deg", kLower)
+      .plain("normal_angle_rms_deg", kLower)
+      .plain("normal_pgp5", kHigher)
+      .plain("normal_pgp10", kHigher);
 }
 
 }  // namespace
@@ -31,44 +119,128 @@ std::vector<ClosestPoint> closest_points_of(const MetricInput& in) {
   return in.truth.closest_points(in.output.positions);
 }
 
+const std::vector<MetricKey>& record_keys() {
+  static const std::vector<MetricKey> k = {{"output_points", kNone},
+                                           {"gt_diagonal", kNone},
+                                           {"gt_closed", kNone},
+                                           {"output_mesh_samples", kNone}};
+  return k;
+}
+
+std::optional<Better> key_direction(std::string_view key) {
+  for (const auto& e : registry().entries())
+    if (const MetricKey* k = e.fn.find_key(key)) return k->better;
+  for (const auto& k : record_keys())
+    if (k.key == key) return k.better;
+  return std::nullopt;
+}
+
 const MetricRegistry& registry() {
   static const MetricRegistry r = [] {
     MetricRegistry reg("metric");
+    const Needs closest{true, false};
     // One explicit list; every entry has a create-by-name test (tests/metrics).
     reg.add(make_metric<P2PlaneParams>(
         "accuracy.p2plane",
         "point-to-plane error |<q - p, N_p>| to the exact closest ground-truth point p and its "
         "face normal (CLOP paper 10.2): p2plane_mean/rms/max/p50/p90/p99 (+ _rel = fraction of "
         "the GT diagonal), histogram",
-        p2plane_metric));
+        Scores::Points,
+        Keys{}
+            .length("p2plane_mean", kLower)
+            .length("p2plane_rms", kLower)
+            .length("p2plane_max", kLower)
+            .length("p2plane_p50", kLower)
+            .length("p2plane_p90", kLower)
+            .length("p2plane_p99", kLower),
+        closest, p2plane_metric));
     reg.add(make_metric<ChamferParams>(
         "accuracy.chamfer",
         "accuracy (mean output->mesh), completeness (mean seeded surface samples->output), "
         "chamfer = sum of the two means, hausdorff = max of both, precision/recall/fscore at tau "
         "(Tanks and Temples); lengths also as _rel",
-        chamfer_metric));
+        Scores::Points, chamfer_keys(), closest, chamfer_metric));
+    // The mean spacing depends on the point count: informational. Its spread (variance, and the
+    // scale-free CV) measures regularity: lower is better.
     reg.add(make_metric<RegularityParams>(
         "regularity.nn_dist",
         "nearest-neighbour distance of each output point to another: nn_dist_mean, nn_dist_var "
         "(population), nn_dist_cv = std/mean (scale free)",
-        regularity_metric));
+        Scores::Points,
+        Keys{}
+            .length("nn_dist_mean", kNone)
+            .length("nn_dist_var", kLower)
+            .plain("nn_dist_cv", kLower),
+        Needs{}, regularity_metric));
     reg.add(make_metric<NormalAngleParams>(
         "normals.angle",
         "unoriented normal angle arccos|n . n_gt| to the closest GT face normal, degrees: "
         "normal_angle_mean_deg, normal_angle_rms_deg, normal_pgp5, normal_pgp10 (share under 5 "
         "and 10 degrees); needs output normals",
-        normal_angle_metric));
+        Scores::Normals, normal_keys(), closest, normal_angle_metric));
     reg.add(make_metric<OutlierResidueParams>(
         "outliers.residue",
         "outlier_residue: share of output points farther from the GT than multiple x scan noise "
         "sigma (declared, or RMS |p - clean| of the scan's inliers)",
-        outlier_residue_metric));
+        Scores::Points,
+        Keys{}
+            .plain("outlier_residue", kLower)
+            .length("outlier_threshold", kNone)
+            .length("scan_noise", kNone)
+            .plain("scan_outlier_share", kNone)
+            .plain("scan_noise_source", kNone),
+        closest, outlier_residue_metric));
+    reg.add(make_metric<ChamferParams>(
+        "surface.chamfer",
+        "the accuracy.chamfer scores of a mesh output: accuracy from seeded area-uniform samples "
+        "of the output surface to the GT, completeness from the fixed GT samples to the output "
+        "surface (exact closest point on it)",
+        Scores::Mesh, chamfer_keys(), Needs{true, true}, surface_chamfer_metric));
+    reg.add(make_metric<NormalAngleParams>(
+        "surface.normals",
+        "the normals.angle scores of a mesh output: unoriented angle between the output face "
+        "normal at each surface sample and the GT face normal at its closest point",
+        Scores::Mesh, normal_keys(), closest, surface_normals_metric));
+    reg.add(make_metric<InputDistanceParams>(
+        "surface.input_distance",
+        "GPS paper sec. 7.2 (Fig. 13): distance of each input scan point (inliers by default) to "
+        "the output surface: input_distance_mean/rms/max (+ _rel), histogram",
+        Scores::Mesh,
+        Keys{}
+            .length("input_distance_mean", kLower)
+            .length("input_distance_rms", kLower)
+            .length("input_distance_max", kLower)
+            .plain("input_distance_points", kNone),
+        Needs{false, true}, input_distance_metric));
     reg.add(make_metric<MeshVolumeParams>(
         "mesh.volume",
         "reconstructed mesh vs GT through OpenVDB fields on the GT lattice: volume_mean_abs_diff "
         "(mean | |d_gt| - |d_out| | over the union of the bands, clamped to the band) and "
         "volume_iou of the interiors when both meshes are closed",
-        mesh_volume_metric));
+        Scores::Mesh,
+        Keys{}
+            .length("volume_mean_abs_diff", kLower)
+            .plain("volume_iou", kHigher)
+            .plain("volume_band_voxels", kNone)
+            .length("volume_voxel", kNone),
+        Needs{}, mesh_volume_metric));
+    reg.add(make_metric<MeshFactsParams>(
+        "mesh.facts",
+        "the output mesh's facts: vertices, faces, unreferenced vertices, degenerate faces, "
+        "boundary and non-manifold edges, components, closed, bytes (float32 positions + int32 "
+        "corners; a covariance mesh + 6 float32 per vertex, GPS sec. 7.2)",
+        Scores::Mesh,
+        Keys{}
+            .plain("mesh_vertices", kNone)
+            .plain("mesh_faces", kNone)
+            .plain("mesh_unreferenced_vertices", kNone)
+            .plain("mesh_degenerate_faces", kNone)
+            .plain("mesh_boundary_edges", kNone)
+            .plain("mesh_nonmanifold_edges", kLower)
+            .plain("mesh_components", kNone)
+            .plain("mesh_closed", kNone)
+            .plain("mesh_bytes", kNone),
+        Needs{}, mesh_facts_metric));
     return reg;
   }();
   return r;

@@ -3,12 +3,12 @@
 //
 // Jobs are matched by their readable key (dataset|scanner|variant|point|seed).
 //  - Status: a job ok in BASE that failed in NEW, or is missing from NEW, is a regression.
-//  - Accuracy: every numeric metric present on both sides. Direction: higher is better for
-//    keys containing fscore, precision, recall, share or within; neutral (informational) for
-//    counts and context (keys starting with "n_" or "gt_", or containing count, points, samples,
-//    threshold, scan_noise, fallback); lower is better otherwise. A change
-//    is significant when |new - base| > abs + rel * |base|; significant and worse = regression,
-//    significant and better = improvement.
+//  - Accuracy: every numeric metric present on both sides. Direction: the one the metric's
+//    registry entry declares for the key (metrics/registry.h: lower, higher, or none =
+//    informational, e.g. sample counts and mesh vertex counts); a key no metric declares is
+//    informational. A config may override it per key ("better" below). A change is significant when
+//    |new - base| > abs + rel * |base|; significant and worse = regression, significant and better
+//    = improvement.
 //  - Timing: for "time.total" and every phase, the repeat samples are compared with a two-sided
 //    Mann-Whitney U test (as Google Benchmark's compare.py and asv do): a change is flagged only
 //    when p < alpha AND the relative change of the medians exceeds time_threshold AND the
@@ -49,6 +49,11 @@ struct CompareOptions {
   /// The tolerance of a metric key (explicit, else default with the direction rule above).
   Tolerance tolerance(const std::string& metric) const;
 };
+
+/// Which way a quantity is better: -1 lower, +1 higher, 0 informational. time.* and peak_rss_mb
+/// lower, sizes.* informational, metric keys as their metric declares (metrics::key_direction),
+/// undeclared keys informational. compare, table and report all use this.
+int quantity_direction(const std::string& quantity);
 
 struct Verdict {
   std::string key;       ///< job key

@@ -9,8 +9,8 @@
 // the best median of each row is marked (bold in md/tex/html, best=1 in csv). Cells whose jobs
 // all failed show the status (crash, timeout, ...).
 // Quantities: a metric key (p2plane_mean_rel, fscore, ...), time.total, time.cpu,
-// time.<phase>, peak_rss_mb, sizes.<key>. Lower is better except for keys the compare rule calls
-// higher-better (fscore, precision, recall, share, within).
+// time.<phase>, peak_rss_mb, sizes.<key>. The direction is quantity_direction (compare.h): the
+// one the metric declares; informational quantities (counts) mark no best.
 #include <string>
 #include <vector>
 
@@ -21,7 +21,7 @@ namespace scanbench::harness {
 struct TableSpec {
   std::string rows = "dataset+scanner+point";
   std::string cols = "variant";
-  std::string metric;  ///< empty: p2plane_mean_rel when present, else the first metric
+  std::string metric;  ///< empty: p2plane_mean_rel, else chamfer_rel, else the first metric
 };
 
 struct TableCell {
@@ -35,6 +35,7 @@ struct TableCell {
 struct Table {
   std::string metric;
   bool higher_better = false;
+  int better = -1;  ///< quantity_direction: -1 lower, +1 higher, 0 informational (no best)
   std::string row_title, col_title;
   std::vector<std::string> row_labels, col_labels;
   std::vector<std::vector<TableCell>> cells;  ///< [row][col]

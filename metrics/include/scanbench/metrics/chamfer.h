@@ -33,6 +33,18 @@ struct ChamferParams {
   }
 };
 
+/// The scores above from the two one-sided distance sets, the one definition shared by
+/// accuracy.chamfer (points) and surface.chamfer (mesh outputs, surface.h): acc[i] = distance
+/// of output element i to the ground truth, comp[j] = distance of ground-truth sample j to the
+/// output. `fallbacks` is reported as chamfer_field_fallbacks. Both vectors must be non-empty.
+Json chamfer_scores(const Eigen::VectorXf& acc, const Eigen::VectorXf& comp, double diag,
+                    const ChamferParams& p, Eigen::Index fallbacks);
+
+/// The accuracy distances of in.output by p.path (the shared closest points when exact);
+/// *fallbacks receives the field path's fallback count.
+Eigen::VectorXf accuracy_distances(const MetricInput& in, const ChamferParams& p,
+                                   Eigen::Index* fallbacks);
+
 /// Metric "accuracy.chamfer". Throws InputError for an empty output.
 Json chamfer_metric(const MetricInput& in, const ChamferParams& p);
 

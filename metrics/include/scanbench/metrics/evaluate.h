@@ -2,13 +2,17 @@
 // evaluate(): runs metrics on one output and returns one flat JSON record:
 //   every key of every metric run (see registry.h for names and the `_rel` convention),
 //   "histograms": {name: histogram}, "metric_params": {metric: effective params},
-//   "skipped": {metric: reason} (metrics that do not apply, only when running all of them),
-//   "output_points", "gt_diagonal", "gt_closed".
+//   "skipped": {metric: reason}: metrics of the other output kind (points and normals metrics
+//     for a mesh, mesh metrics for points; also when asked for by name, see registry.h) and,
+//     when running all metrics, those that do not apply (no normals, no scan),
+//   "output_points" (points only), "gt_diagonal", "gt_closed".
+// Every key a metric emits must be declared in its registry entry (Error otherwise).
 // The exact closest points of the output are computed once and shared by the metrics that need
 // them. Each metric's wall time goes to ctx phase "metric.<name>".
 #include <string>
 #include <vector>
 
+#include "scanbench/core/covariance_mesh.h"
 #include "scanbench/core/params.h"
 #include "scanbench/core/point_cloud.h"
 #include "scanbench/core/run_context.h"
@@ -25,11 +29,20 @@ Json evaluate(const GroundTruth& gt, const PointCloud& output, const PointCloud*
               const std::vector<std::string>& metric_names, const Json& metric_params,
               RunContext& ctx);
 
-/// For reconstructions: the same point metrics on `samples` uniform points sampled from the
-/// output mesh (seeded from ctx stream "eval.mesh_samples", face normals as normals), plus
-/// "mesh.volume". Adds "output_mesh_samples".
+/// For a mesh output: the metrics that score a mesh (surface.h, mesh_volume.h, mesh_facts.h) on
+/// the mesh and on `samples` area-uniform samples of it (output_surface_samples: ctx stream
+/// "eval.mesh_samples", face normals as normals); their closest points on the ground truth are
+/// computed once, and the output mesh's exact oracle once. Adds "output_mesh_samples".
+/// InputError for an invalid mesh or one without area.
 Json evaluate_mesh(const GroundTruth& gt, const TriangleMesh& output_mesh, const PointCloud* scan,
                    const std::vector<std::string>& metric_names, const Json& metric_params,
                    RunContext& ctx, Eigen::Index samples = 100000);
+
+/// For a covariance mesh output: evaluate_mesh on its mean mesh (fan-triangulated), with
+/// mesh.facts describing the covariance mesh itself (its polygons and bytes).
+Json evaluate_covariance_mesh(const GroundTruth& gt, const CovarianceMesh& output,
+                              const PointCloud* scan, const std::vector<std::string>& metric_names,
+                              const Json& metric_params, RunContext& ctx,
+                              Eigen::Index samples = 100000);
 
 }  // namespace scanbench::metrics

@@ -1,0 +1,55 @@
+#pragma once
+// Surface metrics of a mesh output O against the ground-truth mesh G (metrics that score a mesh;
+// evaluate_mesh runs them). S = the seeded area-uniform samples of O (surface_sampling.h; count
+// and seed from evaluate_mesh: stream "eval.mesh_samples", 100000 by default, the sample count
+// of accuracy.chamfer), each with the unit normal of its face of O.
+//
+//  surface.chamfer  The accuracy.chamfer scores with the one definition of chamfer.h
+//    (chamfer_scores): accuracy = mean over s in S of d(s, G) (exact oracle, or the field path);
+//    completeness = mean over the fixed seeded samples g of G (the same samples and count as for
+//    points) of d(g, O), here the exact distance to the output SURFACE (closest point on O through
+//    a GroundTruth built on O) rather than to the nearest output point; chamfer = accuracy +
+//    completeness (means); hausdorff = max of both maxima; precision, recall, fscore at tau.
+//    Same keys as accuracy.chamfer.
+//  surface.normals  The normals.angle scores (normal_angle.h) of S: the unoriented angle
+//    arccos |n_O(s) . n_G(p)| between the face normal of O at s and the face normal of G at the
+//    closest point p of s. Same keys as normals.angle (normal_angle_mean_deg, _rms_deg, pgp5, 10).
+//  surface.input_distance  The GPS paper's reconstruction error (Preiner et al. 2019, sec. 7.2,
+//    Fig. 13): the distance of each input (scan) point to O, exact. Reported: input_distance_mean,
+//    input_distance_rms (the RMSE of Fig. 14), input_distance_max (lengths, with _rel), the point
+//    count input_distance_points, and the histogram "input_distance". The paper's input is a
+//    consolidated scan without outliers; the scanner simulator marks its outliers (property
+//    "outlier"), which are left out by default (skip_outliers). NotApplicable without a scan.
+#include "scanbench/metrics/registry.h"
+
+namespace scanbench::metrics {
+
+/// The samples S of an output mesh as evaluate_mesh draws them (seed stream "eval.mesh_samples"
+/// of ctx), so a heatmap drawn on them shows the samples the metrics scored. No properties.
+PointCloud output_surface_samples(const TriangleMesh& mesh, Eigen::Index count,
+                                  const RunContext& ctx);
+
+struct InputDistanceParams {
+  bool skip_outliers = true;
+  double hist_max = 0.01;  ///< histogram range, fraction of the diagonal
+  int bins = 50;
+  static void declare(ParamDeclarer<InputDistanceParams>& d) {
+    d.flag("skip_outliers", &InputDistanceParams::skip_outliers,
+           "leave out scan points the scanner marked as outliers (property \"outlier\")");
+    d.real("hist_max", &InputDistanceParams::hist_max, Range::above(0.0), "diag",
+           "upper end of the input distance histogram");
+    d.integer("bins", &InputDistanceParams::bins, Range::closed(1, 10000), "", "histogram bins");
+  }
+};
+
+struct ChamferParams;
+struct NormalAngleParams;
+
+/// Metric "surface.chamfer" (needs in.output_mesh and in.output_oracle).
+Json surface_chamfer_metric(const MetricInput& in, const ChamferParams& p);
+/// Metric "surface.normals".
+Json surface_normals_metric(const MetricInput& in, const NormalAngleParams& p);
+/// Metric "surface.input_distance" (needs in.output_oracle and in.scan).
+Json input_distance_metric(const MetricInput& in, const InputDistanceParams& p);
+
+}  // namespace scanbench::metrics

@@ -1,0 +1,80 @@
+#include "scanbench/metrics/surface.h"
+
+#include <cmath>
+
+#include "scanbench/metrics/chamfer.h"
+#include "scanbench/metrics/ground_truth.h"
+#include "scanbench/metrics/normal_angle.h"
+#include "scanbench/metrics/surface_sampling.h"
+#include "stats.h"
+
+namespace scanbench::metrics {
+
+PointCloud output_surface_samples(const TriangleMesh& mesh, Eigen::Index count,
+                                  const RunContext& ctx) {
+  PointCloud pts = sample_surface(mesh, count, ctx.stream_seed("eval.mesh_samples"));
+  pts.properties.clear();
+  return pts;
+}
+
+namespace {
+
+void require_mesh(const MetricInput& in, const char* name) {
+  if (!in.output_mesh) throw NotApplicable(std::string(name) + ": the output is not a mesh");
+}
+
+const GroundTruth& oracle(const MetricInput& in, const char* name) {
+  require_mesh(in, name);
+  if (!in.output_oracle) throw Error(std::string(name) + ": no oracle of the output mesh");
+  return *in.output_oracle;
+}
+
+}  // namespace
+
+Json surface_chamfer_metric(const MetricInput& in, const ChamferParams& p) {
+  const GroundTruth& out = oracle(in, "surface.chamfer");
+  if (in.output.empty()) throw InputError("surface.chamfer: no output surface samples");
+  Eigen::Index fallbacks = 0;
+  const Eigen::VectorXf acc = accuracy_distances(in, p, &fallbacks);
+  const PointCloud& samples = in.truth.surface_samples(p.samples);
+  const Eigen::VectorXf comp = out.distances(samples.positions, DistancePath::Exact);
+  return chamfer_scores(acc, comp, in.truth.diagonal(), p, fallbacks);
+}
+
+Json surface_normals_metric(const MetricInput& in, const NormalAngleParams& p) {
+  require_mesh(in, "surface.normals");
+  return normal_angle_metric(in, p);
+}
+
+Json input_distance_metric(const MetricInput& in, const InputDistanceParams& p) {
+  const GroundTruth& out = oracle(in, "surface.input_distance");
+  if (!in.scan) throw NotApplicable("surface.input_distance: no input scan");
+  const PointCloud& scan = *in.scan;
+  Eigen::Matrix3Xf q;
+  if (p.skip_outliers && scan.has_property("outlier")) {
+    const Eigen::VectorXf& o = scan.properties.at("outlier");
+    q.resize(3, (o.array() == 0.0f).count());
+    Eigen::Index k = 0;
+    for (Eigen::Index i = 0; i < scan.size(); ++i)
+      if (o[i] == 0.0f) q.col(k++) = scan.positions.col(i);
+  } else {
+    q = scan.positions;
+  }
+  if (q.cols() == 0) throw InputError("surface.input_distance: the scan has no (inlier) points");
+  const Eigen::VectorXf d = out.distances(q, DistancePath::Exact);
+  const double diag = in.truth.diagonal();
+  const auto n = static_cast<double>(d.size());
+  double sq = 0.0;
+  for (Eigen::Index i = 0; i < d.size(); ++i)
+    sq += double(d[i]) * d[i];
+  Json j = Json::object();
+  detail::put_length(j, "input_distance_mean", detail::ordered_sum(d) / n, diag);
+  detail::put_length(j, "input_distance_rms", std::sqrt(sq / n), diag);
+  detail::put_length(j, "input_distance_max", d.maxCoeff(), diag);
+  j["input_distance_points"] = d.size();
+  j["histograms"]["input_distance"] =
+      detail::histogram(d / static_cast<float>(diag), 0.0, p.hist_max, p.bins, "diag");
+  return j;
+}
+
+}  // namespace scanbench::metrics
