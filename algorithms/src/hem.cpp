@@ -958,10 +958,13 @@ AlgorithmOutput hem(const PointCloud& in, const HemParams& p, RunContext& ctx) {
     auto timer = ctx.phase("hem");
     out.mixture = hem_mixture(in.positions, p, h_abs, diag, ctx);
   }
-  const GaussianMixture& m = *out.mixture;
-  out.points.positions = m.means;
-  out.points.normals = m.normal_axes;
-  out.points.weights = m.weights;
+  out.points = out.mixture->component_points();
+  return out;
+}
+
+StageData hem_step(const PointCloud& in, const HemParams& p, RunContext& ctx) {
+  StageData out;
+  out.mixture = hem(in, p, ctx).mixture;
   return out;
 }
 

@@ -46,7 +46,7 @@ const AlgorithmRegistry& registry() {
         "eq. 10 and wrapped normal axes eq. 29-30, orphans carried; stops after `levels` or when "
         "a level removes < min_reduction. Output points = component means (normals = axes, "
         "weights = mixture weights); the mixture is written as a PLY.",
-        hem, kPointsToMixture));
+        hem_step, StageIo{DataKind::Points, DataKind::Mixture, DataKind::Mixture}));
     reg.add(make_entry<ClopParams>(
         "resample.clop",
         "Continuous LOP (CLOP paper sec. 6-8): weighted HEM mixture, continuous L2 initial "

@@ -28,6 +28,14 @@ void GaussianMixture::set_covariance(Eigen::Index i, const Eigen::Matrix3f& c) {
       0.5f * (c(1, 2) + c(2, 1)), c(2, 2);
 }
 
+PointCloud GaussianMixture::component_points() const {
+  PointCloud c;
+  c.positions = means;
+  c.normals = normal_axes;
+  c.weights = weights;
+  return c;
+}
+
 void GaussianMixture::validate(std::string_view where) const {
   const Eigen::Index k = size();
   if (weights.size() != k || covariances.cols() != k) {

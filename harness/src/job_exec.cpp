@@ -182,6 +182,8 @@ Json execute_job(const Job& job, const fs::path& out) {
   res["repeat_outputs_identical"] = identical;
   // The scored mesh (mean mesh of a covariance mesh); sizes describe the scored output (a mesh
   // output's points are the input carried through, not an output).
+  // A chain ending in a mixture is scored on its components as points.
+  if (primary == DataKind::Mixture) final_out.points = final_out.mixture->component_points();
   std::optional<TriangleMesh> scored_mesh;
   if (primary == DataKind::Mesh) scored_mesh = final_out.mesh;
   if (primary == DataKind::CovarianceMesh) scored_mesh = final_out.covariance_mesh->mean_mesh();

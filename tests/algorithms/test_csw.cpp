@@ -175,14 +175,15 @@ TEST(Csw, RegisteredChainMatchesTheFunctions) {
   const Cube cube = noisy_cube(3000, 0.004f, 11);
   Eigen::Matrix3Xf direct;
   {
-    // In the chain, normals.csw gets mixture.hem's output: the means as points, and the mixture.
+    // In the chain, normals.csw gets the scan's points (carried past mixture.hem) and the mixture.
     RunContext ctx(4);
     HemParams hp;
     hp.h = 0.05;
-    const StageData means_and_mixture = hem(cube.cloud, hp, ctx);
+    StageData points_and_mixture = cube.cloud;
+    points_and_mixture.mixture = hem(cube.cloud, hp, ctx).mixture;
     CswParams p;
     p.h = 0.05;
-    direct = csw(means_and_mixture, p, ctx).normals;
+    direct = csw(points_and_mixture, p, ctx).normals;
   }
   RunContext ctx(4);
   const auto& hem_step = registry().at("mixture.hem").fn;

@@ -27,12 +27,9 @@
 // Orientation: the normals are unoriented axes; each is flipped towards the sensor of the nearest
 // input point when the input has scan ids and sensor origins, else to agree with the nearest
 // input point's normal when the input has normals, else left as the iteration returns it.
-// In the chain mixture.hem -> normals.csw the input points are mixture.hem's output points: the
-// component means, with the (unoriented) normal axes as normals and no sensors. `particles` is
-// then a share of the means (or an absolute count > 1), and the orientation follows the nearest
-// mean's axis, i.e. the normals are unoriented in effect (as the unoriented normal metrics score
-// them). Before this step consumed a mixture it ran HEM itself on the scan (particles a share of
-// the scan, oriented toward its sensors).
+// In the chain mixture.hem -> normals.csw the input points are the scan itself: mixture.hem
+// produces only the mixture and the points pass on unchanged, so `particles` is a share of the
+// scan and the normals are oriented toward its sensors.
 #include "scanbench/algorithms/clop.h"
 #include "scanbench/algorithms/registry.h"
 #include "scanbench/core/params.h"

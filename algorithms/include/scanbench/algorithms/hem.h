@@ -49,6 +49,7 @@
 #include "scanbench/core/params.h"
 #include "scanbench/core/point_cloud.h"
 #include "scanbench/core/run_context.h"
+#include "scanbench/core/stage_data.h"
 
 namespace scanbench::algorithms {
 
@@ -136,5 +137,10 @@ GaussianMixture hem_mixture(const Eigen::Matrix3Xf& points, const HemParams& p, 
 /// means with normals = normal axes and weights = component weights; mixture = the mixture.
 /// Throws InputError on an empty or invalid cloud.
 AlgorithmOutput hem(const PointCloud& in, const HemParams& p, RunContext& ctx);
+
+/// The registered step mixture.hem: only the mixture (the input points pass on unchanged, so a
+/// following normals.csw or triangulation sees the scan and its sensors). A chain ending here is
+/// scored on the mixture's component points (GaussianMixture::component_points).
+StageData hem_step(const PointCloud& in, const HemParams& p, RunContext& ctx);
 
 }  // namespace scanbench::algorithms

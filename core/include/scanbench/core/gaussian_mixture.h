@@ -5,6 +5,8 @@
 #include <Eigen/Core>
 #include <string_view>
 
+#include "scanbench/core/point_cloud.h"
+
 namespace scanbench {
 
 struct GaussianMixture {
@@ -25,6 +27,10 @@ struct GaussianMixture {
 
   Eigen::Matrix3f covariance(Eigen::Index i) const;
   void set_covariance(Eigen::Index i, const Eigen::Matrix3f& c);
+
+  /// The components as points: positions = means, normals = normal axes (when present),
+  /// weights = mixture weights. How a chain ending in a mixture is scored.
+  PointCloud component_points() const;
 
   /// Throws InputError("<where>: ...") on size mismatch, non-finite values, negative weights.
   void validate(std::string_view where) const;
