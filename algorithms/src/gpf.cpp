@@ -26,22 +26,7 @@ using Packet = ei::packet_traits<float>::type;
 constexpr int kLanes = ei::packet_traits<float>::size;
 static_assert(kLanes <= detail::NeighborGrid::kPad);
 
-// Lane masks as float bit patterns (as in projection_kernels.cpp): first + kLanes - k keeps the
-// first k lanes, hole + kLanes - k clears lane k.
-struct LaneMasks {
-  float first[2 * kLanes];
-  float hole[2 * kLanes + 1];
-  LaneMasks() {
-    float ones;
-    const std::uint32_t bits = 0xffffffffu;
-    std::memcpy(&ones, &bits, sizeof ones);
-    for (int k = 0; k < 2 * kLanes; ++k)
-      first[k] = k < kLanes ? ones : 0.0f;
-    for (int k = 0; k < 2 * kLanes + 1; ++k)
-      hole[k] = k == kLanes ? 0.0f : ones;
-  }
-};
-const LaneMasks kMasks;
+const detail::LaneMasks& kMasks = detail::kLaneMasks;
 
 // Calls body(t, dx, dy, dz, r2, inside) for every packet of grid points in the ranges that holds
 // at least one point within `radius` of q (d = p_t - q; `inside` masks the lanes within the

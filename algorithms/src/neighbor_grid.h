@@ -22,6 +22,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <stdexcept>
 #include <tuple>
 #include <utility>
@@ -196,5 +197,27 @@ void NeighborGrid::for_each_query(const Eigen::Matrix3Xf& queries, float radius,
     }
   });
 }
+
+/// Float lanes of the SIMD packet the kernels over this grid use.
+constexpr int kPacketLanes = Eigen::internal::packet_traits<float>::size;
+static_assert(kPacketLanes <= NeighborGrid::kPad);
+
+/// Lane masks as float bit patterns for the packet loops over a grid's ranges: first + kPacketLanes
+/// - k holds k all-ones lanes then zeros (the valid lanes of a range's last packet); hole +
+/// kPacketLanes - k is all-ones except lane k (a query's own position).
+struct LaneMasks {
+  float first[2 * kPacketLanes];
+  float hole[2 * kPacketLanes + 1];
+  LaneMasks() {
+    float ones;
+    const std::uint32_t bits = 0xffffffffu;
+    std::memcpy(&ones, &bits, sizeof ones);
+    for (int k = 0; k < 2 * kPacketLanes; ++k)
+      first[k] = k < kPacketLanes ? ones : 0.0f;
+    for (int k = 0; k < 2 * kPacketLanes + 1; ++k)
+      hole[k] = k == kPacketLanes ? 0.0f : ones;
+  }
+};
+inline const LaneMasks kLaneMasks;
 
 }  // namespace scanbench::algorithms::detail

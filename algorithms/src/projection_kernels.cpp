@@ -62,23 +62,7 @@ using Packet = Eigen::internal::packet_traits<float>::type;
 constexpr int kLanes = Eigen::internal::packet_traits<float>::size;
 static_assert(kLanes <= detail::NeighborGrid::kPad);
 
-// Lane masks as float bit patterns: kFirst + kLanes - k holds k all-ones lanes then zeros (the
-// valid lanes of a range's last packet); kHole + kLanes - k is all-ones except lane k (a query's
-// own position).
-struct LaneMasks {
-  float first[2 * kLanes];
-  float hole[2 * kLanes + 1];
-  LaneMasks() {
-    float ones;
-    const std::uint32_t bits = 0xffffffffu;
-    std::memcpy(&ones, &bits, sizeof ones);
-    for (int k = 0; k < 2 * kLanes; ++k)
-      first[k] = k < kLanes ? ones : 0.0f;
-    for (int k = 0; k < 2 * kLanes + 1; ++k)
-      hole[k] = k == kLanes ? 0.0f : ones;
-  }
-};
-const LaneMasks kMasks;
+const detail::LaneMasks& kMasks = detail::kLaneMasks;
 
 // Sums over the grid points within `radius` of q (vectorised, fixed order: range by range):
 //   s = sum_t g_t, d = sum_t g_t (p_t - q),  g_t = kernel(r_t^2) * weight_t
