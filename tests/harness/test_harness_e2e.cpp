@@ -15,70 +15,12 @@
 #include <sstream>
 #include <thread>
 
+#include "cli_test_util.h"
 #include "scanbench/core/params.h"
 
 namespace fs = std::filesystem;
 using scanbench::Json;
-
-namespace {
-
-const char* kBinary = SCANBENCH_BINARY;
-
-fs::path make_temp_dir(const std::string& tag) {
-  std::string tmpl = (fs::temp_directory_path() / ("scanbench-" + tag + "-XXXXXX")).string();
-  if (!mkdtemp(tmpl.data())) throw std::runtime_error("mkdtemp failed");
-  return tmpl;
-}
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
-void write(const fs::path& p, const std::string& text) {
-  std::ofstream out(p);
-  out << text;
-}
-
-struct Result {
-  int code;
-  std::string out;
-};
-
-/// Runs a shell command; returns its exit code and stdout+stderr.
-Result sh(const std::string& cmd) {
-  const std::string full = "SCANBENCH_TEST_ALGORITHMS=1 " + cmd + " 2>&1";
-  FILE* p = popen(full.c_str(), "r");
-  std::string out;
-  char buf[4096];
-  while (p && fgets(buf, sizeof(buf), p))
-    out += buf;
-  const int status = p ? pclose(p) : -1;
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
-}
-
-std::string sb() {
-  return std::string(kBinary);
-}
-
-std::vector<Json> read_jsonl(const fs::path& p) {
-  std::vector<Json> out;
-  std::istringstream in(slurp(p));
-  for (std::string line; std::getline(in, line);)
-    if (!line.empty()) out.push_back(Json::parse(line));
-  return out;
-}
-
-std::map<std::string, Json> by_variant(const std::vector<Json>& rs) {
-  std::map<std::string, Json> m;
-  for (const auto& r : rs)
-    m[r["variant"]["label"].get<std::string>()] = r;
-  return m;
-}
-
-}  // namespace
+using namespace scanbench::test;  // NOLINT(google-build-using-namespace): test helpers
 
 TEST(HarnessE2E, CrashHangAndMemoryBlowUpFailOnlyTheirJobs) {
   const fs::path dir = make_temp_dir("iso");
@@ -151,7 +93,7 @@ TEST(HarnessE2E, KillDashNineThenResumeEqualsUninterruptedRun) {
   if (pid == 0) {
     setenv("SCANBENCH_TEST_ALGORITHMS", "1", 1);
     const std::string cfg = (dir / "sweep.json").string(), out = a.string();
-    execl(kBinary, kBinary, "run", cfg.c_str(), "-o", out.c_str(), "-q", nullptr);
+    execl(SCANBENCH_BINARY, SCANBENCH_BINARY, "run", cfg.c_str(), "-o", out.c_str(), "-q", nullptr);
     _exit(127);
   }
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(40);

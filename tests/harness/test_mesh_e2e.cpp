@@ -12,37 +12,15 @@
 #include <map>
 #include <sstream>
 
+#include "cli_test_util.h"
 #include "scanbench/core/params.h"
 
 namespace fs = std::filesystem;
 using scanbench::Json;
-
-namespace {
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
-std::pair<int, std::string> sh(const std::string& cmd) {
-  const std::string full = "SCANBENCH_TEST_ALGORITHMS=1 " + cmd + " 2>&1";
-  FILE* p = popen(full.c_str(), "r");
-  std::string out;
-  char buf[4096];
-  while (p && fgets(buf, sizeof(buf), p))
-    out += buf;
-  const int status = p ? pclose(p) : -1;
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
-}
-
-}  // namespace
+using namespace scanbench::test;  // NOLINT(google-build-using-namespace): test helpers
 
 TEST(MeshE2E, RunRecordsSurfaceMetricsForMeshOutputs) {
-  std::string tmpl = (fs::temp_directory_path() / "scanbench-mesh-XXXXXX").string();
-  ASSERT_NE(mkdtemp(tmpl.data()), nullptr);
-  const fs::path dir = tmpl;
+  const fs::path dir = make_temp_dir("mesh");
   std::ofstream(dir / "mesh.json") << R"({
     "scanbench_experiment": 1, "name": "mesh", "seed": 3, "repeats": 2,
     "datasets": [{"name": "sphere"}],
@@ -57,13 +35,7 @@ TEST(MeshE2E, RunRecordsSurfaceMetricsForMeshOutputs) {
   const auto [code, text] = sh(std::string(SCANBENCH_BINARY) + " run " +
                                (dir / "mesh.json").string() + " -o " + out.string());
   ASSERT_EQ(code, 0) << text;
-  std::map<std::string, Json> rec;
-  std::istringstream lines(slurp(out / "runs.jsonl"));
-  for (std::string l; std::getline(lines, l);)
-    if (!l.empty()) {
-      const Json r = Json::parse(l);
-      rec[r["variant"]["label"].get<std::string>()] = r;
-    }
+  std::map<std::string, Json> rec = by_variant(read_jsonl(out / "runs.jsonl"));
   ASSERT_EQ(rec.size(), 3u);
   for (const char* v : {"mesh", "covmesh"}) {
     const Json& r = rec[v];

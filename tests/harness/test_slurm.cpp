@@ -15,64 +15,16 @@
 #include <sstream>
 #include <thread>
 
+#include "cli_test_util.h"
 #include "scanbench/core/params.h"
 
 namespace fs = std::filesystem;
 using scanbench::Json;
+using namespace scanbench::test;  // NOLINT(google-build-using-namespace): test helpers
 
 namespace {
 
-const char* kBinary = SCANBENCH_BINARY;
 const std::string kScript = std::string(SCANBENCH_SOURCE_DIR) + "/scripts/slurm-local.sh";
-
-fs::path make_temp_dir(const std::string& tag) {
-  std::string tmpl = (fs::temp_directory_path() / ("scanbench-" + tag + "-XXXXXX")).string();
-  if (!mkdtemp(tmpl.data())) throw std::runtime_error("mkdtemp failed");
-  return tmpl;
-}
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
-void write(const fs::path& p, const std::string& text) {
-  std::ofstream out(p);
-  out << text;
-}
-
-struct Result {
-  int code;
-  std::string out;
-};
-
-/// Runs a shell command (test algorithms enabled); exit code and stdout (+ stderr unless
-/// `merge_stderr` is false).
-Result sh(const std::string& cmd, bool merge_stderr = true) {
-  const std::string full =
-      "SCANBENCH_TEST_ALGORITHMS=1 " + cmd + (merge_stderr ? " 2>&1" : " 2>/dev/null");
-  FILE* p = popen(full.c_str(), "r");
-  std::string out;
-  char buf[4096];
-  while (p && fgets(buf, sizeof(buf), p))
-    out += buf;
-  const int status = p ? pclose(p) : -1;
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
-}
-
-std::string sb() {
-  return std::string(kBinary);
-}
-
-std::vector<Json> read_jsonl(const fs::path& p) {
-  std::vector<Json> out;
-  std::istringstream in(slurp(p));
-  for (std::string line; std::getline(in, line);)
-    if (!line.empty()) out.push_back(Json::parse(line));
-  return out;
-}
 
 std::vector<std::string> keys_of(const Json& j) {
   std::vector<std::string> k;
