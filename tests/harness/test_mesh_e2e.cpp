@@ -40,6 +40,7 @@ TEST(MeshE2E, RunRecordsSurfaceMetricsForMeshOutputs) {
   for (const char* v : {"mesh", "covmesh"}) {
     const Json& r = rec[v];
     ASSERT_EQ(r["status"], "ok") << r.dump();
+    EXPECT_EQ(r["output_kind"], std::string(v) == "mesh" ? "mesh" : "covariance_mesh") << v;
     const Json& m = r["metrics"];
     for (const char* k : {"accuracy_rel", "completeness_rel", "chamfer_rel", "hausdorff_rel",
                           "fscore", "normal_angle_mean_deg", "normal_pgp5", "input_distance_mean",
