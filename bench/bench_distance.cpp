@@ -99,4 +99,4 @@ BENCHMARK(BM_FieldSampling)
     ->UseRealTime();
 BENCHMARK(BM_FieldBuild)->Unit(benchmark::kMillisecond)->UseRealTime();
 
-BENCHMARK_MAIN();
+// main: bench_main.cpp (the program's allocator policy, then the benchmarks).

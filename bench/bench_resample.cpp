@@ -64,4 +64,4 @@ BENCHMARK(BM_Wlop)->Arg(10000)->Arg(100000)->Unit(benchmark::kMillisecond)->UseR
 
 }  // namespace
 
-BENCHMARK_MAIN();
+// main: bench_main.cpp (the program's allocator policy, then the benchmarks).

@@ -6,7 +6,6 @@
 //     wall-clock ratio and their process-CPU ratio.
 //   BM_ScanIncludingBuild/<triangles>: the public scan() call, BVH build included.
 #include <benchmark/benchmark.h>
-#include <malloc.h>
 
 #include "scanbench/core/run_context.h"
 #include "scanbench/scanner/scanner.h"
@@ -69,14 +68,3 @@ BENCHMARK(BM_ScanIncludingBuild)
     ->Unit(benchmark::kMillisecond);
 
 }  // namespace
-
-int main(int argc, char** argv) {
-  // As in `scanbench bench scanner`: no first-touch page faults of fresh allocations.
-  mallopt(M_MMAP_THRESHOLD, 32 << 20);
-  mallopt(M_TRIM_THRESHOLD, 1 << 30);
-  benchmark::Initialize(&argc, argv);
-  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
-  benchmark::RunSpecifiedBenchmarks();
-  benchmark::Shutdown();
-  return 0;
-}

@@ -20,7 +20,13 @@
 #include "scanbench/core/errors.h"
 #include "scanbench/core/kdtree.h"
 #include "scanbench/core/radix_sort.h"
+#include "scanbench/core/simd_dispatch.h"
 #include "simd_exp.h"
+
+// Eigen's packet types (__m128, __m256, __m512) carry vector attributes that GCC reports as
+// ignored when they are template arguments (the kernels are templates over the packet type of
+// the active ISA, scanbench/core/simd_dispatch.h); the attributes do not matter there.
+#pragma GCC diagnostic ignored "-Wignored-attributes"
 
 namespace scanbench::algorithms {
 
@@ -37,20 +43,13 @@ struct Precomputed {
   float f[32];  // 31 used; 128 bytes
 };
 
-using Packet = Eigen::internal::packet_traits<float>::type;
-constexpr int kLanes = Eigen::internal::packet_traits<float>::size;
 constexpr int kShells = 8;
 constexpr double kMinOccupancy = 6.0;
 constexpr Precomputed kZeroRecord{};
-// Four packets transposed as a 4 x 4 block (Eigen's ptranspose; the packet type's alignment
-// attribute is irrelevant to a template argument here).
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wignored-attributes"
-using PacketBlock4 = Eigen::internal::PacketBlock<Packet, 4>;
-#pragma GCC diagnostic pop
 
-// Per-thread scratch of one cell of particles: the candidate components in packets of kLanes,
-// each packet a block of fields of kLanes floats (mean x, y, z, then per kernel the six entries
+// Per-thread scratch of one cell of particles: the candidate components in packets of L floats
+// (the packet width of the active ISA, scanbench/core/simd.h), each packet a block of fields of L
+// floats (mean x, y, z, then per kernel the six entries
 // of Lambda^-1 and the log prefactor): what a packet of terms needs is contiguous.
 struct CellScratch {
   std::vector<detail::GridRange> ranges;
@@ -142,8 +141,19 @@ class PreparedMixture {
   // truncation of the gather radius, applied per term (when the widest kernel is out of reach,
   // the narrower ones are too: Lambda_j^-1 >= Lambda_0^-1). Each particle's result depends only
   // on its cell's candidate list, never on the thread count.
+  // Packet is the float packet of the active ISA: the terms of a particle are summed lane-wise
+  // in a fixed order, so each width gives the same result at any thread count (widths differ
+  // from each other only in float summation order).
   template <bool kInitial>
   void project_all(const Eigen::Matrix3Xf& q, Eigen::Matrix3Xf& out) const {
+    simd::with_packet(
+        [&](auto tag) { project_all_impl<kInitial, typename decltype(tag)::type>(q, out); });
+  }
+
+ private:
+  template <bool kInitial, class Packet>
+  void project_all_impl(const Eigen::Matrix3Xf& q, Eigen::Matrix3Xf& out) const {
+    constexpr int kLanes = Eigen::internal::unpacket_traits<Packet>::size;
     constexpr int j0 = kInitial ? 3 : 0;
     constexpr int nk = kInitial ? 1 : 3;
     const Index n = q.cols();
@@ -228,10 +238,11 @@ class PreparedMixture {
         sc.soa.resize(nf * np);
         sc.valid.assign(np, 0.0f);
         std::fill_n(sc.valid.begin(), m, ones);
-        if constexpr (!kInitial && kLanes == 4) {
-          // The 24 fields of 4 candidates: their records' first 24 floats, transposed in 4 x 4
-          // blocks (a zero record pads the last packet).
+        if constexpr (!kInitial && nf % kLanes == 0) {
+          // The 24 fields of L candidates: their records' first 24 floats, transposed in L x L
+          // blocks (a zero record pads the last packet); L = 4 or 8.
           static_assert(nf == 24);
+          using Block = Eigen::internal::PacketBlock<Packet, kLanes>;
           for (Index t = 0; t < padded; t += kLanes) {
             const float* rec[kLanes];
             for (int l = 0; l < kLanes; ++l)
@@ -241,7 +252,7 @@ class PreparedMixture {
                       : kZeroRecord.f;
             float* block = sc.soa.data() + static_cast<std::size_t>(t) * nf;
             for (int b = 0; b < nf; b += kLanes) {
-              PacketBlock4 pb;
+              Block pb;
               for (int l = 0; l < kLanes; ++l)
                 pb.packet[l] = ei::ploadu<Packet>(rec[l] + b);
               ei::ptranspose(pb);
@@ -326,7 +337,6 @@ class PreparedMixture {
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, starts.size() - 1, 1), project_cells);
   }
 
- private:
   GaussianMixture sorted_;
   float cell_;
   float s2_[4];

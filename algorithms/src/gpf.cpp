@@ -13,7 +13,12 @@
 #include "normal_checks.h"
 #include "projection_kernels.h"
 #include "scanbench/core/errors.h"
+#include "scanbench/core/simd_dispatch.h"
 #include "simd_exp.h"
+
+// Eigen's packet types carry vector attributes that GCC reports as ignored when they are template
+// arguments (em_step is a template over the packet of the active ISA); they do not matter there.
+#pragma GCC diagnostic ignored "-Wignored-attributes"
 
 namespace scanbench::algorithms {
 
@@ -22,19 +27,20 @@ namespace gpf_detail {
 namespace {
 
 namespace ei = Eigen::internal;
-using Packet = ei::packet_traits<float>::type;
-constexpr int kLanes = ei::packet_traits<float>::size;
-static_assert(kLanes <= detail::NeighborGrid::kPad);
 
 const detail::LaneMasks& kMasks = detail::kLaneMasks;
+constexpr int kMaskLanes = detail::kPacketLanes;
 
 // Calls body(t, dx, dy, dz, r2, inside) for every packet of grid points in the ranges that holds
 // at least one point within `radius` of q (d = p_t - q; `inside` masks the lanes within the
 // radius, inside the range and not at sorted position `self`). Fixed order: range by range.
-template <class Body>
+// Packet is the float packet of the active ISA (scanbench/core/simd.h).
+template <class Packet, class Body>
 void for_each_packet(const detail::NeighborGrid& g, const Eigen::Vector3f& q, float radius,
                      Eigen::Index self, const detail::GridRange* ranges, std::size_t count,
                      Body&& body) {
+  constexpr int kLanes = ei::unpacket_traits<Packet>::size;
+  static_assert(kLanes <= kMaskLanes && kLanes <= detail::NeighborGrid::kPad);
   const Packet qx = ei::pset1<Packet>(q.x()), qy = ei::pset1<Packet>(q.y()),
                qz = ei::pset1<Packet>(q.z());
   const Packet r2max = ei::pset1<Packet>(radius * radius);
@@ -47,15 +53,16 @@ void for_each_packet(const detail::NeighborGrid& g, const Eigen::Vector3f& q, fl
       const Packet r2 = ei::padd(ei::padd(ei::pmul(dx, dx), ei::pmul(dy, dy)), ei::pmul(dz, dz));
       Packet inside = ei::pcmp_le(r2, r2max);
       if (end - t < kLanes)
-        inside = ei::pand(inside, ei::ploadu<Packet>(kMasks.first + kLanes - (end - t)));
+        inside = ei::pand(inside, ei::ploadu<Packet>(kMasks.first + kMaskLanes - (end - t)));
       if (self >= t && self < t + kLanes)
-        inside = ei::pand(inside, ei::ploadu<Packet>(kMasks.hole + kLanes - (self - t)));
+        inside = ei::pand(inside, ei::ploadu<Packet>(kMasks.hole + kMaskLanes - (self - t)));
       if (!ei::predux_any(inside)) continue;
       body(t, dx, dy, dz, r2, inside);
     }
   }
 }
 
+template <class Packet>
 Packet load(const std::vector<float>& a, Eigen::Index t) {
   return ei::ploadu<Packet>(a.data() + t);
 }
@@ -86,8 +93,11 @@ void Problem::set_h(float h) {
   sinv_rho_ = sorted(grid_, inv.data(), 1);
 }
 
-Step em_step(const Problem& problem, const Eigen::Matrix3Xf& x, const Eigen::Matrix3Xf& xb,
-             double s2, double omega, double mu, RunContext* ctx) {
+namespace {
+
+template <class Packet>
+Step em_step_impl(const Problem& problem, const Eigen::Matrix3Xf& x, const Eigen::Matrix3Xf& xb,
+                  double s2, double omega, double mu, RunContext* ctx) {
   const Eigen::Matrix3Xf& v = problem.v();
   const Eigen::Index n = v.cols();
   const Eigen::Index m = x.cols();
@@ -111,11 +121,11 @@ Step em_step(const Problem& problem, const Eigen::Matrix3Xf& x, const Eigen::Mat
       v, r_data, false,
       [&](Eigen::Index i, Eigen::Index, const detail::GridRange* r, std::size_t count) {
         Packet acc = ei::pset1<Packet>(0.0f);
-        for_each_packet(pgrid, v.col(i), r_data, -1, r, count,
-                        [&](Eigen::Index, Packet, Packet, Packet, Packet r2, Packet inside) {
-                          acc = ei::padd(
-                              acc, ei::pand(detail::fast_pexp(ei::pmul(k_gauss, r2)), inside));
-                        });
+        for_each_packet<Packet>(
+            pgrid, v.col(i), r_data, -1, r, count,
+            [&](Eigen::Index, Packet, Packet, Packet, Packet r2, Packet inside) {
+              acc = ei::padd(acc, ei::pand(detail::fast_pexp(ei::pmul(k_gauss, r2)), inside));
+            });
         s.denominator[i] = ei::predux(acc) + c;
       });
   // 1 / D_n in the input grid's order; an underflowed denominator contributes nothing.
@@ -153,13 +163,15 @@ Step em_step(const Problem& problem, const Eigen::Matrix3Xf& x, const Eigen::Mat
         Packet Q = zero, Gx = zero, Gy = zero, Gz = zero;
         Packet P = zero, S1 = zero, gx = zero, gy = zero, gz = zero;
         Packet Axx = zero, Axy = zero, Axz = zero, Ayy = zero, Ayz = zero, Azz = zero;
-        for_each_packet(
+        for_each_packet<Packet>(
             vgrid, x.col(i), r_data, -1, r, count,
             [&](Eigen::Index t, Packet dx, Packet dy, Packet dz, Packet r2, Packet inside) {
               const Packet p = ei::pand(
-                  ei::pmul(detail::fast_pexp(ei::pmul(k_gauss, r2)), load(inv_d, t)), inside);
-              const Packet q = ei::pmul(p, load(inv_rho, t));
-              const Packet bx = load(vb[0], t), by = load(vb[1], t), bz = load(vb[2], t);
+                  ei::pmul(detail::fast_pexp(ei::pmul(k_gauss, r2)), load<Packet>(inv_d, t)),
+                  inside);
+              const Packet q = ei::pmul(p, load<Packet>(inv_rho, t));
+              const Packet bx = load<Packet>(vb[0], t), by = load<Packet>(vb[1], t),
+                           bz = load<Packet>(vb[2], t);
               const Packet tt = ei::padd(ei::padd(ei::pmul(bx, dx), ei::pmul(by, dy)),
                                          ei::pmul(bz, dz));  // (v_n - x_m) . b_n
               const Packet qt = ei::pmul(q, tt), pt = ei::pmul(p, tt);
@@ -201,11 +213,12 @@ Step em_step(const Problem& problem, const Eigen::Matrix3Xf& x, const Eigen::Mat
       [&](Eigen::Index i, Eigen::Index self, const detail::GridRange* r, std::size_t count) {
         const Packet zero = ei::pset1<Packet>(0.0f);
         Packet W = zero, Rx = zero, Ry = zero, Rz = zero;
-        for_each_packet(
+        for_each_packet<Packet>(
             pgrid, x.col(i), r_rep, self, r, count,
             [&](Eigen::Index t, Packet dx, Packet dy, Packet dz, Packet, Packet inside) {
               // d = x_m' - x_m; C d = d - (b_m' . d) b_m'.
-              const Packet bx = load(pb[0], t), by = load(pb[1], t), bz = load(pb[2], t);
+              const Packet bx = load<Packet>(pb[0], t), by = load<Packet>(pb[1], t),
+                           bz = load<Packet>(pb[2], t);
               const Packet tt =
                   ei::padd(ei::padd(ei::pmul(bx, dx), ei::pmul(by, dy)), ei::pmul(bz, dz));
               const Packet cx = ei::psub(dx, ei::pmul(tt, bx));
@@ -246,6 +259,15 @@ Step em_step(const Problem& problem, const Eigen::Matrix3Xf& x, const Eigen::Mat
   s.s2 = np_sum > 0.0 ? std::max(res_sum / (3.0 * np_sum), kMinS2) : s2;
   s.max_move = std::sqrt(max_move2);
   return s;
+}
+
+}  // namespace
+
+Step em_step(const Problem& problem, const Eigen::Matrix3Xf& x, const Eigen::Matrix3Xf& xb,
+             double s2, double omega, double mu, RunContext* ctx) {
+  return simd::with_packet([&](auto tag) {
+    return em_step_impl<typename decltype(tag)::type>(problem, x, xb, s2, omega, mu, ctx);
+  });
 }
 
 }  // namespace gpf_detail

@@ -22,7 +22,13 @@
 #include "scanbench/core/errors.h"
 #include "scanbench/core/kdtree.h"
 #include "scanbench/core/rng.h"
+#include "scanbench/core/simd_dispatch.h"
 #include "simd_exp.h"
+
+// Eigen's packet types (__m128, __m256, __m512) carry vector attributes that GCC reports as
+// ignored when they are template arguments (the kernels are templates over the packet type of
+// the active ISA, scanbench/core/simd_dispatch.h); the attributes do not matter there.
+#pragma GCC diagnostic ignored "-Wignored-attributes"
 
 namespace scanbench::algorithms {
 
@@ -304,21 +310,10 @@ Grid make_grid(const Eigen::Matrix3Xf& pts, double width, int split) {
   return g;
 }
 
-// GCC/Clang vector extensions: 4 floats, portable SIMD for the density kernel.
+// GCC/Clang vector extensions: 4 floats, portable SIMD for the nearest-neighbour scans of the
+// initial mixture (the density pass uses the packet of the active ISA).
 using Float4 = float __attribute__((vector_size(16)));
 using Int4 = std::int32_t __attribute__((vector_size(16)));
-
-// exp of 4 lanes through the kernels' shared SIMD exp (Eigen's polynomial, simd_exp.h); the
-// argument is at least -80 here, inside its bit-exact range.
-inline Float4 exp_nonpositive(Float4 x) {
-  using Packet = Eigen::internal::packet_traits<float>::type;
-  static_assert(sizeof(Packet) == sizeof(Float4));
-  Packet p;
-  std::memcpy(&p, &x, sizeof p);
-  p = detail::fast_pexp(p);
-  std::memcpy(&x, &p, sizeof x);
-  return x;
-}
 
 inline Float4 load4(const float* p) {
   Float4 v;
@@ -334,22 +329,23 @@ inline bool any_lane(Int4 mask) {
   return (lo | hi) != 0;
 }
 
-// Candidate coordinates and grid positions; `padded` rounds `size` up to whole vectors with
-// points at infinity. The arrays only grow (no zero-filling per use).
+// Candidate coordinates and grid positions; `padded` rounds `size` up to whole packets of
+// `lanes` floats with points at infinity. The arrays only grow (no zero-filling per use).
 struct Candidates {
+  static constexpr std::size_t kMaxLanes = 16;
   std::vector<float> x, y, z;
   std::vector<std::size_t> pos;
   std::size_t size = 0, padded = 0;
 
   void reserve(std::size_t bound) {
-    if (x.size() >= bound + 3) return;
-    x.resize(bound + 3);
-    y.resize(bound + 3);
-    z.resize(bound + 3);
-    pos.resize(bound + 3);
+    if (x.size() >= bound + kMaxLanes) return;
+    x.resize(bound + kMaxLanes);
+    y.resize(bound + kMaxLanes);
+    z.resize(bound + kMaxLanes);
+    pos.resize(bound + kMaxLanes);
   }
-  void pad() {
-    padded = (size + 3) & ~std::size_t{3};
+  void pad(std::size_t lanes) {
+    padded = (size + lanes - 1) / lanes * lanes;
     for (std::size_t i = size; i < padded; ++i) {
       x[i] = std::numeric_limits<float>::infinity();
       y[i] = 0.0f;
@@ -358,13 +354,30 @@ struct Candidates {
   }
 };
 
+// The lanes of a packet summed pairwise ((l0 + l1) + (l2 + l3)) + ..., the same tree for every
+// width (for 4 lanes the order of the original 4-lane pass).
+template <class Packet>
+float pairwise_sum(const Packet& p) {
+  constexpr int kLanes = Eigen::internal::unpacket_traits<Packet>::size;
+  float a[kLanes];
+  Eigen::internal::pstoreu(a, p);
+  for (int w = 1; w < kLanes; w *= 2)
+    for (int l = 0; l + w < kLanes; l += 2 * w)
+      a[l] += a[l + w];
+  return a[0];
+}
+
 // WLOP density v_j = 1 + sum_{j' != j, |p_j - p_j'| <= h} exp(-16 |p_j - p_j'|^2 / h^2) of every
 // point, on a grid of coarse width >= h split into fine cells of width h/3. Each pair is
 // evaluated once: within a fine cell both ways, across fine cells by the earlier cell (its
 // candidates: the later points of its block within h + reach of its centre), adding the term to
 // both points. Partial sums are added in 2^-b fixed point: integer sums are exact and
 // order-free, so the result is the same for any thread count.
-std::vector<double> density_weights(const Grid& g, double h) {
+template <class Packet>
+std::vector<double> density_weights_impl(const Grid& g, double h) {
+  namespace ei = Eigen::internal;
+  constexpr std::size_t kLanes = ei::unpacket_traits<Packet>::size;
+  static_assert(kLanes <= Candidates::kMaxLanes);
   const std::size_t n = g.order.size();
   const auto hf = static_cast<float>(h);
   const float c2 = hf * hf;
@@ -394,7 +407,7 @@ std::vector<double> density_weights(const Grid& g, double h) {
           own.z[own.size] = g.z[k];
           own.pos[own.size] = k;
         }
-        own.pad();
+        own.pad(kLanes);
         const Vector3f centre = g.fine_centre[f];
         const float reach = hf * (1.0f + kSlack) + g.fine_reach[f];
         const float reach2 = reach * reach;
@@ -415,30 +428,35 @@ std::vector<double> density_weights(const Grid& g, double h) {
             m += dx * dx + dy * dy + dz * dz <= reach2 ? 1 : 0;
           }
         cand.size = m;
-        cand.pad();
+        cand.pad(kLanes);
         if (col.size() < cand.padded) col.resize(cand.padded);
         std::fill_n(col.begin(), cand.padded, 0.0f);
-        // theta for 4 candidates; beyond h the exponent is -80, a term under 2e-35 that
-        // vanishes exactly next to the terms >= theta(h) = 1.1e-7 (and in the fixed point).
-        auto theta = [&](const Candidates& cs, std::size_t m4, float qx, float qy, float qz) {
-          const Float4 dx = load4(cs.x.data() + m4) - qx, dy = load4(cs.y.data() + m4) - qy,
-                       dz = load4(cs.z.data() + m4) - qz;
-          const Float4 d2 = dx * dx + dy * dy + dz * dz;
-          return exp_nonpositive(d2 <= c2 ? d2 * k_theta : Float4{} - 80.0f);
+        // theta for a packet of candidates; beyond h the exponent is -80, a term under 2e-35
+        // that vanishes exactly next to the terms >= theta(h) = 1.1e-7 (and in the fixed point).
+        const Packet c2v = ei::pset1<Packet>(c2), kv = ei::pset1<Packet>(k_theta),
+                     far = ei::pset1<Packet>(-80.0f);
+        auto theta = [&](const Candidates& cs, std::size_t m4, const Packet& qx, const Packet& qy,
+                         const Packet& qz) {
+          const Packet dx = ei::psub(ei::ploadu<Packet>(cs.x.data() + m4), qx),
+                       dy = ei::psub(ei::ploadu<Packet>(cs.y.data() + m4), qy),
+                       dz = ei::psub(ei::ploadu<Packet>(cs.z.data() + m4), qz);
+          const Packet d2 =
+              ei::padd(ei::padd(ei::pmul(dx, dx), ei::pmul(dy, dy)), ei::pmul(dz, dz));
+          return detail::fast_pexp(ei::pselect(ei::pcmp_le(d2, c2v), ei::pmul(d2, kv), far));
         };
         for (std::size_t a = 0; a < own.size; ++a) {
-          const float qx = own.x[a], qy = own.y[a], qz = own.z[a];
-          Float4 row = {0.0f, 0.0f, 0.0f, 0.0f};
+          const Packet qx = ei::pset1<Packet>(own.x[a]), qy = ei::pset1<Packet>(own.y[a]),
+                       qz = ei::pset1<Packet>(own.z[a]);
+          Packet row = ei::pset1<Packet>(0.0f);
           // The own cell, self included: theta(0) = 1 is the leading 1.
-          for (std::size_t m4 = 0; m4 < own.padded; m4 += 4)
-            row += theta(own, m4, qx, qy, qz);
-          for (std::size_t m4 = 0; m4 < cand.padded; m4 += 4) {
-            const Float4 t = theta(cand, m4, qx, qy, qz);
-            row += t;
-            const Float4 cs = load4(col.data() + m4) + t;
-            std::memcpy(col.data() + m4, &cs, sizeof cs);
+          for (std::size_t m4 = 0; m4 < own.padded; m4 += kLanes)
+            row = ei::padd(row, theta(own, m4, qx, qy, qz));
+          for (std::size_t m4 = 0; m4 < cand.padded; m4 += kLanes) {
+            const Packet t = theta(cand, m4, qx, qy, qz);
+            row = ei::padd(row, t);
+            ei::pstoreu(col.data() + m4, ei::padd(ei::ploadu<Packet>(col.data() + m4), t));
           }
-          sum[own.pos[a]] += fixed((row[0] + row[1]) + (row[2] + row[3]));
+          sum[own.pos[a]] += fixed(pairwise_sum(row));
         }
         for (std::size_t i = 0; i < cand.size; ++i)
           sum[cand.pos[i]] += fixed(col[i]);
@@ -453,6 +471,12 @@ std::vector<double> density_weights(const Grid& g, double h) {
   for (std::size_t k = 0; k < n; ++k)
     v[static_cast<std::size_t>(g.order[k])] = static_cast<double>(total[k]) / scale;
   return v;
+}
+
+// The density pass with the packet of the active ISA (scanbench/core/simd.h).
+std::vector<double> density_weights(const Grid& g, double h) {
+  return simd::with_packet(
+      [&](auto tag) { return density_weights_impl<typename decltype(tag)::type>(g, h); });
 }
 
 }  // namespace

@@ -13,6 +13,12 @@
 
 #include "scanbench/core/errors.h"
 #include "scanbench/core/rng.h"
+#include "scanbench/core/simd_dispatch.h"
+
+// Eigen's packet types (__m128, __m256, __m512) carry vector attributes that GCC reports as
+// ignored when they are template arguments (the kernels are templates over the packet type of
+// the active ISA, scanbench/core/simd_dispatch.h); the attributes do not matter there.
+#pragma GCC diagnostic ignored "-Wignored-attributes"
 
 namespace scanbench::algorithms::kernels {
 
@@ -58,23 +64,24 @@ void alpha_in_place(Eigen::Index n, float h, Scratch& s) {
   r2 = (k * r2).exp() / s.b.head(n);
 }
 
-using Packet = Eigen::internal::packet_traits<float>::type;
-constexpr int kLanes = Eigen::internal::packet_traits<float>::size;
-static_assert(kLanes <= detail::NeighborGrid::kPad);
-
 const detail::LaneMasks& kMasks = detail::kLaneMasks;
+constexpr int kMaskLanes = detail::kPacketLanes;
 
 // Sums over the grid points within `radius` of q (vectorised, fixed order: range by range):
 //   s = sum_t g_t, d = sum_t g_t (p_t - q),  g_t = kernel(r_t^2) * weight_t
 // where kernel is theta (Alpha = false) or alpha with the eps*h clamp (Alpha = true), and weight_t
 // the grid's weight of the point (1 when not Weighted).
-// The point at sorted position `self` (or none, -1) is left out.
-template <bool Alpha, bool Weighted = true>
+// The point at sorted position `self` (or none, -1) is left out. Packet is the Eigen float packet
+// of the active ISA (scanbench/core/simd.h); its lanes are summed in the same order at any thread
+// count.
+template <class Packet, bool Alpha, bool Weighted = true>
 std::pair<float, Eigen::Vector3f> kernel_sums(const detail::NeighborGrid& g,
                                               const Eigen::Vector3f& q, float radius, float h,
                                               Eigen::Index self, const detail::GridRange* ranges,
                                               std::size_t count) {
   namespace ei = Eigen::internal;
+  constexpr int kLanes = ei::unpacket_traits<Packet>::size;
+  static_assert(kLanes <= kMaskLanes && kLanes <= detail::NeighborGrid::kPad);
   const Packet qx = ei::pset1<Packet>(q.x()), qy = ei::pset1<Packet>(q.y()),
                qz = ei::pset1<Packet>(q.z());
   const Packet r2max = ei::pset1<Packet>(radius * radius);
@@ -94,9 +101,9 @@ std::pair<float, Eigen::Vector3f> kernel_sums(const detail::NeighborGrid& g,
       const Packet r2 = ei::padd(ei::padd(ei::pmul(dx, dx), ei::pmul(dy, dy)), ei::pmul(dz, dz));
       Packet inside = ei::pcmp_le(r2, r2max);
       if (end - t < kLanes)
-        inside = ei::pand(inside, ei::ploadu<Packet>(kMasks.first + kLanes - (end - t)));
+        inside = ei::pand(inside, ei::ploadu<Packet>(kMasks.first + kMaskLanes - (end - t)));
       if (self >= t && self < t + kLanes)
-        inside = ei::pand(inside, ei::ploadu<Packet>(kMasks.hole + kLanes - (self - t)));
+        inside = ei::pand(inside, ei::ploadu<Packet>(kMasks.hole + kMaskLanes - (self - t)));
       // Skipping a packet wholly outside the support adds nothing but +0 to the sums.
       if (!ei::predux_any(inside)) continue;
       Packet k;
@@ -141,47 +148,60 @@ float grid_cell(float radius) {
 Eigen::VectorXf density_weights(const detail::NeighborGrid& grid, const Eigen::Matrix3Xf& points,
                                 float h, float cutoff) {
   Eigen::VectorXf v(points.cols());
-  grid.for_each_query(
-      points, cutoff, true,
-      [&](Eigen::Index j, Eigen::Index self, const detail::GridRange* r, std::size_t count) {
-        v[j] =
-            1.0f + kernel_sums<false, false>(grid, points.col(j), cutoff, h, self, r, count).first;
-      });
+  simd::with_packet([&](auto tag) {
+    using P = typename decltype(tag)::type;
+    grid.for_each_query(
+        points, cutoff, true,
+        [&](Eigen::Index j, Eigen::Index self, const detail::GridRange* r, std::size_t count) {
+          v[j] = 1.0f +
+                 kernel_sums<P, false, false>(grid, points.col(j), cutoff, h, self, r, count).first;
+        });
+  });
   return v;
 }
 
 Eigen::Matrix3Xf l2_means(const Eigen::Matrix3Xf& q, const detail::NeighborGrid& grid, float h) {
   Eigen::Matrix3Xf out(3, q.cols());
-  grid.for_each_query(
-      q, h, false,
-      [&](Eigen::Index i, Eigen::Index, const detail::GridRange* r, std::size_t count) {
-        out.col(i) =
-            mean_or_stay(q.col(i), kernel_sums<false, false>(grid, q.col(i), h, h, -1, r, count));
-      });
+  simd::with_packet([&](auto tag) {
+    using P = typename decltype(tag)::type;
+    grid.for_each_query(
+        q, h, false,
+        [&](Eigen::Index i, Eigen::Index, const detail::GridRange* r, std::size_t count) {
+          out.col(i) = mean_or_stay(
+              q.col(i), kernel_sums<P, false, false>(grid, q.col(i), h, h, -1, r, count));
+        });
+  });
   return out;
 }
 
 Eigen::Matrix3Xf attractions(const Eigen::Matrix3Xf& q, const detail::NeighborGrid& grid, float h) {
   Eigen::Matrix3Xf out(3, q.cols());
-  grid.for_each_query(
-      q, h, false,
-      [&](Eigen::Index i, Eigen::Index, const detail::GridRange* r, std::size_t count) {
-        out.col(i) = mean_or_stay(q.col(i), kernel_sums<true>(grid, q.col(i), h, h, -1, r, count));
-      });
+  simd::with_packet([&](auto tag) {
+    using P = typename decltype(tag)::type;
+    grid.for_each_query(
+        q, h, false,
+        [&](Eigen::Index i, Eigen::Index, const detail::GridRange* r, std::size_t count) {
+          out.col(i) =
+              mean_or_stay(q.col(i), kernel_sums<P, true>(grid, q.col(i), h, h, -1, r, count));
+        });
+  });
   return out;
 }
 
 Eigen::Matrix3Xf repulsions(const Eigen::Matrix3Xf& particles, const detail::NeighborGrid& grid,
                             float h, float cutoff) {
   Eigen::Matrix3Xf out(3, particles.cols());
-  grid.for_each_query(
-      particles, cutoff, true,
-      [&](Eigen::Index i, Eigen::Index self, const detail::GridRange* r, std::size_t count) {
-        const auto s = kernel_sums<true>(grid, particles.col(i), cutoff, h, self, r, count);
-        // Offsets are q_i' - q_i; F2 sums q_i - q_i'.
-        out.col(i) =
-            s.first > 0.0f ? Eigen::Vector3f(-s.second / s.first) : Eigen::Vector3f::Zero();
-      });
+  simd::with_packet([&](auto tag) {
+    using P = typename decltype(tag)::type;
+    grid.for_each_query(
+        particles, cutoff, true,
+        [&](Eigen::Index i, Eigen::Index self, const detail::GridRange* r, std::size_t count) {
+          const auto s = kernel_sums<P, true>(grid, particles.col(i), cutoff, h, self, r, count);
+          // Offsets are q_i' - q_i; F2 sums q_i - q_i'.
+          out.col(i) =
+              s.first > 0.0f ? Eigen::Vector3f(-s.second / s.first) : Eigen::Vector3f::Zero();
+        });
+  });
   return out;
 }
 

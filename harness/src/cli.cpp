@@ -6,14 +6,24 @@
 
 #include "commands.h"
 #include "scanbench/core/errors.h"
+#include "scanbench/core/simd.h"
 #include "scanbench/core/version.h"
 
 namespace scanbench::harness {
 
 int run_cli(int argc, char** argv) {
   Cli cli;
-  cli.app.set_version_flag("--version",
-                           fmt::format("scanbench {} (commit {})", version_string(), git_commit()));
+  // The SIMD path (SCANBENCH_ISA is checked here, once, for every command: an ISA this binary or
+  // CPU lacks is a one-line error).
+  std::string isa;
+  try {
+    isa = simd::describe();
+  } catch (const Error& e) {
+    std::fprintf(stderr, "scanbench: %s\n", e.what());
+    return 2;
+  }
+  cli.app.set_version_flag("--version", fmt::format("scanbench {} (commit {})\nsimd: {}",
+                                                    version_string(), git_commit(), isa));
   cli.app.require_subcommand(1);
 
   // One explicit list of subcommands.

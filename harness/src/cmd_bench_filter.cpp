@@ -300,6 +300,8 @@ void add_bench_filter(CLI::App* bench, Cli& cli) {
       if (!o.json.empty()) {
         Json out = Json::object();
         out["benchmark"] = "filter";
+        // Version, compiler, SIMD path (isa, isa_flags) and allocator policy of this run.
+        out["context"] = run_context_json();
         out["dataset"] = o.dataset;
         out["scan_points"] = input.size();
         out["noise"] = o.noise;

@@ -25,6 +25,7 @@
 #include "scanbench/core/datasets.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/run_context.h"
+#include "scanbench/core/simd.h"
 #include "scanbench/core/timing.h"
 #include "scanbench/harness/records.h"
 #include "scanbench/metrics/evaluate.h"
@@ -170,6 +171,8 @@ void add_bench_resample(CLI::App* bench, Cli& cli) {
       Json scan_record;
       const PointCloud input = camel_scan(mesh, o.points, o.seed, &scan_record);
       const metrics::GroundTruth gt(mesh, o.seed);
+      fmt::print("simd: {}; CGAL peers compiled with {}\n", simd::describe(),
+                 simd::compile_flags());
       fmt::print("{}: {} scan points, {} particles, h = {} diag, {} iterations, {} repeats\n",
                  o.dataset, input.size(), std::lround(o.particles * input.size()), o.h,
                  o.iterations, o.repeats);
@@ -361,6 +364,16 @@ void add_bench_resample(CLI::App* bench, Cli& cli) {
       if (!o.json.empty()) {
         Json out = Json::object();
         out["benchmark"] = "resample";
+        // Version, compiler, SIMD path (isa, isa_flags) and allocator policy of this run.
+        out["context"] = run_context_json();
+        // Like for like: CGAL's WLOP (header-only, instantiated in algorithms/src/cgal_peers.cpp)
+        // is compiled with the flags of the whole build, the same as our widest kernels.
+        out["cgal_peers_compiled_with"] = {
+            {"isa", std::string(simd::name(simd::compiled()))},
+            {"flags", std::string(simd::compile_flags())},
+            {"note",
+             "every translation unit, CGAL's templates included, is compiled with these flags "
+             "(CMake SCANBENCH_SIMD); our kernels run the packet of 'context.isa'"}};
         out["dataset"] = o.dataset;
         out["scan_points"] = input.size();
         out["h"] = o.h;

@@ -5,7 +5,6 @@
 // Wall-clock ratios are the result; process-CPU ratios are printed next to them because the
 // build machine is shared (other processes disturb wall clocks more than CPU seconds).
 #include <fmt/format.h>
-#include <malloc.h>
 
 #include <algorithm>
 #include <fstream>
@@ -13,6 +12,7 @@
 #include <vector>
 
 #include "commands.h"
+#include "scanbench/core/allocator.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/run_context.h"
 #include "scanbench/harness/records.h"
@@ -42,11 +42,8 @@ void add_bench_scanner(CLI::App* bench, Cli& cli) {
       ->check(CLI::NonNegativeNumber);
   sub->callback([&cli, opts] {
     cli.action = [opts] {
-      // Keep freed memory in the allocator so both sides run without first-touch page faults
-      // of fresh allocations (50 us per 4 KiB page on the 2-core VM): we compare steady-state
-      // ray throughput, and the bare loop reuses one ray buffer too.
-      mallopt(M_MMAP_THRESHOLD, 32 << 20);
-      mallopt(M_TRIM_THRESHOLD, 1 << 30);
+      // The allocator policy is the program's own, set in main for every command
+      // (scanbench/core/allocator.h): the bench measures what `scan` and `run` do.
       RunContext ctx(1, opts->threads);
       const scanner::ScannerParams p = scanner::all_artifacts_params();
       Json cases = Json::array();
@@ -94,6 +91,8 @@ void add_bench_scanner(CLI::App* bench, Cli& cli) {
       if (!opts->json.empty()) {
         Json out = Json::object();
         out["benchmark"] = "scanner";
+        // Version, compiler, SIMD path (isa, isa_flags) and allocator policy of this run.
+        out["context"] = run_context_json();
         out["params"] = params_to_json(p);
         out["repeats"] = opts->repeats;
         out["threads"] = opts->threads;
@@ -114,7 +113,7 @@ void add_bench_scanner(CLI::App* bench, Cli& cli) {
             "scanner rays/s over bare rays/s (wall medians); cpu_ratio = bare over scanner "
             "process-CPU medians";
         out["target"] = 0.8;
-        out["allocator"] = "glibc mallopt M_MMAP_THRESHOLD 32 MiB, M_TRIM_THRESHOLD 1 GiB";
+        out["allocator"] = std::string(allocator_policy());
         std::ofstream f(opts->json, std::ios::binary | std::ios::trunc);
         f << out.dump(2) << "\n";
         f.flush();

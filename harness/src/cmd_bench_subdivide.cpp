@@ -14,6 +14,7 @@
 #include "scanbench/core/procedural.h"
 #include "scanbench/core/run_context.h"
 #include "scanbench/core/timing.h"
+#include "scanbench/harness/records.h"
 
 namespace scanbench::harness {
 
@@ -106,6 +107,8 @@ void add_bench_subdivide(CLI::App* bench, Cli& cli) {
       ip.sigma_0 = opts->sigma_0;
       Json out = Json::object();
       out["benchmark"] = "subdivide";
+      // Version, compiler, SIMD path (isa, isa_flags) and allocator policy of this run.
+      out["context"] = run_context_json();
       out["threads"] = opts->threads;
       out["repeats"] = opts->repeats;
       out["sigma_0_rel"] = opts->sigma_0;

@@ -1,6 +1,7 @@
 #include "scanbench/harness/compare.h"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <algorithm>
 #include <cmath>
@@ -129,6 +130,8 @@ Json CompareResult::to_json() const {
   j["improvements"] = improvements;
   j["unchanged"] = unchanged;
   j["verdict"] = regressed() ? "regression" : "ok";
+  j["isa"] = {{"base", base_isas}, {"new", new_isas}};
+  j["notes"] = notes;
   Json a = Json::array();
   for (const auto& v : verdicts)
     a.push_back(v.to_json());
@@ -137,7 +140,10 @@ Json CompareResult::to_json() const {
 }
 
 std::string CompareResult::table(bool all) const {
-  std::string out = "| job | quantity | base | new | change | p | verdict |\n";
+  std::string out;
+  for (const auto& n : notes)
+    out += "Note: " + n + "\n\n";
+  out += "| job | quantity | base | new | change | p | verdict |\n";
   out += "|---|---|---:|---:|---:|---:|---|\n";
   int shown = 0;
   for (const auto& v : verdicts) {
@@ -165,6 +171,24 @@ CompareResult compare_records(const std::vector<Json>& base, const std::vector<J
   std::map<std::string, const Json*> new_by_key;
   for (const auto& r : now)
     new_by_key[r.value("key", std::string())] = &r;
+  // The SIMD path of each side (scanbench/core/simd.h).
+  const auto isas = [](const std::vector<Json>& records) {
+    std::set<std::string> s;
+    for (const auto& r : records) {
+      const Json c = r.value("context", Json::object());
+      s.insert(c.is_object() ? c.value("isa", std::string("unrecorded")) : "unrecorded");
+    }
+    return std::vector<std::string>(s.begin(), s.end());
+  };
+  res.base_isas = isas(base);
+  res.new_isas = isas(now);
+  if (!base.empty() && !now.empty() && res.base_isas != res.new_isas) {
+    res.notes.push_back(fmt::format(
+        "the baseline ran SIMD path {} and this run {}: accuracy is compared within the "
+        "tolerances (packet widths differ only in float summation order); timings compare "
+        "different code",
+        fmt::join(res.base_isas, "+"), fmt::join(res.new_isas, "+")));
+  }
   std::set<std::string> base_keys;
   auto add = [&](Verdict v) {
     if (v.verdict == "regression") {

@@ -21,7 +21,9 @@
 #include <sstream>
 #include <thread>
 
+#include "scanbench/core/allocator.h"
 #include "scanbench/core/errors.h"
+#include "scanbench/core/simd.h"
 #include "scanbench/core/version.h"
 
 namespace scanbench::harness {
@@ -74,6 +76,12 @@ Json run_context_json() {
   }
   c["cpu"] = cpu;
   c["hardware_threads"] = std::thread::hardware_concurrency();
+  // The SIMD path of the kernels (scanbench/core/simd.h): results agree across ISAs only
+  // within float rounding, so compare and nightly name a baseline of another ISA.
+  c["isa"] = std::string(simd::name(simd::active()));
+  c["isa_compiled"] = std::string(simd::name(simd::compiled()));
+  c["isa_flags"] = std::string(simd::compile_flags());
+  c["allocator"] = std::string(allocator_policy());
   const std::time_t now = std::time(nullptr);
   std::tm tm{};
   gmtime_r(&now, &tm);

@@ -23,6 +23,7 @@
 
 #include "scanbench/core/errors.h"
 #include "scanbench/core/io.h"
+#include "scanbench/core/simd.h"
 #include "scanner_engine.h"
 #include "ziggurat.h"
 
@@ -329,10 +330,11 @@ __attribute__((target("avx"))) void tile_rows_avx(const Camera& cam, const float
   }
 }
 
-/// Whether the CPU has AVX (checked once).
+/// Whether the 8-wide path runs: the CPU has AVX (checked once) and the active ISA
+/// (scanbench/core/simd.h, SCANBENCH_ISA) is wider than sse2. Both paths give bit-identical rays.
 bool cpu_has_avx() {
   static const bool has = __builtin_cpu_supports("avx");
-  return has;
+  return has && simd::active() != simd::Isa::sse2;
 }
 
 /// Image-plane coordinates of pixel centres (tangent-plane units) of an R x R image.

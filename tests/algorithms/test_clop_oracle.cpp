@@ -203,15 +203,17 @@ TEST(ClopOracle, ProjectionLoopMatchesBruteForceRepulsion) {
   const GaussianMixture m = hem_mixture(c.positions, hem_params_of(p, h), h, diag, mctx);
   const Eigen::Matrix3Xf q0 = c.positions.leftCols(1000);
   const Brute brute{m, h};
-  const double tol = 2e-5 * h;
+  // Float against double over 5 iterations: 2e-5 h held on the sse2 build; a build for AVX2/FMA
+  // (cmake/Simd.cmake) rounds differently (fused multiply-adds in Eigen's packets and in scalar
+  // code) and measured up to 2.2e-5 h on either packet width, so the bound is 3e-5 h.
+  const double tol = 3e-5 * h;
 
   // The brute force tells every choice apart by far more than the tolerance.
+  const double sep = 100e-5 * h;
   const auto ref = brute.project(q0, p.iterations, p.mu, 0.5 * h, true, true);
-  EXPECT_GT(max_distance(ref, brute.project(q0, p.iterations, p.mu, h, true, true)), 50 * tol);
-  EXPECT_GT(max_distance(ref, brute.project(q0, p.iterations, p.mu, 0.5 * h, false, true)),
-            50 * tol);
-  EXPECT_GT(max_distance(ref, brute.project(q0, p.iterations, p.mu, 0.5 * h, true, false)),
-            50 * tol);
+  EXPECT_GT(max_distance(ref, brute.project(q0, p.iterations, p.mu, h, true, true)), sep);
+  EXPECT_GT(max_distance(ref, brute.project(q0, p.iterations, p.mu, 0.5 * h, false, true)), sep);
+  EXPECT_GT(max_distance(ref, brute.project(q0, p.iterations, p.mu, 0.5 * h, true, false)), sep);
 
   for (const double cutoff : {0.5, 1.0})
     for (const bool interleave : {true, false})

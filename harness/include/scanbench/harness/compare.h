@@ -15,6 +15,10 @@
 //    medians differ by more than min_time_s. Slower = regression, faster = improvement. With
 //    fewer than 2 samples on a side the timing verdict is "too few repeats" and never a
 //    regression.
+//  - ISA: when the baseline's records ran another SIMD path (context.isa) than the new ones, the
+//    result says so (notes, table). Accuracy is still judged by the tolerances below: packet
+//    widths sum in different orders, so metrics agree only within float rounding, far inside
+//    them. Timings then compare different code.
 // Tolerances come from the "compare" object of NEW's config.json (when present), overridden by
 // command-line options:
 //   {"alpha": 0.05, "time_threshold": 0.1, "min_time_s": 0.001, "timing": true,
@@ -70,6 +74,11 @@ struct Verdict {
 struct CompareResult {
   std::vector<Verdict> verdicts;  ///< every comparison made
   int regressions = 0, improvements = 0, unchanged = 0;
+  /// The SIMD paths (records' context.isa, scanbench/core/simd.h) of each side, e.g. {"sse2"},
+  /// "unrecorded" for records written before the ISA was recorded.
+  std::vector<std::string> base_isas, new_isas;
+  /// Notes on the comparison itself (e.g. the baseline ran another ISA).
+  std::vector<std::string> notes;
   bool regressed() const { return regressions > 0; }
   Json to_json() const;
   /// Markdown table of the regressions and improvements (and a one-line summary).
