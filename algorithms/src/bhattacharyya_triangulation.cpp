@@ -89,6 +89,7 @@ class Front {
   struct Candidate {
     double p = -1;
     int k = -1;
+    bool glue = false;  ///< k is on the front but joined to the edge by no edge (gluing)
   };
   struct Entry {
     double p;
@@ -148,18 +149,12 @@ class Front {
     }
   }
 
-  // Grows the front until no edge has a valid candidate. When it stalls, one "glue" triangle may
-  // reach a front vertex through no front edge (where two fronts meet, e.g. around a torus handle);
-  // the best such triangle over every stalled edge is added, then growing resumes, so the pinch it
-  // creates at that vertex is closed by the ordinary steps that follow.
+  // Grows the front until no edge has a valid candidate (sec. 6.2: "the algorithm stops if no
+  // open boundary edge is left to advance ... or if no valid candidate triangle ... is left").
+  // Every candidate type of Cohen-Steiner and Da 2004 competes in one queue by P (eq. 22):
+  // extension (k unused), ear and hole filling (k joined by front edges) and gluing (k on the
+  // front but joined by no edge, where two fronts meet: around a torus handle).
   void grow(RunContext& ctx) {
-    for (;;) {
-      grow_ordinary(ctx);
-      if (!glue()) return;
-    }
-  }
-
-  void grow_ordinary(RunContext& ctx) {
     std::size_t steps = 0;
     while (!queue_.empty()) {
       if ((++steps & 1023u) == 0) ctx.check_cancelled(kStage);
@@ -176,30 +171,9 @@ class Front {
         queue_.push({c.p, e.a, e.b, e.face, c.k});
         continue;
       }
+      if (c.glue) ++glued_;
       add_face(e.b, e.a, e.k);
     }
-  }
-
-  // Adds the best glue triangle over the stalled edges; false when there is none.
-  bool glue() {
-    std::vector<std::array<int, 3>> stalled;
-    for (const auto& d : dead_)
-      for (const auto& e : d)
-        if (is_boundary(e[0], e[1], e[2])) stalled.push_back(e);
-    std::sort(stalled.begin(), stalled.end());
-    stalled.erase(std::unique(stalled.begin(), stalled.end()), stalled.end());
-    allow_pinch_ = true;
-    Entry best_entry{-1, 0, 0, -1, -1};
-    for (const auto& e : stalled) {
-      const Candidate c = best(e[0], e[1], e[2]);
-      const Entry en{c.p, e[0], e[1], e[2], c.k};
-      if (c.k >= 0 && (best_entry.k < 0 || best_entry < en)) best_entry = en;
-    }
-    allow_pinch_ = false;
-    if (best_entry.k < 0) return false;
-    ++glued_;
-    add_face(best_entry.b, best_entry.a, best_entry.k);
-    return true;
   }
 
   Eigen::Index glued() const { return glued_; }
@@ -268,8 +242,9 @@ class Front {
       if (has_ak && (eak->second[1] >= 0 || !has_directed(eak->second[0], k, a))) continue;
       if (has_kb && (ekb->second[1] >= 0 || !has_directed(ekb->second[0], b, k))) continue;
       const bool pinch = used(k) && !has_ak && !has_kb;
-      // Would pinch k: only as a glue step, and only at a front vertex (never an interior one).
-      if (pinch && (!allow_pinch_ || boundary_[static_cast<std::size_t>(k)] == 0)) continue;
+      // Gluing (Cohen-Steiner and Da's fourth candidate type): only at a front vertex, never at
+      // an interior one. It pinches k (two fans) until a following ear filling joins the fans.
+      if (pinch && boundary_[static_cast<std::size_t>(k)] == 0) continue;
       const Eigen::Vector3d n = (pa - pb).cross(g_[static_cast<std::size_t>(k)].mu - pb);
       const double len = n.norm();
       if (!(len > 0.0)) continue;
@@ -287,7 +262,7 @@ class Front {
         if (!agrees) continue;
       }
       const double p = bc_ab * bc_ak * bc_bk * beta / std::numbers::pi;  // eq. 20-22
-      if (p > out.p || (p == out.p && k < out.k)) out = {p, k};
+      if (p > out.p || (p == out.p && k < out.k)) out = {p, k, pinch};
     }
     return out;
   }
@@ -313,7 +288,6 @@ class Front {
   std::vector<std::vector<std::array<int, 3>>> dead_;
   std::vector<std::vector<int>> vertex_faces_;
   std::priority_queue<Entry> queue_;
-  bool allow_pinch_ = false;
   Eigen::Index glued_ = 0;
 };
 
@@ -376,6 +350,12 @@ double bhattacharyya_coefficient(const Eigen::Vector3d& mu_i, const Eigen::Matri
 CovarianceMesh triangulate_bhattacharyya(const GaussianMixture& mixture,
                                          const BhattacharyyaParams& p, RunContext& ctx,
                                          TriangulationStats* stats) {
+  // The declared ranges, checked here too for callers that bypass the parameter layer.
+  if (!(p.bc_min > 0.0 && p.bc_min <= 1.0))
+    throw ParamError(fmt::format("{}: bc_min = {:g} is outside (0, 1]", kStage, p.bc_min));
+  if (!(p.beta_min_deg >= 0.0 && p.beta_min_deg < 180.0))
+    throw ParamError(
+        fmt::format("{}: beta_min_deg = {:g} is outside [0, 180)", kStage, p.beta_min_deg));
   mixture.validate(kStage);
   const Eigen::Index n = mixture.size();
   if (n < 3) {

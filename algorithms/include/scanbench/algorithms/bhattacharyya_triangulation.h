@@ -23,13 +23,14 @@
 //   overlap both ends (BC_ik and BC_jk above bc_min): every valid triangle is a candidate. To bound
 //   the work each Gaussian keeps its `max_neighbors` partners of highest BC (ties by index).
 // - Manifoldness (the paper requires a manifold mesh): a candidate may not put a third face on an
-//   edge, must use an existing edge in the direction opposite to its face there (one orientation),
-//   and may reach a vertex already in the mesh only through an edge of the front. So every edge has
-//   at most two faces. Where two fronts meet (closing a handle, e.g. around a torus) no such
-//   candidate exists; when the front stalls, the best "glue" candidate over every stalled edge may
-//   reach a front vertex through no edge (as the glue step of Cohen-Steiner and Da), which pinches
-//   that vertex until the ordinary steps that follow close the gap. Vertices that stay pinched are
-//   counted (`pinched_vertices`).
+//   edge and must use an existing edge in the direction opposite to its face there (one
+//   orientation), so every edge has at most two faces. The candidate types are those of
+//   Cohen-Steiner and Da 2004, all in one queue ordered by P: extension (k not yet in the mesh),
+//   ear and hole filling (k joined to the edge by front edges) and gluing (k on the front but
+//   joined by no edge: where two fronts meet, e.g. closing a torus handle). A glue triangle must
+//   face the same way as the faces at k; it pinches k (two fans) until the ear filling that
+//   follows joins the fans. Interior vertices are never reached. Vertices still pinched at the
+//   end are counted (`pinched_vertices`), glue triangles too (`glued`).
 // - Orientation: consistent per component (a new face uses the front edge reversed); a closed
 //   component with negative signed volume is flipped, so closed components face outward.
 // - Gaussians in no triangle are left out of the output (they are counted in the run's log).
@@ -78,13 +79,14 @@ struct TriangulationStats {
   Eigen::Index seeds = 0;   ///< components started
   Eigen::Index unused = 0;  ///< Gaussians left out of every triangle
   Eigen::Index boundary_edges = 0;    ///< edges with one face in the result
-  Eigen::Index glued = 0;             ///< glue triangles (fronts meeting, see below)
+  Eigen::Index glued = 0;             ///< glue triangles (fronts meeting, see above)
   Eigen::Index pinched_vertices = 0;  ///< vertices left with two fans (edge-manifold, not vertex-)
 };
 
-/// The triangulation of `mixture`. Throws InputError for fewer than 3 components, a covariance that
-/// is not SPD (naming the component), or when no valid seed triangle exists (naming bc_min and
-/// beta_min_deg). Phase timers "graph" (BC graph) and "front" (growing).
+/// The triangulation of `mixture`. Throws ParamError for bc_min outside (0, 1] or beta_min_deg
+/// outside [0, 180) (naming it), InputError for fewer than 3 components (an empty mixture), a
+/// covariance that is not SPD (naming the component), or when no valid seed triangle exists
+/// (naming bc_min): never an empty mesh. Phase timers "graph" (BC graph) and "front" (growing).
 CovarianceMesh triangulate_bhattacharyya(const GaussianMixture& mixture,
                                          const BhattacharyyaParams& p, RunContext& ctx,
                                          TriangulationStats* stats = nullptr);
