@@ -89,7 +89,6 @@ class Front {
   struct Candidate {
     double p = -1;
     int k = -1;
-    bool glue = false;  ///< k is on the front but joined to the edge by no edge (gluing)
   };
   struct Entry {
     double p;
@@ -149,12 +148,18 @@ class Front {
     }
   }
 
-  // Grows the front until no edge has a valid candidate (sec. 6.2: "the algorithm stops if no
-  // open boundary edge is left to advance ... or if no valid candidate triangle ... is left").
-  // Every candidate type of Cohen-Steiner and Da 2004 competes in one queue by P (eq. 22):
-  // extension (k unused), ear and hole filling (k joined by front edges) and gluing (k on the
-  // front but joined by no edge, where two fronts meet: around a torus handle).
+  // Grows the front until no edge has a valid candidate. When it stalls, one "glue" triangle may
+  // reach a front vertex through no front edge (where two fronts meet, e.g. around a torus handle);
+  // the best such triangle over every stalled edge is added, then growing resumes, so the pinch it
+  // creates at that vertex is closed by the ordinary steps that follow.
   void grow(RunContext& ctx) {
+    for (;;) {
+      grow_ordinary(ctx);
+      if (!glue()) return;
+    }
+  }
+
+  void grow_ordinary(RunContext& ctx) {
     std::size_t steps = 0;
     while (!queue_.empty()) {
       if ((++steps & 1023u) == 0) ctx.check_cancelled(kStage);
@@ -171,9 +176,30 @@ class Front {
         queue_.push({c.p, e.a, e.b, e.face, c.k});
         continue;
       }
-      if (c.glue) ++glued_;
       add_face(e.b, e.a, e.k);
     }
+  }
+
+  // Adds the best glue triangle over the stalled edges; false when there is none.
+  bool glue() {
+    std::vector<std::array<int, 3>> stalled;
+    for (const auto& d : dead_)
+      for (const auto& e : d)
+        if (is_boundary(e[0], e[1], e[2])) stalled.push_back(e);
+    std::sort(stalled.begin(), stalled.end());
+    stalled.erase(std::unique(stalled.begin(), stalled.end()), stalled.end());
+    allow_pinch_ = true;
+    Entry best_entry{-1, 0, 0, -1, -1};
+    for (const auto& e : stalled) {
+      const Candidate c = best(e[0], e[1], e[2]);
+      const Entry en{c.p, e[0], e[1], e[2], c.k};
+      if (c.k >= 0 && (best_entry.k < 0 || best_entry < en)) best_entry = en;
+    }
+    allow_pinch_ = false;
+    if (best_entry.k < 0) return false;
+    ++glued_;
+    add_face(best_entry.b, best_entry.a, best_entry.k);
+    return true;
   }
 
   Eigen::Index glued() const { return glued_; }
@@ -242,9 +268,8 @@ class Front {
       if (has_ak && (eak->second[1] >= 0 || !has_directed(eak->second[0], k, a))) continue;
       if (has_kb && (ekb->second[1] >= 0 || !has_directed(ekb->second[0], b, k))) continue;
       const bool pinch = used(k) && !has_ak && !has_kb;
-      // Gluing (Cohen-Steiner and Da's fourth candidate type): only at a front vertex, never at
-      // an interior one. It pinches k (two fans) until a following ear filling joins the fans.
-      if (pinch && boundary_[static_cast<std::size_t>(k)] == 0) continue;
+      // Would pinch k: only as a glue step, and only at a front vertex (never an interior one).
+      if (pinch && (!allow_pinch_ || boundary_[static_cast<std::size_t>(k)] == 0)) continue;
       const Eigen::Vector3d n = (pa - pb).cross(g_[static_cast<std::size_t>(k)].mu - pb);
       const double len = n.norm();
       if (!(len > 0.0)) continue;
@@ -262,7 +287,7 @@ class Front {
         if (!agrees) continue;
       }
       const double p = bc_ab * bc_ak * bc_bk * beta / std::numbers::pi;  // eq. 20-22
-      if (p > out.p || (p == out.p && k < out.k)) out = {p, k, pinch};
+      if (p > out.p || (p == out.p && k < out.k)) out = {p, k};
     }
     return out;
   }
@@ -288,8 +313,88 @@ class Front {
   std::vector<std::vector<std::array<int, 3>>> dead_;
   std::vector<std::vector<int>> vertex_faces_;
   std::priority_queue<Entry> queue_;
+  bool allow_pinch_ = false;
   Eigen::Index glued_ = 0;
 };
+
+using EdgeFaces = std::unordered_map<std::uint64_t, std::array<int, 2>>;
+
+EdgeFaces edge_faces(const std::vector<std::array<int, 3>>& faces) {
+  EdgeFaces edges;
+  edges.reserve(2 * faces.size());
+  for (std::size_t f = 0; f < faces.size(); ++f)
+    for (int e = 0; e < 3; ++e) {
+      auto [it, fresh] =
+          edges.try_emplace(edge_key(faces[f][static_cast<std::size_t>(e)],
+                                     faces[f][static_cast<std::size_t>((e + 1) % 3)]),
+                            std::array<int, 2>{static_cast<int>(f), -1});
+      if (!fresh) it->second[1] = static_cast<int>(f);
+    }
+  return edges;
+}
+
+// Removes the faces of every fan but the largest (ties: the one holding the lowest face index) at
+// each vertex where fans still meet (a glue step not yet zipped when growing stopped), until no
+// such vertex is left: the result is a manifold (sec. 6.2), with holes where the fans were.
+// Returns the number of vertices resolved.
+Eigen::Index unpinch(std::vector<std::array<int, 3>>& faces, std::size_t n) {
+  Eigen::Index resolved = 0;
+  for (;;) {
+    const EdgeFaces edges = edge_faces(faces);
+    std::vector<std::vector<int>> at(n);
+    for (std::size_t f = 0; f < faces.size(); ++f)
+      for (int v : faces[f])
+        at[static_cast<std::size_t>(v)].push_back(static_cast<int>(f));
+    std::vector<char> drop(faces.size(), 0);
+    bool any = false;
+    for (std::size_t v = 0; v < n; ++v) {
+      const auto& fv = at[v];
+      if (fv.size() < 2) continue;
+      // Fans: faces at v connected through edges at v.
+      std::vector<int> fan(fv.size(), -1);
+      int nfan = 0;
+      for (std::size_t s = 0; s < fv.size(); ++s) {
+        if (fan[s] >= 0) continue;
+        std::vector<std::size_t> stack{s};
+        fan[s] = nfan;
+        while (!stack.empty()) {
+          const std::size_t i = stack.back();
+          stack.pop_back();
+          for (int u : faces[static_cast<std::size_t>(fv[i])]) {
+            if (u == static_cast<int>(v)) continue;
+            for (int o : edges.at(edge_key(static_cast<int>(v), u))) {
+              if (o < 0) continue;
+              const auto it = std::find(fv.begin(), fv.end(), o);
+              const auto j = static_cast<std::size_t>(it - fv.begin());
+              if (fan[j] < 0) {
+                fan[j] = nfan;
+                stack.push_back(j);
+              }
+            }
+          }
+        }
+        ++nfan;
+      }
+      if (nfan < 2) continue;
+      std::vector<int> size(static_cast<std::size_t>(nfan), 0);
+      for (int c : fan)
+        ++size[static_cast<std::size_t>(c)];
+      // fv is in face order, so the first fan reaching the largest size holds the lowest index.
+      int keep = 0;
+      for (int c = 1; c < nfan; ++c)
+        if (size[static_cast<std::size_t>(c)] > size[static_cast<std::size_t>(keep)]) keep = c;
+      for (std::size_t i = 0; i < fv.size(); ++i)
+        if (fan[i] != keep) drop[static_cast<std::size_t>(fv[i])] = 1;
+      ++resolved;
+      any = true;
+    }
+    if (!any) return resolved;
+    std::vector<std::array<int, 3>> kept;
+    for (std::size_t f = 0; f < faces.size(); ++f)
+      if (!drop[f]) kept.push_back(faces[f]);
+    faces.swap(kept);
+  }
+}
 
 // Components of the face graph; closed ones with negative signed volume are flipped outward.
 void orient_closed_components(std::vector<std::array<int, 3>>& faces,
@@ -486,8 +591,10 @@ CovarianceMesh triangulate_bhattacharyya(const GaussianMixture& mixture,
         kStage, p.bc_min));
   }
 
-  auto& faces = front.faces();
-  orient_closed_components(faces, front.edges(), g);
+  std::vector<std::array<int, 3>> faces = front.faces();
+  const Eigen::Index unpinched = unpinch(faces, static_cast<std::size_t>(n));
+  const EdgeFaces final_edges = edge_faces(faces);
+  orient_closed_components(faces, final_edges, g);
 
   // Compact: only Gaussians in a triangle, in index order.
   std::vector<int> remap(static_cast<std::size_t>(n), -1);
@@ -516,8 +623,9 @@ CovarianceMesh triangulate_bhattacharyya(const GaussianMixture& mixture,
     stats->unused = n - nv;
     stats->glued = front.glued();
     stats->pinched_vertices = front.pinched();
+    stats->unpinched_vertices = unpinched;
     stats->boundary_edges = 0;
-    for (const auto& [k, e] : front.edges())
+    for (const auto& [k, e] : final_edges)
       if (e[1] < 0) ++stats->boundary_edges;
   }
   return out;

@@ -658,8 +658,9 @@ fs::path write_report(const fs::path& dir, const fs::path& out_arg) {
     auto cost_sec = [&](const Json& r) {
       double sum = 0.0;
       bool any = false;
-      for (const auto& [k, v] :
-           r.value("timing", Json::object()).value("phases", Json::object()).items()) {
+      const Json timing = r.value("timing", Json::object());
+      const Json phases = timing.value("phases", Json::object());
+      for (const auto& [k, v] : phases.items()) {
         if (k.find(':') != std::string::npos || excluded.count(k)) continue;
         std::vector<double> xs;
         for (const auto& x : v)
@@ -672,8 +673,9 @@ fs::path write_report(const fs::path& dir, const fs::path& out_arg) {
     };
     auto cost_mb = [&](const Json& r) {
       double mb = NAN;
-      for (const auto& [k, v] :
-           r.value("timing", Json::object()).value("step_work_mb", Json::object()).items()) {
+      const Json timing = r.value("timing", Json::object());
+      const Json work = timing.value("step_work_mb", Json::object());
+      for (const auto& [k, v] : work.items()) {
         if (excluded.count(k) || !v.is_number()) continue;
         mb = std::isnan(mb) ? v.get<double>() : std::max(mb, v.get<double>());
       }
@@ -724,8 +726,8 @@ fs::path write_report(const fs::path& dir, const fs::path& out_arg) {
         vs_sec[v].pts.push_back({sec, rmse});
         vs_mb[v].name = v;
         vs_mb[v].pts.push_back({mb, rmse});
-        const Json hj =
-            r->value("histograms", Json::object()).value("input_distance", Json::object());
+        const Json all_hists = r->value("histograms", Json::object());
+        const Json hj = all_hists.value("input_distance", Json::object());
         if (hj.contains("counts") && hj["counts"].is_array() && !hj["counts"].empty()) {
           const double lo = hj.value("min", 0.0), hi = hj.value("max", 1.0);
           const double n = std::max(1.0, hj.value("count", 1.0));
