@@ -317,6 +317,85 @@ class Front {
   Eigen::Index glued_ = 0;
 };
 
+using EdgeFaces = std::unordered_map<std::uint64_t, std::array<int, 2>>;
+
+EdgeFaces edge_faces(const std::vector<std::array<int, 3>>& faces) {
+  EdgeFaces edges;
+  edges.reserve(2 * faces.size());
+  for (std::size_t f = 0; f < faces.size(); ++f)
+    for (int e = 0; e < 3; ++e) {
+      auto [it, fresh] =
+          edges.try_emplace(edge_key(faces[f][static_cast<std::size_t>(e)],
+                                     faces[f][static_cast<std::size_t>((e + 1) % 3)]),
+                            std::array<int, 2>{static_cast<int>(f), -1});
+      if (!fresh) it->second[1] = static_cast<int>(f);
+    }
+  return edges;
+}
+
+// Removes the faces of every fan but the largest (ties: the one holding the lowest face index) at
+// each vertex where fans still meet (a glue step not yet zipped when growing stopped), until no
+// such vertex is left: the result is a manifold (sec. 6.2), with holes where the fans were.
+// Returns the number of vertices resolved.
+Eigen::Index unpinch(std::vector<std::array<int, 3>>& faces, std::size_t n) {
+  Eigen::Index resolved = 0;
+  for (;;) {
+    const EdgeFaces edges = edge_faces(faces);
+    std::vector<std::vector<int>> at(n);
+    for (std::size_t f = 0; f < faces.size(); ++f)
+      for (int v : faces[f])
+        at[static_cast<std::size_t>(v)].push_back(static_cast<int>(f));
+    std::vector<char> drop(faces.size(), 0);
+    bool any = false;
+    for (std::size_t v = 0; v < n; ++v) {
+      const auto& fv = at[v];
+      if (fv.size() < 2) continue;
+      // Fans: faces at v connected through edges at v.
+      std::vector<int> fan(fv.size(), -1);
+      int nfan = 0;
+      for (std::size_t s = 0; s < fv.size(); ++s) {
+        if (fan[s] >= 0) continue;
+        std::vector<std::size_t> stack{s};
+        fan[s] = nfan;
+        while (!stack.empty()) {
+          const std::size_t i = stack.back();
+          stack.pop_back();
+          for (int u : faces[static_cast<std::size_t>(fv[i])]) {
+            if (u == static_cast<int>(v)) continue;
+            for (int o : edges.at(edge_key(static_cast<int>(v), u))) {
+              if (o < 0) continue;
+              const auto it = std::find(fv.begin(), fv.end(), o);
+              const auto j = static_cast<std::size_t>(it - fv.begin());
+              if (fan[j] < 0) {
+                fan[j] = nfan;
+                stack.push_back(j);
+              }
+            }
+          }
+        }
+        ++nfan;
+      }
+      if (nfan < 2) continue;
+      std::vector<int> size(static_cast<std::size_t>(nfan), 0);
+      for (int c : fan)
+        ++size[static_cast<std::size_t>(c)];
+      // fv is in face order, so the first fan reaching the largest size holds the lowest index.
+      int keep = 0;
+      for (int c = 1; c < nfan; ++c)
+        if (size[static_cast<std::size_t>(c)] > size[static_cast<std::size_t>(keep)]) keep = c;
+      for (std::size_t i = 0; i < fv.size(); ++i)
+        if (fan[i] != keep) drop[static_cast<std::size_t>(fv[i])] = 1;
+      ++resolved;
+      any = true;
+    }
+    if (!any) return resolved;
+    std::vector<std::array<int, 3>> kept;
+    for (std::size_t f = 0; f < faces.size(); ++f)
+      if (!drop[f]) kept.push_back(faces[f]);
+    faces.swap(kept);
+  }
+}
+
 // Components of the face graph; closed ones with negative signed volume are flipped outward.
 void orient_closed_components(std::vector<std::array<int, 3>>& faces,
                               const std::unordered_map<std::uint64_t, std::array<int, 2>>& edges,
@@ -376,6 +455,12 @@ double bhattacharyya_coefficient(const Eigen::Vector3d& mu_i, const Eigen::Matri
 CovarianceMesh triangulate_bhattacharyya(const GaussianMixture& mixture,
                                          const BhattacharyyaParams& p, RunContext& ctx,
                                          TriangulationStats* stats) {
+  // The declared ranges, checked here too for callers that bypass the parameter layer.
+  if (!(p.bc_min > 0.0 && p.bc_min <= 1.0))
+    throw ParamError(fmt::format("{}: bc_min = {:g} is outside (0, 1]", kStage, p.bc_min));
+  if (!(p.beta_min_deg >= 0.0 && p.beta_min_deg < 180.0))
+    throw ParamError(
+        fmt::format("{}: beta_min_deg = {:g} is outside [0, 180)", kStage, p.beta_min_deg));
   mixture.validate(kStage);
   const Eigen::Index n = mixture.size();
   if (n < 3) {
@@ -506,8 +591,10 @@ CovarianceMesh triangulate_bhattacharyya(const GaussianMixture& mixture,
         kStage, p.bc_min));
   }
 
-  auto& faces = front.faces();
-  orient_closed_components(faces, front.edges(), g);
+  std::vector<std::array<int, 3>> faces = front.faces();
+  const Eigen::Index unpinched = unpinch(faces, static_cast<std::size_t>(n));
+  const EdgeFaces final_edges = edge_faces(faces);
+  orient_closed_components(faces, final_edges, g);
 
   // Compact: only Gaussians in a triangle, in index order.
   std::vector<int> remap(static_cast<std::size_t>(n), -1);
@@ -536,8 +623,9 @@ CovarianceMesh triangulate_bhattacharyya(const GaussianMixture& mixture,
     stats->unused = n - nv;
     stats->glued = front.glued();
     stats->pinched_vertices = front.pinched();
+    stats->unpinched_vertices = unpinched;
     stats->boundary_edges = 0;
-    for (const auto& [k, e] : front.edges())
+    for (const auto& [k, e] : final_edges)
       if (e[1] < 0) ++stats->boundary_edges;
   }
   return out;

@@ -941,6 +941,11 @@ GaussianMixture hem_mixture(const Eigen::Matrix3Xf& points, const HemParams& p, 
   const double n_points = static_cast<double>(points.cols());
 
   Components comps = hem_detail::initial_mixture(points, p, h_abs, abs_floor);
+  if (p.sigma0 > 0.0) {  // GPS Appendix A: isotropic level-0 covariances sigma0^2 I
+    const double s0 = p.sigma0 * diag;
+    for (auto& c : comps)
+      hem_detail::set_conditioned(c, Eigen::Matrix3d::Identity() * (s0 * s0), abs_floor);
+  }
   if (stats) stats->level_sizes = {static_cast<Index>(comps.size())};
   const std::uint64_t seed = ctx.stream_seed("hem");
   for (int level = 0; level < p.levels; ++level) {

@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "commands.h"
+#include "proc_memory.h"
 #include "scanbench/algorithms/registry.h"
 #include "scanbench/core/datasets.h"
 #include "scanbench/core/errors.h"
@@ -38,24 +39,6 @@ namespace {
 
 double now_seconds() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
-
-// kB value of a /proc/self/status field ("VmRSS", "VmHWM"), or -1 when unavailable.
-long status_kb(const std::string& field) {
-  std::ifstream f("/proc/self/status");
-  std::string line;
-  while (std::getline(f, line)) {
-    if (line.rfind(field + ":", 0) == 0) return std::stol(line.substr(field.size() + 1));
-  }
-  return -1;
-}
-
-// Resets the peak RSS (VmHWM) to the current RSS (Linux >= 4.0); false when not possible.
-bool reset_peak_rss() {
-  std::ofstream f("/proc/self/clear_refs");
-  f << "5";
-  f.flush();
-  return static_cast<bool>(f);
 }
 
 // The camel scan of the paper's case, its resolution calibrated so that it holds about

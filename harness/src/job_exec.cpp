@@ -4,11 +4,13 @@
 #include <sys/resource.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstring>
 #include <map>
 #include <optional>
 
+#include "proc_memory.h"
 #include "scanbench/algorithms/registry.h"
 #include "scanbench/core/datasets.h"
 #include "scanbench/core/errors.h"
@@ -20,6 +22,7 @@
 #include "scanbench/metrics/evaluate.h"
 #include "scanbench/metrics/ground_truth.h"
 #include "scanbench/metrics/heatmap.h"
+#include "scanbench/metrics/mesh_facts.h"
 #include "scanbench/metrics/surface.h"
 #include "scanbench/scanner/scanner.h"
 
@@ -39,6 +42,13 @@ double cpu_seconds() {
   getrusage(RUSAGE_SELF, &ru);
   return static_cast<double>(ru.ru_utime.tv_sec + ru.ru_stime.tv_sec) +
          1e-6 * static_cast<double>(ru.ru_utime.tv_usec + ru.ru_stime.tv_usec);
+}
+
+// Peak RSS (kB) of the largest waited-for child process so far.
+long children_max_rss_kb() {
+  struct rusage ru {};
+  getrusage(RUSAGE_CHILDREN, &ru);
+  return ru.ru_maxrss;
 }
 
 std::string mesh_hash(const TriangleMesh& m) {
@@ -136,6 +146,12 @@ Json execute_job(const Job& job, const fs::path& out) {
   // The chain, `repeats` times; every sample of every phase is kept.
   std::map<std::string, std::vector<double>> phases;
   std::vector<double> total, cpu;
+  // Memory of each step (first repeat; Linux /proc, else absent): step_peak_rss_mb = the job's
+  // peak RSS while the step ran (the peak is reset before it), step_work_mb = that peak minus the
+  // RSS before the step, plus the peak RSS of a program the step ran (reconstruct.poisson's
+  // colmap: getrusage(RUSAGE_CHILDREN) when its maximum grew during the step): the working memory
+  // the step needed on top of its input (the GPS paper's "build MB" of Fig. 13c and 14).
+  Json step_peak = Json::object(), step_work = Json::object();
   StageData final_out;
   bool identical = true;
   // What the chain is scored on: the primary kind of its last step (a mesh for a reconstruction,
@@ -153,13 +169,32 @@ Json execute_job(const Job& job, const fs::path& out) {
       const std::string label = step.at("label").get<std::string>();
       const auto& entry = algorithm_entry(algo);
       ctx.clear_phases();
+      const bool mem = rep == 0 && reset_peak_rss();
+      const long rss0 = mem ? status_kb("VmRSS") : -1;
+      const long child0 = children_max_rss_kb();
       const auto t0 = Clock::now();
       StageData next = entry.fn(cur, step.at("params"), ctx);
       const double dt = seconds_since(t0);
+      const long hwm = mem ? status_kb("VmHWM") : -1;
+      if (rss0 >= 0 && hwm >= 0) {
+        step_peak[label] = static_cast<double>(hwm) / 1024.0;
+        const long child = children_max_rss_kb();
+        step_work[label] =
+            static_cast<double>(std::max(hwm - rss0, 0L) + (child > child0 ? child : 0L)) / 1024.0;
+      }
       rep_total += dt;
       rep_phases[label] += dt;
       for (const auto& [name, s] : ctx.phase_seconds())
         rep_phases[label + ":" + name] += s;
+      // The control covariance mesh of the chain (the last step whose primary output is one,
+      // e.g. triangulate.bhattacharyya before subdivide.gp_loop): the representation whose size
+      // the GPS paper's Fig. 13c counts (3 floats, 6 covariance floats per vertex, the faces).
+      if (rep == 0 && entry.fn.io.primary == DataKind::CovarianceMesh && next.covariance_mesh) {
+        const metrics::MeshFacts f = metrics::mesh_facts(*next.covariance_mesh);
+        sizes["covmesh_vertices"] = f.vertices;
+        sizes["covmesh_faces"] = f.faces;
+        sizes["covmesh_bytes"] = f.bytes;
+      }
       // The step's result already carries every kind it does not produce (StageData::carry).
       cur = std::move(next);
     }
@@ -179,6 +214,8 @@ Json execute_job(const Job& job, const fs::path& out) {
   for (const auto& [k, v] : phases)
     ph[k] = v;
   timing["phases"] = ph;
+  timing["step_peak_rss_mb"] = step_peak;
+  timing["step_work_mb"] = step_work;
   res["repeat_outputs_identical"] = identical;
   // The scored mesh (mean mesh of a covariance mesh); sizes describe the scored output (a mesh
   // output's points are the input carried through, not an output).

@@ -1,6 +1,7 @@
 #include "scanbench/harness/report.h"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <algorithm>
 #include <cmath>
@@ -638,6 +639,128 @@ fs::path write_report(const fs::path& dir, const fs::path& out_arg) {
           vals[i][part_index[k]] = v;
       h += "<h2>Time per phase</h2>\n<div class=\"plots\" id=\"phases\">\n" +
            stacked_bars("median wall seconds per phase", labels, parts, vals) + "\n</div>\n";
+    }
+  }
+
+  // Reconstruction cost (GPS paper sec. 7.2): the table of Fig. 13c and the trade-off plots of
+  // Fig. 14, per dataset/scanner group, when the config asks for it with
+  //   "report": {"cost": {"exclude_steps": ["clop"]}}
+  // (steps left out of seconds and memory: preprocessing both methods share). Per job: sec = the
+  // summed median wall seconds of the other steps (timing.phases), build MB = the largest of their
+  // working memories (timing.step_work_mb), vertices, faces and bytes of the representation (the
+  // control covariance mesh, sizes.covmesh_*, when the chain made one: 6 more floats per vertex;
+  // else the output mesh), the error of the input points to the surface and the ground-truth
+  // surface metrics; the input-distance histograms of every job; RMSE against sec and build MB.
+  if (report_cfg.contains("cost") && report_cfg["cost"].is_object()) {
+    std::set<std::string> excluded;
+    for (const auto& e : report_cfg["cost"].value("exclude_steps", Json::array()))
+      if (e.is_string()) excluded.insert(e.get<std::string>());
+    auto cost_sec = [&](const Json& r) {
+      double sum = 0.0;
+      bool any = false;
+      const Json timing = r.value("timing", Json::object());
+      const Json phases = timing.value("phases", Json::object());
+      for (const auto& [k, v] : phases.items()) {
+        if (k.find(':') != std::string::npos || excluded.count(k)) continue;
+        std::vector<double> xs;
+        for (const auto& x : v)
+          if (x.is_number()) xs.push_back(x.get<double>());
+        if (xs.empty()) continue;
+        sum += median(xs);
+        any = true;
+      }
+      return any ? sum : NAN;
+    };
+    auto cost_mb = [&](const Json& r) {
+      double mb = NAN;
+      const Json timing = r.value("timing", Json::object());
+      const Json work = timing.value("step_work_mb", Json::object());
+      for (const auto& [k, v] : work.items()) {
+        if (excluded.count(k) || !v.is_number()) continue;
+        mb = std::isnan(mb) ? v.get<double>() : std::max(mb, v.get<double>());
+      }
+      return mb;
+    };
+    auto size_of = [&](const Json& r, const char* what) {
+      const double c = record_value(r, std::string("sizes.covmesh_") + what);
+      if (!std::isnan(c)) return c;
+      return std::string(what) == "bytes" ? record_value(r, "mesh_bytes")
+                                          : record_value(r, std::string("sizes.mesh_") + what);
+    };
+    std::map<std::string, std::vector<const Json*>> by_group;
+    for (const Json* r : ok)
+      by_group[group_of(*r)].push_back(r);
+    std::string cost_html, plots;
+    const std::vector<std::pair<const char*, const char*>> cols = {
+        {"input_distance_rms_rel", "input RMSE"}, {"input_distance_mean_rel", "input mean"},
+        {"input_distance_max_rel", "input max"},  {"chamfer_rel", "Chamfer"},
+        {"hausdorff_rel", "Hausdorff"},           {"fscore", "F-score"}};
+    for (const auto& [group, rs] : by_group) {
+      cost_html += "<table class=\"cost\"><caption>" + html_escape(group) +
+                   ": lengths relative to the bbox diagonal; sec and build MB without " +
+                   html_escape(fmt::format("{}", fmt::join(excluded, ", "))) +
+                   "</caption>\n<tr><th>job</th><th>sec</th><th>build MB</th><th>vertices</th>"
+                   "<th>faces</th><th>bytes</th>";
+      for (const auto& c : cols)
+        cost_html += std::string("<th>") + c.second + "</th>";
+      cost_html += "</tr>\n";
+      std::map<std::string, Series> vs_sec, vs_mb;
+      std::vector<Series> hists;
+      for (const Json* r : rs) {
+        const std::string name =
+            field_value(*r, "variant") + (r->value("point_label", std::string()).empty()
+                                              ? ""
+                                              : " " + r->value("point_label", std::string()));
+        const double sec = cost_sec(*r), mb = cost_mb(*r);
+        cost_html += "<tr><td style=\"text-align:left\">" + html_escape(name) + "</td><td>" +
+                     format_number(sec) + "</td><td>" + format_number(mb) + "</td><td>" +
+                     format_number(size_of(*r, "vertices")) + "</td><td>" +
+                     format_number(size_of(*r, "faces")) + "</td><td>" +
+                     format_number(size_of(*r, "bytes")) + "</td>";
+        for (const auto& c : cols)
+          cost_html += "<td>" + format_number(record_value(*r, c.first)) + "</td>";
+        cost_html += "</tr>\n";
+        const double rmse = record_value(*r, "input_distance_rms_rel");
+        const std::string v = field_value(*r, "variant");
+        vs_sec[v].name = v;
+        vs_sec[v].pts.push_back({sec, rmse});
+        vs_mb[v].name = v;
+        vs_mb[v].pts.push_back({mb, rmse});
+        const Json all_hists = r->value("histograms", Json::object());
+        const Json hj = all_hists.value("input_distance", Json::object());
+        if (hj.contains("counts") && hj["counts"].is_array() && !hj["counts"].empty()) {
+          const double lo = hj.value("min", 0.0), hi = hj.value("max", 1.0);
+          const double n = std::max(1.0, hj.value("count", 1.0));
+          const double w = (hi - lo) / static_cast<double>(hj["counts"].size());
+          Series hs{name, {}};
+          for (std::size_t b = 0; b < hj["counts"].size(); ++b)
+            hs.pts.push_back(
+                {lo + (static_cast<double>(b) + 0.5) * w, hj["counts"][b].get<double>() / n});
+          hists.push_back(std::move(hs));
+        }
+      }
+      cost_html += "</table>\n";
+      auto sorted = [](std::map<std::string, Series>& m) {
+        std::vector<Series> out;
+        for (auto& [k, ser] : m) {
+          std::sort(ser.pts.begin(), ser.pts.end());
+          out.push_back(ser);
+        }
+        return out;
+      };
+      plots += line_plot(fmt::format("input RMSE vs seconds ({})", group), "sec",
+                         "input_distance_rms_rel", sorted(vs_sec)) +
+               "\n";
+      plots += line_plot(fmt::format("input RMSE vs working memory ({})", group), "build MB",
+                         "input_distance_rms_rel", sorted(vs_mb)) +
+               "\n";
+      plots += line_plot(fmt::format("input distance histogram ({})", group), "input_distance",
+                         "fraction of points", hists) +
+               "\n";
+    }
+    if (!cost_html.empty()) {
+      h += "<h2>Reconstruction cost (GPS paper Fig. 13c, 14)</h2>\n<div id=\"cost\">\n" +
+           cost_html + "</div>\n<div class=\"plots\" id=\"cost-plots\">\n" + plots + "</div>\n";
     }
   }
 

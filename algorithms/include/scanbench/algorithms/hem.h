@@ -105,10 +105,19 @@ struct HemSettings {
 
 struct HemParams : HemSettings {
   double h = 0.02;  ///< kernel width of the density weights v_j, fraction of the bbox diagonal
+  /// GPS paper (Preiner et al. 2019) Appendix A: the level-0 Gaussians either by local PCA (the
+  /// eq. 12 kernel above: sigma0 = 0, the default and today's behaviour) or isotropic sigma0^2 I
+  /// "with sigma0 chosen according to the input point density" (sigma0 > 0, a fraction of the bbox
+  /// diagonal). The paper's Fig. 14 sweeps it: larger kernels merge more and smooth more. Only the
+  /// covariances change; weights and normal axes stay those of the eq. 12 pass.
+  double sigma0 = 0.0;
 
   static void declare(ParamDeclarer<HemParams>& d) {
     d.real("h", &HemParams::h, Range::open_min(0.0, 1.0), "diag",
            "kernel support radius of the WLOP density weights v_j, theta(r) = exp(-16 r^2/h^2)");
+    d.real("sigma0", &HemParams::sigma0, Range::closed(0.0, 1.0), "diag",
+           "GPS Appendix A: isotropic initial kernel size, every level-0 Gaussian gets "
+           "sigma0^2 I (0 = local-PCA covariances of eq. 12, the default)");
     declare_hem_params(d);
   }
 };
