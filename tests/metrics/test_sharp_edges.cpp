@@ -27,18 +27,19 @@ TEST(SharpEdgeMetrics, CubePointsNearAndFarFromEdges) {
   out.positions.col(0) << hi.x() - 0.005f * diag, mid.y(), hi.z() + 0.01f;
   // 1: above the top face's centre, 0.03 up: far from every edge.
   out.positions.col(1) << mid.x(), mid.y(), hi.z() + 0.03f;
-  // 2: below the top face, 0.01 diag from the edge y = lo.y, 0.02 inside.
-  out.positions.col(2) << mid.x(), lo.y() + 0.01f * diag, hi.z() - 0.02f;
+  // 2: 0.005 below the top face (its closest face), 0.01 diag from the edge y = lo.y.
+  out.positions.col(2) << mid.x(), lo.y() + 0.01f * diag, hi.z() - 0.005f;
   out.normals.resize(3, 3);
   const float a = 20.0f * static_cast<float>(M_PI) / 180.0f;
   out.normals.col(0) << std::sin(a), 0.0f, std::cos(a);  // 20 degrees off the top normal
   out.normals.col(1) << 1.0f, 0.0f, 0.0f;                // 90 degrees, but not near an edge
   out.normals.col(2) << 0.0f, 0.0f, -1.0f;               // 0 degrees (unoriented)
   RunContext ctx(1);
-  const Json r = evaluate(gt, out, nullptr, {"edges.p2plane", "edges.normals"}, Json::object(), ctx);
+  const Json r =
+      evaluate(gt, out, nullptr, {"edges.p2plane", "edges.normals"}, Json::object(), ctx);
   EXPECT_EQ(r["edge_points"], 2);
-  EXPECT_NEAR(r["edge_p2plane_mean"].get<double>(), 0.015, 1e-6);
-  EXPECT_NEAR(r["edge_p2plane_mean_rel"].get<double>(), 0.015 / diag, 1e-6);
+  EXPECT_NEAR(r["edge_p2plane_mean"].get<double>(), 0.0075, 1e-6);
+  EXPECT_NEAR(r["edge_p2plane_mean_rel"].get<double>(), 0.0075 / diag, 1e-6);
   EXPECT_NEAR(r["edge_share"].get<double>(), 2.0 / 3.0, 1e-12);
   EXPECT_NEAR(r["edge_normal_angle_mean_deg"].get<double>(), 10.0, 1e-3);
   EXPECT_NEAR(r["edge_normal_pgp10"].get<double>(), 0.5, 1e-12);
@@ -52,8 +53,9 @@ TEST(SharpEdgeMetrics, CubePointsNearAndFarFromEdges) {
 TEST(SharpEdgeMetrics, SmoothTruthHasNothingToScore) {
   const GroundTruth gt(testing::icosphere(3), 1);
   PointCloud out;
-  out.positions = Eigen::Matrix3Xf::Zero(3, 1);
+  out.positions = Eigen::Matrix3Xf::Zero(3, 2);
   out.positions(0, 0) = 1.0f;
+  out.positions(1, 1) = 1.0f;
   RunContext ctx(1);
   EXPECT_THROW(evaluate(gt, out, nullptr, {"edges.p2plane"}, Json::object(), ctx), NotApplicable);
   const Json r = evaluate(gt, out, nullptr, {}, Json::object(), ctx);
