@@ -306,6 +306,13 @@ CovarianceMesh infer_covariances(const Eigen::Matrix3Xd& positions, const Polygo
   out.means = positions;
   out.covariances.resize(6, nv);
   set_faces(out, faces);
+  if (p.method == "isotropic") {
+    // sigma_0^2 I at every vertex: by eq. 14 the GP scheme is then the linear one (the check of
+    // `scanbench claims`, configs/claims/gps-eq14-isotropic-linear.json).
+    for (Eigen::Index i = 0; i < nv; ++i)
+      out.covariances.col(i) = vech(Eigen::Matrix3d(s0 * s0 * Eigen::Matrix3d::Identity()));
+    return out;
+  }
   if (p.method == "vertex") {
     std::vector<std::vector<int>> ring(nv);
     for (Eigen::Index i = 0; i < nv; ++i)

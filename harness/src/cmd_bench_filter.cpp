@@ -45,6 +45,7 @@
 #include "scanbench/core/timing.h"
 #include "scanbench/harness/records.h"
 #include "scanbench/metrics/ground_truth.h"
+#include "scanbench/metrics/sharp_edges.h"
 #include "scanbench/scanner/scanner.h"
 
 namespace scanbench::harness {
@@ -55,46 +56,22 @@ double now_seconds() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
 
-struct Segment {
-  Eigen::Vector3f a, b;
-};
-
-// Mesh edges whose two faces' normals differ by more than 30 degrees.
-std::vector<Segment> sharp_edges(const TriangleMesh& mesh) {
-  std::map<std::pair<int, int>, std::vector<Eigen::Index>> faces_of;
-  for (Eigen::Index f = 0; f < mesh.num_faces(); ++f)
-    for (int k = 0; k < 3; ++k)
-      faces_of[std::minmax(mesh.faces(k, f), mesh.faces((k + 1) % 3, f))].push_back(f);
-  std::vector<Segment> out;
-  const float cos30 = std::cos(30.0f * static_cast<float>(M_PI) / 180.0f);
-  for (const auto& [e, fs] : faces_of) {
-    if (fs.size() == 2 && mesh.face_normal(fs[0]).dot(mesh.face_normal(fs[1])) < cos30)
-      out.push_back({mesh.vertices.col(e.first), mesh.vertices.col(e.second)});
-  }
-  return out;
-}
-
 struct Accuracy {
   double p2plane = 0.0, p2plane_edge = 0.0;
   long edge_points = 0;
 };
 
-Accuracy accuracy(const metrics::GroundTruth& gt, const std::vector<Segment>& edges,
-                  const PointCloud& out) {
+// The edge set is edges.p2plane's (metrics/sharp_edges.h, at its defaults 30 degrees, 0.02 diag).
+Accuracy accuracy(const metrics::GroundTruth& gt, const PointCloud& out) {
   const auto cps = gt.closest_points(out.positions);
+  const std::vector<bool> near = metrics::near_sharp_edges(gt, cps, metrics::SharpEdgeParams{});
   const float diag = gt.diagonal();
   Accuracy a;
   for (Eigen::Index i = 0; i < out.size(); ++i) {
     const auto& cp = cps[static_cast<std::size_t>(i)];
     const double e = std::abs((out.positions.col(i) - cp.point).dot(cp.normal)) / diag;
     a.p2plane += e;
-    float best = std::numeric_limits<float>::infinity();
-    for (const Segment& s : edges) {
-      const Eigen::Vector3f d = s.b - s.a;
-      const float t = std::clamp((cp.point - s.a).dot(d) / d.squaredNorm(), 0.0f, 1.0f);
-      best = std::min(best, (cp.point - (s.a + t * d)).norm());
-    }
-    if (best <= 0.02f * diag) {
+    if (near[static_cast<std::size_t>(i)]) {
       a.p2plane_edge += e;
       ++a.edge_points;
     }
@@ -191,7 +168,6 @@ void add_bench_filter(CLI::App* bench, Cli& cli) {
         input = scanner::scan(mesh, sp, c2).cloud;
       }
       const metrics::GroundTruth gt(mesh, o.seed);
-      const std::vector<Segment> edges = sharp_edges(mesh);
       fmt::print(
           "{}: {} scan points (noise {} diag), particles {}, h = {} diag, {} iterations, "
           "{} repeats\n",
@@ -251,7 +227,7 @@ void add_bench_filter(CLI::App* bench, Cli& cli) {
           {"cgal_ear", t_normals + median(e.seconds), c_normals + median(e.cpu), &e.output,
            &e.phases_cpu},
       };
-      const Accuracy in_acc = accuracy(gt, edges, input);
+      const Accuracy in_acc = accuracy(gt, input);
       fmt::print("{:>12} {:>9} {:>9} {:>9} {:>13} {:>13}  phases (CPU s)\n", "method", "median_s",
                  "cpu_s", "points", "p2plane_mean", "p2plane_edge");
       fmt::print("{:>12} {:>9} {:>9} {:>9} {:>13.6f} {:>13.6f}\n", "input", "-", "-", input.size(),
@@ -259,7 +235,7 @@ void add_bench_filter(CLI::App* bench, Cli& cli) {
       Json cases = Json::array();
       std::map<std::string, double> med, med_cpu;
       for (const Row& r : rows) {
-        const Accuracy a = accuracy(gt, edges, *r.out);
+        const Accuracy a = accuracy(gt, *r.out);
         med[r.name] = r.s;
         med_cpu[r.name] = r.cpu;
         std::string ph;

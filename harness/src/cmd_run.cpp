@@ -11,6 +11,7 @@
 #include "commands.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/paths.h"
+#include "scanbench/harness/claims.h"
 #include "scanbench/harness/compare.h"
 #include "scanbench/harness/experiment.h"
 #include "scanbench/harness/records.h"
@@ -207,6 +208,7 @@ void add_nightly_command(Cli& cli) {
     RunArgs run;
     std::string baseline;
     bool update_baseline = false;
+    bool no_claims = false;
   };
   auto a = std::make_shared<Args>();
   CLI::App* sub = cli.app.add_subcommand(
@@ -218,12 +220,39 @@ void add_nightly_command(Cli& cli) {
   sub->add_option("--baseline", a->baseline, "Baseline results (default results/baseline/)");
   sub->add_flag("--update-baseline", a->update_baseline,
                 "Copy this run's records into the baseline folder instead of comparing");
+  sub->add_flag("--no-claims", a->no_claims,
+                "Skip the quick claims (`scanbench claims --quick` into DIR/claims, compared with "
+                "the baseline's claims.json)");
   sub->callback([&cli, a] {
     cli.action = [a] {
       const fs::path baseline =
           a->baseline.empty() ? project_root() / "results" / "baseline" : fs::path(a->baseline);
       const fs::path out =
           do_run(a->run, config_root() / "nightly.json", "results/nightly-" + stamp());
+      // The papers' claims, quick set: DIR/claims/<id>/, summary also in DIR/claims.json (shown
+      // by the report). A claim that held in the baseline and failed now is a regression.
+      std::vector<std::string> claim_regressed;
+      if (!a->no_claims) {
+        ClaimsOptions co;
+        co.out = out / "claims";
+        co.quick = true;
+        co.jobs = a->run.jobs;
+        co.resume = a->run.resume;
+        if (!a->update_baseline) co.baseline = baseline / "claims.json";
+        Json cs = run_claims(co);
+        for (const auto& id : cs["regressions"])
+          claim_regressed.push_back(id.get<std::string>());
+        fmt::print("\n{}", claims_markdown(cs));
+        if (a->update_baseline) {
+          Json b = cs;
+          b.erase("regressions");
+          fs::create_directories(baseline);
+          write_file_atomic(baseline / "claims.json", b.dump(1) + "\n");
+        }
+        for (auto& c : cs["claims"])
+          c["folder"] = "claims/" + c.value("folder", std::string());
+        write_file_atomic(out / "claims.json", cs.dump(1) + "\n");
+      }
       if (a->update_baseline) {
         // Only the merged records (without histograms) and the config: small enough to commit.
         fs::create_directories(baseline);
@@ -251,7 +280,13 @@ void add_nightly_command(Cli& cli) {
       write_file_atomic(out / "compare.md", res.table());
       const fs::path page = write_report(out);
       fmt::print("\n{}\nreport: {}\n", res.table(), page.string());
-      return res.regressed() ? 1 : 0;
+      if (!claim_regressed.empty()) {
+        std::string ids;
+        for (const auto& id : claim_regressed)
+          ids += (ids.empty() ? "" : ", ") + id;
+        fmt::print("claims that held in the baseline and failed now: {}\n", ids);
+      }
+      return res.regressed() || !claim_regressed.empty() ? 1 : 0;
     };
   });
 }

@@ -2,7 +2,11 @@
 // Private to the harness: each subcommand lives in its own cmd_*.cpp and is added to the CLI in
 // cli.cpp by one explicit call.
 #include <CLI/CLI.hpp>
+#include <filesystem>
 #include <functional>
+#include <string>
+
+#include "scanbench/core/params.h"
 
 namespace scanbench::harness {
 
@@ -41,5 +45,21 @@ void add_nightly_command(Cli& cli);
 void add_status_command(Cli& cli);
 void add_merge_command(Cli& cli);
 void add_slurm_task_command(Cli& cli);
+
+/// `scanbench claims` (cmd_claims.cpp, claims.h): the papers' claims with verdicts.
+void add_claims_command(Cli& cli);
+struct ClaimsOptions {
+  std::filesystem::path out;         ///< results folder (DIR/<claim id>/, DIR/claims.json)
+  std::filesystem::path claims_dir;  ///< default configs/claims
+  std::filesystem::path baseline;    ///< claims.json to compare with; empty = none
+  std::string filter;                ///< regex on the claim id
+  bool quick = false;
+  bool resume = false;
+  bool quiet = false;
+  int jobs = 2;
+};
+/// Runs and judges the claims into o.out; returns the summary written to o.out/claims.json (with
+/// "regressions": ids that held in o.baseline and failed now).
+Json run_claims(const ClaimsOptions& o);
 
 }  // namespace scanbench::harness

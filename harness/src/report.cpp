@@ -9,6 +9,7 @@
 #include <set>
 
 #include "scanbench/core/errors.h"
+#include "scanbench/harness/claims.h"
 #include "scanbench/harness/records.h"
 #include "scanbench/harness/table.h"
 
@@ -448,6 +449,10 @@ fs::path write_report(const fs::path& dir, const fs::path& out_arg) {
     }
     h += "</table>\n";
   }
+
+  // The papers' claims (`scanbench claims`, or nightly's quick set).
+  if (fs::exists(dir / "claims.json"))
+    h += claims_html_section(read_json_file(dir / "claims.json"));
 
   // Failures.
   bool any_failed = false;

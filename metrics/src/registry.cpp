@@ -8,6 +8,7 @@
 #include "scanbench/metrics/outlier_residue.h"
 #include "scanbench/metrics/p2plane.h"
 #include "scanbench/metrics/regularity.h"
+#include "scanbench/metrics/sharp_edges.h"
 #include "scanbench/metrics/surface.h"
 
 namespace scanbench::metrics {
@@ -190,6 +191,28 @@ const MetricRegistry& registry() {
             .plain("scan_outlier_share", kNone)
             .plain("scan_noise_source", kNone),
         closest, outlier_residue_metric));
+    reg.add(make_metric<SharpEdgeParams>(
+        "edges.p2plane",
+        "point-to-plane error near the ground truth's sharp edges (GPF paper Fig. 7-9, 17): "
+        "edge_p2plane_mean (+ _rel) over the output points whose closest GT point is within band "
+        "of an edge sharper than angle_deg; edge_points, edge_share",
+        Scores::Points,
+        Keys{}
+            .length("edge_p2plane_mean", kLower)
+            .plain("edge_points", kNone)
+            .plain("edge_share", kNone),
+        closest, sharp_edge_p2plane_metric));
+    reg.add(make_metric<SharpEdgeParams>(
+        "edges.normals",
+        "normal error near the ground truth's sharp edges (CLOP paper Fig. 16): "
+        "edge_normal_angle_mean_deg, edge_normal_pgp10 (share under 10 degrees) over the output "
+        "points near an edge (as edges.p2plane); needs output normals",
+        Scores::Normals,
+        Keys{}
+            .plain("edge_normal_angle_mean_deg", kLower)
+            .plain("edge_normal_pgp10", kHigher)
+            .plain("edge_points", kNone),
+        closest, sharp_edge_normals_metric));
     reg.add(make_metric<ChamferParams>(
         "surface.chamfer",
         "the accuracy.chamfer scores of a mesh output: accuracy from seeded area-uniform samples "

@@ -221,7 +221,7 @@ TEST(Metrics, EveryRegisteredMetricRunsByName) {
     }
     EXPECT_TRUE(r["skipped"].empty()) << e.name << r["skipped"].dump();
   }
-  EXPECT_EQ(registry().entries().size(), 10u);
+  EXPECT_EQ(registry().entries().size(), 12u);
 }
 
 TEST(Metrics, BadInputThrowsTypedErrors) {

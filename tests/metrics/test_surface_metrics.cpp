@@ -155,7 +155,7 @@ TEST(MetricDirections, EveryEmittedKeyIsDeclaredAndEveryDeclaredKeyEmitted) {
     declared.insert(k.key);
   for (const auto& k : declared)
     EXPECT_TRUE(emitted.count(k)) << k << " is declared but no metric emitted it";
-  EXPECT_EQ(registry().entries().size(), 10u);
+  EXPECT_EQ(registry().entries().size(), 12u);
 }
 
 TEST(MetricDirections, KnownKeys) {

@@ -113,15 +113,16 @@ SurfaceAnalysis gp_limit_analysis(const CovarianceMesh& m, const SubdivisionOpti
 
 /// Parameters of subdivide.infer_covariances (GPS sec. 6.1).
 struct InferenceParams {
-  std::string method = "face";  ///< "face" (eq. 16-17) or "vertex" (eq. 15)
+  std::string method = "face";  ///< "face" (eq. 16-17), "vertex" (eq. 15) or "isotropic"
   std::string bias = "sigma0";  ///< "sigma0" (eq. 15/17) or "lambda_max" (authors' demo)
   double sigma_0 = 0.01;        ///< fraction of the bbox diagonal
   double lambda_factor = 0.05;  ///< bias = lambda_factor * lambda_max(cov) with bias=lambda_max
 
   static void declare(ParamDeclarer<InferenceParams>& d) {
-    d.choice("method", &InferenceParams::method, {"face", "vertex"},
+    d.choice("method", &InferenceParams::method, {"face", "vertex", "isotropic"},
              "face: Sigma_i = (sum_j Sigma_Dj^-1)^-1 over the faces at vertex i (GPS eq. 16-17); "
-             "vertex: covariance of the vertex and its 1-ring (eq. 15)");
+             "vertex: covariance of the vertex and its 1-ring (eq. 15); isotropic: sigma_0^2 I "
+             "at every vertex (eq. 14: the linear scheme)");
     d.choice("bias", &InferenceParams::bias, {"sigma0", "lambda_max"},
              "sigma0: + sigma_0^2 I (eq. 15, 17); lambda_max: + lambda_factor * lambda_max I "
              "per covariance (the GPS authors' public demo)");

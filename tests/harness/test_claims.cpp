@@ -1,0 +1,351 @@
+// `scanbench claims`: the verdict rules on synthetic records (each rule kind held, failed and
+// inconclusive), claim-file validation, baseline regressions, and the command end to end on a
+// tiny claim set run by the real binary.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "scanbench/core/errors.h"
+#include "scanbench/harness/claims.h"
+
+namespace fs = std::filesystem;
+using scanbench::Json;
+using namespace scanbench::harness;
+
+namespace {
+
+Json record(const std::string& dataset, const std::string& variant, Json metrics,
+            Json point = Json::object(), std::vector<double> total_s = {1.0}) {
+  return {{"key", dataset + "|s|" + variant + "|" + point.dump() + "|seed=1"},
+          {"status", "ok"},
+          {"dataset", {{"label", dataset}}},
+          {"variant", {{"label", variant}}},
+          {"point", point},
+          {"metrics", metrics},
+          {"timing", {{"total_s", total_s}}}};
+}
+
+ClaimRule compare_rule(const std::string& a, const std::string& op, const std::string& b,
+                       const std::string& q = "err") {
+  ClaimRule r;
+  r.what = "test";
+  r.quantity = q;
+  r.a.variant = a;
+  r.b.variant = b;
+  r.has_b = true;
+  r.op = op;
+  return r;
+}
+
+TEST(ClaimRules, CompareHoldsOnEveryDatasetOrFailsNamingIt) {
+  std::vector<Json> recs = {record("d1", "x", {{"err", 1.0}}), record("d1", "y", {{"err", 2.0}}),
+                            record("d2", "x", {{"err", 3.0}}), record("d2", "y", {{"err", 4.0}})};
+  RuleOutcome o = judge_rule(compare_rule("x", "<", "y"), recs);
+  EXPECT_EQ(o.verdict, "held") << o.reason;
+  EXPECT_NE(o.measured.find("d1: 1 vs 2 (ratio 0.5)"), std::string::npos) << o.measured;
+  recs[2]["metrics"]["err"] = 5.0;  // x worse than y on d2 only
+  o = judge_rule(compare_rule("x", "<", "y"), recs);
+  EXPECT_EQ(o.verdict, "failed");
+  EXPECT_NE(o.reason.find("d2"), std::string::npos) << o.reason;
+  EXPECT_EQ(o.reason.find("d1"), std::string::npos) << o.reason;
+  // Each operator, both ways.
+  EXPECT_EQ(judge_rule(compare_rule("y", ">", "x"), recs).verdict, "failed");
+  EXPECT_EQ(judge_rule(compare_rule("x", ">=", "x"), recs).verdict, "held");
+  EXPECT_EQ(judge_rule(compare_rule("x", "<=", "x"), recs).verdict, "held");
+  EXPECT_EQ(judge_rule(compare_rule("x", "<", "x"), recs).verdict, "failed");
+}
+
+TEST(ClaimRules, StatisticsOverAllDatasetsAndFactorAndConstant) {
+  // per "all": the statistic runs over the records of every dataset.
+  std::vector<Json> recs = {record("d1", "x", {{"err", 1.0}}), record("d2", "x", {{"err", 2.0}}),
+                            record("d3", "x", {{"err", 9.0}}), record("d1", "y", {{"err", 2.5}})};
+  ClaimRule r = compare_rule("x", "<", "y");
+  r.per = "all";
+  r.stat = "median";  // 2 < 2.5
+  EXPECT_EQ(judge_rule(r, recs).verdict, "held");
+  r.stat = "mean";  // 4 < 2.5 fails
+  EXPECT_EQ(judge_rule(r, recs).verdict, "failed");
+  r.stat = "max";
+  EXPECT_EQ(judge_rule(r, recs).verdict, "failed");
+  r.stat = "min";
+  EXPECT_EQ(judge_rule(r, recs).verdict, "held");
+  // A constant and a factor: median 2 < 0.5 x 5 holds, < 0.3 x 5 fails.
+  r.stat = "median";
+  r.has_b = false;
+  r.value = 5.0;
+  r.factor = 0.5;
+  EXPECT_EQ(judge_rule(r, recs).verdict, "held");
+  r.factor = 0.3;
+  EXPECT_EQ(judge_rule(r, recs).verdict, "failed");
+}
+
+TEST(ClaimRules, InconclusiveWhenJobFailedNoRecordMissingQuantityOrWithinMargin) {
+  std::vector<Json> recs = {record("d1", "x", {{"err", 1.0}}), record("d1", "y", {{"err", 1.01}})};
+  ClaimRule r = compare_rule("x", "<", "y");
+  EXPECT_EQ(judge_rule(r, recs).verdict, "held");
+  r.margin = 0.05;  // 1 vs 1.01: within 5%
+  RuleOutcome o = judge_rule(r, recs);
+  EXPECT_EQ(o.verdict, "inconclusive");
+  EXPECT_NE(o.reason.find("margin"), std::string::npos) << o.reason;
+  r.margin = 0;
+  recs[1]["status"] = "timeout";
+  recs[1]["error"] = "killed after 5 s";
+  o = judge_rule(r, recs);
+  EXPECT_EQ(o.verdict, "inconclusive");
+  EXPECT_NE(o.reason.find("timeout: killed after 5 s"), std::string::npos) << o.reason;
+  recs[1]["status"] = "ok";
+  o = judge_rule(compare_rule("x", "<", "nosuch"), recs);
+  EXPECT_EQ(o.verdict, "inconclusive");
+  EXPECT_NE(o.reason.find("no record matches b"), std::string::npos) << o.reason;
+  o = judge_rule(compare_rule("x", "<", "y", "other"), recs);
+  EXPECT_EQ(o.verdict, "inconclusive");
+  EXPECT_NE(o.reason.find("has no 'other'"), std::string::npos) << o.reason;
+  EXPECT_EQ(judge_rule(r, {}).verdict, "inconclusive");
+}
+
+TEST(ClaimRules, TimingSamplesMustNotOverlap) {
+  std::vector<Json> recs = {record("d1", "fast", {}, Json::object(), {1.0, 1.1, 1.2}),
+                            record("d1", "slow", {}, Json::object(), {2.0, 2.1, 2.2})};
+  EXPECT_EQ(judge_rule(compare_rule("fast", "<", "slow", "time.total"), recs).verdict, "held");
+  EXPECT_EQ(judge_rule(compare_rule("slow", "<", "fast", "time.total"), recs).verdict, "failed");
+  recs[0]["timing"]["total_s"] = {1.0, 1.1, 2.05};  // median still below, ranges overlap
+  const RuleOutcome o = judge_rule(compare_rule("fast", "<", "slow", "time.total"), recs);
+  EXPECT_EQ(o.verdict, "inconclusive");
+  EXPECT_NE(o.reason.find("overlap"), std::string::npos) << o.reason;
+}
+
+TEST(ClaimRules, EqualityWithinTolerance) {
+  std::vector<Json> recs = {record("d1", "x", {{"v", 1.0}}),
+                            record("d1", "y", {{"v", 1.0 + 1e-9}})};
+  ClaimRule r = compare_rule("x", "==", "y", "v");
+  EXPECT_EQ(judge_rule(r, recs).verdict, "held");
+  recs[1]["metrics"]["v"] = 1.001;
+  EXPECT_EQ(judge_rule(r, recs).verdict, "failed");
+  r.tolerance = 0.01;
+  EXPECT_EQ(judge_rule(r, recs).verdict, "held");
+}
+
+TEST(ClaimRules, ArgminOfASweepParameter) {
+  std::vector<Json> recs;
+  const double errs[] = {3.0, 2.0, 2.5, 4.0};
+  const double alphas[] = {1.5, 2.0, 2.5, 3.0};
+  for (int i = 0; i < 4; ++i)
+    recs.push_back(record("d1", "clop", {{"err", errs[i]}}, {{"clop.alpha", alphas[i]}}));
+  ClaimRule r;
+  r.what = "min near 2";
+  r.kind = "argmin";
+  r.quantity = "err";
+  r.a.variant = "clop";
+  r.param = "clop.alpha";
+  r.lo = 1.75;
+  r.hi = 2.25;
+  RuleOutcome o = judge_rule(r, recs);
+  EXPECT_EQ(o.verdict, "held") << o.reason;
+  EXPECT_NE(o.measured.find("argmin 2"), std::string::npos) << o.measured;
+  recs[3]["metrics"]["err"] = 1.0;  // now lowest at 3
+  o = judge_rule(r, recs);
+  EXPECT_EQ(o.verdict, "failed");
+  EXPECT_NE(o.reason.find("clop.alpha=3"), std::string::npos) << o.reason;
+  // Point selectors pick one sweep value.
+  ClaimRule c = compare_rule("clop", ">", "clop");
+  c.a.point = {{"clop.alpha", 2.5}};
+  c.b.point = {{"clop.alpha", 2}};
+  EXPECT_EQ(judge_rule(c, recs).verdict, "held");
+  c.op = "<";
+  EXPECT_EQ(judge_rule(c, recs).verdict, "failed");
+}
+
+Json claim_json(Json rules) {
+  return {{"scanbench_claim", 1},
+          {"claim", "x is better than y"},
+          {"source", "a paper, Fig. 1"},
+          {"experiment",
+           {{"scanbench_experiment", 1},
+            {"datasets", {{{"name", "sphere"}}}},
+            {"scanners", {"clean"}},
+            {"variants",
+             {{{"label", "x"}, {"algorithm", "normals.pca"}},
+              {{"label", "y"}, {"algorithm", "resample.wlop"}}}}}},
+          {"quick", {{"scanners", {{{"preset", "clean"}, {"params", {{"resolution", 16}}}}}}}},
+          {"rules", rules}};
+}
+
+Json good_rule() {
+  return {{"what", "x below y"},
+          {"quantity", "err"},
+          {"a", {{"variant", "x"}}},
+          {"op", "<"},
+          {"b", {{"variant", "y"}}}};
+}
+
+TEST(ClaimFiles, ValidatedWithPathsAndQuickPatchApplied) {
+  const Claim c = parse_claim(claim_json({good_rule()}), "c.json", "c");
+  EXPECT_EQ(c.id, "c");
+  EXPECT_EQ(c.experiment_config(true)["scanners"][0]["params"]["resolution"], 16);
+  EXPECT_FALSE(c.experiment_config(false)["scanners"][0].is_object());
+  auto error_of = [](const Json& j) {
+    try {
+      parse_claim(j, "c.json", "c");
+    } catch (const scanbench::ParamError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  Json r = good_rule();
+  r["b"]["variant"] = "z";
+  EXPECT_EQ(error_of(claim_json({r})), "c.json: /rules/0/b/variant: no variant labelled 'z'");
+  r = good_rule();
+  r["opp"] = "<";
+  EXPECT_NE(error_of(claim_json({r})).find("c.json: /rules/0/opp: unknown key"), std::string::npos);
+  r = good_rule();
+  r["op"] = "=<";
+  EXPECT_NE(error_of(claim_json({r})).find("/rules/0/op: expected one of"), std::string::npos);
+  r = good_rule();
+  r["value"] = 1.0;
+  EXPECT_NE(error_of(claim_json({r})).find("exactly one of"), std::string::npos);
+  EXPECT_NE(error_of(claim_json(Json::array())).find("/rules: expected a non-empty list"),
+            std::string::npos);
+  Json bad = claim_json({good_rule()});
+  bad["experiment"]["variants"][0]["params"] = {{"k", -3}};
+  EXPECT_NE(error_of(bad).find("c.json: /experiment: /variants/0/params"), std::string::npos)
+      << error_of(bad);
+}
+
+TEST(ClaimVerdicts, CombinationAndBaselineRegressions) {
+  Claim c = parse_claim(claim_json({good_rule(), good_rule()}), "c.json", "c");
+  c.rules[1].b.variant = "x";  // x < x: fails
+  std::vector<Json> recs = {record("sphere", "x", {{"err", 1.0}}),
+                            record("sphere", "y", {{"err", 2.0}})};
+  ClaimOutcome o = judge_claim(c, recs);
+  EXPECT_EQ(o.verdict, "failed");
+  EXPECT_EQ(o.reason.rfind("x below y: ", 0), 0u) << o.reason;
+  c.rules[1].margin = 1.0;  // x vs x within the margin: inconclusive beats held
+  EXPECT_EQ(judge_claim(c, recs).verdict, "inconclusive");
+  c.rules.pop_back();
+  EXPECT_EQ(judge_claim(c, recs).verdict, "held");
+
+  const Json base = {{"claims",
+                      {{{"id", "a"}, {"verdict", "held"}},
+                       {{"id", "b"}, {"verdict", "inconclusive"}},
+                       {{"id", "c"}, {"verdict", "failed"}},
+                       {{"id", "d"}, {"verdict", "held"}}}}};
+  const Json now = {{"claims",
+                     {{{"id", "a"}, {"verdict", "failed"}},
+                      {{"id", "b"}, {"verdict", "failed"}},
+                      {{"id", "c"}, {"verdict", "failed"}},
+                      {{"id", "d"}, {"verdict", "inconclusive"}},
+                      {{"id", "e"}, {"verdict", "failed"}}}}};
+  EXPECT_EQ(claim_regressions(base, now), std::vector<std::string>{"a"});
+}
+
+// End to end: two claims on the test subsampler, through the real binary.
+struct Result {
+  int code;
+  std::string out;
+};
+Result sh(const std::string& cmd) {
+  const std::string full = "SCANBENCH_TEST_ALGORITHMS=1 " + cmd + " 2>&1";
+  FILE* p = popen(full.c_str(), "r");
+  std::string out;
+  char buf[4096];
+  while (p && fgets(buf, sizeof(buf), p))
+    out += buf;
+  const int status = p ? pclose(p) : -1;
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+}
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+TEST(ClaimsE2E, RunsJudgesWritesAndExitsOneOnARegression) {
+  std::string tmpl = (fs::temp_directory_path() / "scanbench-claims-XXXXXX").string();
+  ASSERT_NE(mkdtemp(tmpl.data()), nullptr);
+  const fs::path dir = tmpl;
+  fs::create_directories(dir / "claims");
+  auto write_claim = [&](const std::string& id, const std::string& op) {
+    const Json c = {
+        {"scanbench_claim", 1},
+        {"claim", "stride 2 keeps more points than stride 4"},
+        {"source", "test"},
+        {"paper", "2x"},
+        {"experiment",
+         {{"scanbench_experiment", 1},
+          {"datasets", {{{"name", "sphere"}}, {{"name", "torus"}}}},
+          {"scanners", {{{"preset", "clean"}, {"params", {{"views", 2}, {"resolution", 48}}}}}},
+          {"metrics", {"regularity.nn_dist"}},
+          {"variants",
+           {{{"label", "sub2"}, {"algorithm", "test.subsample"}, {"params", {{"stride", 2}}}},
+            {{"label", "sub4"}, {"algorithm", "test.subsample"}, {"params", {{"stride", 4}}}}}}}},
+        {"quick", {{"datasets", {{{"name", "sphere"}}}}}},
+        {"rules",
+         {{{"what", "more points"},
+           {"quantity", "output_points"},
+           {"a", {{"variant", "sub2"}}},
+           {"op", op},
+           {"factor", 1.5},
+           {"b", {{"variant", "sub4"}}}}}}};
+    std::ofstream(dir / "claims" / (id + ".json")) << c.dump(1);
+  };
+  write_claim("holds", ">");
+  write_claim("fails", "<");
+  const std::string bin = SCANBENCH_BINARY;
+  // Baseline where both held: "fails" regressed -> exit 1.
+  const fs::path base = dir / "base.json";
+  std::ofstream(base) << Json{{"claims",
+                               {{{"id", "holds"}, {"verdict", "held"}},
+                                {{"id", "fails"}, {"verdict", "held"}}}}}
+                             .dump();
+  Result r = sh(bin + " claims --quick --claims " + (dir / "claims").string() + " -o " +
+                (dir / "out").string() + " --baseline " + base.string());
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("REGRESSION"), std::string::npos) << r.out;
+  const Json s = Json::parse(slurp(dir / "out" / "claims.json"));
+  ASSERT_EQ(s["claims"].size(), 2u);
+  EXPECT_EQ(s["claims"][0]["id"], "fails");
+  EXPECT_EQ(s["claims"][0]["verdict"], "failed");
+  EXPECT_EQ(s["claims"][1]["verdict"], "held");
+  EXPECT_TRUE(s["quick"].get<bool>());
+  EXPECT_EQ(s["claims"][1]["jobs"], 2);  // quick: the sphere only
+  EXPECT_EQ(s["regressions"], Json::array({"fails"}));
+  // One scan cache for both claims.
+  EXPECT_TRUE(fs::is_symlink(dir / "out" / "holds" / "scans"));
+  int scans = 0;
+  for (const auto& e : fs::directory_iterator(dir / "out" / "scans"))
+    scans += e.path().extension() == ".ply" ? 1 : 0;
+  EXPECT_EQ(scans, 1);
+  EXPECT_NE(slurp(dir / "out" / "claims.md").find("| holds | test | 2x |"), std::string::npos);
+  EXPECT_NE(slurp(dir / "out" / "index.html").find("id=\"claims\""), std::string::npos);
+  EXPECT_TRUE(fs::exists(dir / "out" / "holds" / "index.html"));
+
+  // Filter, full set, and a baseline in which "fails" already failed: exit 0.
+  std::ofstream(base) << Json{{"claims", {{{"id", "fails"}, {"verdict", "failed"}}}}}.dump();
+  r = sh(bin + " claims --claims " + (dir / "claims").string() + " -o " + (dir / "out2").string() +
+         " --baseline " + base.string() + " --filter '^fai'");
+  EXPECT_EQ(r.code, 0) << r.out;
+  const Json s2 = Json::parse(slurp(dir / "out2" / "claims.json"));
+  ASSERT_EQ(s2["claims"].size(), 1u);
+  EXPECT_EQ(s2["claims"][0]["jobs"], 4);
+  // The report of a folder holding claims.json shows the section.
+  fs::copy_file(dir / "out2" / "claims.json", dir / "out2" / "fails" / "claims.json");
+  r = sh(bin + " report " + (dir / "out2" / "fails").string());
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(slurp(dir / "out2" / "fails" / "index.html").find("Claims of the source papers"),
+            std::string::npos);
+  // Bad input: exit 2 with one line naming the file.
+  write_claim("broken", "=<");
+  r = sh(bin + " claims --claims " + (dir / "claims").string() + " -o " + (dir / "out3").string());
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("broken.json: /rules/0/op"), std::string::npos) << r.out;
+  fs::remove_all(dir);
+}
+
+}  // namespace

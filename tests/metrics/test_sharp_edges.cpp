@@ -1,0 +1,66 @@
+// edges.p2plane / edges.normals (sharp_edges.h): hand-placed points on the cube against the
+// analytic answer (which points are near an edge, their offsets and normal angles).
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "scanbench/core/errors.h"
+#include "scanbench/core/procedural.h"
+#include "scanbench/metrics/evaluate.h"
+#include "scanbench/metrics/ground_truth.h"
+#include "scanbench/metrics/registry.h"
+#include "test_meshes.h"
+
+namespace scanbench::metrics {
+namespace {
+
+TEST(SharpEdgeMetrics, CubePointsNearAndFarFromEdges) {
+  const TriangleMesh cube = make_cube({});
+  const GroundTruth gt(cube, 1);
+  const Eigen::Vector3f lo = cube.vertices.rowwise().minCoeff();
+  const Eigen::Vector3f hi = cube.vertices.rowwise().maxCoeff();
+  const float diag = (hi - lo).norm();
+  const Eigen::Vector3f mid = 0.5f * (lo + hi);
+  PointCloud out;
+  out.positions.resize(3, 3);
+  // 0: above the top face, 0.005 diag from the edge x = hi.x (inside the 0.02 band), 0.01 up.
+  out.positions.col(0) << hi.x() - 0.005f * diag, mid.y(), hi.z() + 0.01f;
+  // 1: above the top face's centre, 0.03 up: far from every edge.
+  out.positions.col(1) << mid.x(), mid.y(), hi.z() + 0.03f;
+  // 2: 0.005 below the top face (its closest face), 0.01 diag from the edge y = lo.y.
+  out.positions.col(2) << mid.x(), lo.y() + 0.01f * diag, hi.z() - 0.005f;
+  out.normals.resize(3, 3);
+  const float a = 20.0f * static_cast<float>(M_PI) / 180.0f;
+  out.normals.col(0) << std::sin(a), 0.0f, std::cos(a);  // 20 degrees off the top normal
+  out.normals.col(1) << 1.0f, 0.0f, 0.0f;                // 90 degrees, but not near an edge
+  out.normals.col(2) << 0.0f, 0.0f, -1.0f;               // 0 degrees (unoriented)
+  RunContext ctx(1);
+  const Json r =
+      evaluate(gt, out, nullptr, {"edges.p2plane", "edges.normals"}, Json::object(), ctx);
+  EXPECT_EQ(r["edge_points"], 2);
+  EXPECT_NEAR(r["edge_p2plane_mean"].get<double>(), 0.0075, 1e-6);
+  EXPECT_NEAR(r["edge_p2plane_mean_rel"].get<double>(), 0.0075 / diag, 1e-6);
+  EXPECT_NEAR(r["edge_share"].get<double>(), 2.0 / 3.0, 1e-12);
+  EXPECT_NEAR(r["edge_normal_angle_mean_deg"].get<double>(), 10.0, 1e-3);
+  EXPECT_NEAR(r["edge_normal_pgp10"].get<double>(), 0.5, 1e-12);
+  // A narrower band leaves out point 2 (0.01 diag from its edge).
+  const Json r2 = evaluate(gt, out, nullptr, {"edges.p2plane"},
+                           Json{{"edges.p2plane", {{"band", 0.008}}}}, ctx);
+  EXPECT_EQ(r2["edge_points"], 1);
+  EXPECT_NEAR(r2["edge_p2plane_mean"].get<double>(), 0.01, 1e-6);
+}
+
+TEST(SharpEdgeMetrics, SmoothTruthHasNothingToScore) {
+  const GroundTruth gt(testing::icosphere(3), 1);
+  PointCloud out;
+  out.positions = Eigen::Matrix3Xf::Zero(3, 2);
+  out.positions(0, 0) = 1.0f;
+  out.positions(1, 1) = 1.0f;
+  RunContext ctx(1);
+  EXPECT_THROW(evaluate(gt, out, nullptr, {"edges.p2plane"}, Json::object(), ctx), NotApplicable);
+  const Json r = evaluate(gt, out, nullptr, {}, Json::object(), ctx);
+  EXPECT_TRUE(r["skipped"].contains("edges.p2plane")) << r.dump();
+}
+
+}  // namespace
+}  // namespace scanbench::metrics
