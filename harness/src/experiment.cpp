@@ -359,7 +359,8 @@ std::string first_duplicate_key(const std::string& text) {
     }
     return true;
   };
-  (void)Json::parse(text, cb, /*allow_exceptions=*/false, /*ignore_comments=*/true);
+  [[maybe_unused]] const Json parsed =
+      Json::parse(text, cb, /*allow_exceptions=*/false, /*ignore_comments=*/true);
   return duplicate;
 }
 

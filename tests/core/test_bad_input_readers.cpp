@@ -6,6 +6,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <iomanip>
 #include <set>
 #include <sstream>
 #include <string>
@@ -64,6 +65,8 @@ TEST(BadInputReaders, FarCoordinatesInTextAreAnErrorNotAQuietQuantisation) {
   const fs::path dir = fs::temp_directory_path() / "scanbench_far_coordinates";
   fs::create_directories(dir);
   std::ostringstream far, near;
+  far << std::fixed << std::setprecision(3);
+  near << std::fixed << std::setprecision(3);
   for (int i = 0; i < 10; ++i) {
     far << 691234.5 + 0.01 * i << " " << 9876543.25 + 0.013 * (i % 7) << " " << 120.5 << "\n";
     near << 0.01 * i << " " << 0.013 * (i % 7) << " " << 0.0 << "\n";

@@ -93,16 +93,18 @@ class BadInputCli : public ::testing::Test {
     const Outcome o = run(file);
     ASSERT_EQ(o.exit_code, 0) << o.err;
     const StageData out = read_stage_file(dir_ / "out.ply");
-    if (out.covariance_mesh.num_vertices() > 0) {
-      EXPECT_TRUE(out.covariance_mesh.means.allFinite());
-      EXPECT_GT(out.covariance_mesh.num_faces(), 0);
-    } else if (out.mesh.num_vertices() > 0) {
-      EXPECT_TRUE(out.mesh.vertices.allFinite());
-      EXPECT_GT(out.mesh.num_faces(), 0);
+    if (out.covariance_mesh) {
+      EXPECT_TRUE(out.covariance_mesh->means.allFinite());
+      EXPECT_GT(out.covariance_mesh->num_faces(), 0);
+    } else if (out.mesh) {
+      EXPECT_TRUE(out.mesh->vertices.allFinite());
+      EXPECT_GT(out.mesh->num_faces(), 0);
     } else {
       ASSERT_GT(out.points.size(), 0);
       EXPECT_TRUE(out.points.positions.allFinite());
-      if (out.points.has_normals()) EXPECT_TRUE(out.points.normals.allFinite());
+      if (out.points.has_normals()) {
+        EXPECT_TRUE(out.points.normals.allFinite());
+      }
     }
   }
 
