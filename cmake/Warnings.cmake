@@ -9,4 +9,5 @@ function(scanbench_target_defaults target)
   if(SCANBENCH_WERROR)
     target_compile_options(${target} PRIVATE -Werror)
   endif()
+  scanbench_apply_sanitizers(${target})  # cmake/Sanitizers.cmake
 endfunction()

@@ -12,6 +12,7 @@
 #include <iterator>
 #include <vector>
 
+#include "float_precision.h"
 #include "io_readers.h"
 #include "ply.h"
 #include "scanbench/core/errors.h"
@@ -229,6 +230,7 @@ OffData parse_off(std::string_view text, const std::string& name) {
   OffData off;
   std::vector<float>& xyz = off.xyz;
   xyz.reserve(static_cast<std::size_t>(3 * nv));
+  PositionPrecision precision;
   for (std::int64_t v = 0; v < nv; ++v) {
     if (!lines.next(line)) {
       throw IoError(fmt::format("{}: unexpected end of file at vertex {} of {}", name, v, nv));
@@ -241,7 +243,8 @@ OffData parse_off(std::string_view text, const std::string& name) {
       }
     }
     for (int k = 0; k < 3; ++k) {
-      const float x = static_cast<float>(c[static_cast<std::size_t>(k)] / c[3]);
+      const float x =
+          precision.add(k, c[static_cast<std::size_t>(k)] / c[3], static_cast<std::size_t>(v));
       if (!std::isfinite(x)) fail(fmt::format("vertex {}: non-finite coordinate", v));
       xyz.push_back(x);
     }
@@ -255,6 +258,7 @@ OffData parse_off(std::string_view text, const std::string& name) {
       }
     }
   }
+  precision.check(name, "vertex");
   std::vector<int>& tri = off.tri;
   tri.reserve(static_cast<std::size_t>(3 * nf));
   std::vector<int> poly;
@@ -343,6 +347,8 @@ TriangleMesh read_stl(std::string_view data, const std::string& name) {
     // States: 0 outside solid, 1 in solid, 2 in facet, 3 in loop (k vertices read), 4 loop closed.
     int state = 0;
     int k = 0;
+    PositionPrecision precision;
+    std::size_t vertices = 0;
     auto fail = [&](const std::string& what) -> void {
       throw IoError(fmt::format("{}: line {}: {}", name, lines.number(), what));
     };
@@ -362,9 +368,12 @@ TriangleMesh read_stl(std::string_view data, const std::string& name) {
       } else if (tok == "vertex" && state == 3) {
         if (k == 3) fail("facet with more than 3 vertices");
         std::array<float, 3> c{};
-        for (auto& x : c) {
+        for (int a = 0; a < 3; ++a) {
+          double x = 0.0;
           if (!t.next(tok) || !parse_number(tok, x)) fail("expected 'vertex <x> <y> <z>'");
+          c[static_cast<std::size_t>(a)] = precision.add(a, x, static_cast<std::size_t>(vertices));
         }
+        ++vertices;
         if (!add_vertex(c[0], c[1], c[2])) fail("non-finite coordinate");
         ++k;
       } else if (tok == "endloop" && state == 3) {
@@ -379,6 +388,7 @@ TriangleMesh read_stl(std::string_view data, const std::string& name) {
     if (state != 0) {
       throw IoError(fmt::format("{}: unexpected end of file (missing endsolid)", name));
     }
+    precision.check(name, "vertex");
   }
   TriangleMesh m = weld_coincident_vertices(to_mesh(xyz, tri));
   check_mesh(m, name);

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <set>
 
+#include "float_precision.h"
 #include "io_readers.h"
 #include "ply.h"
 #include "scanbench/core/errors.h"
@@ -38,10 +39,12 @@ const ply::Property& require_scalar(const ply::Element& e, std::string_view prop
 void read_xyz(const ply::Element& e, const std::array<const char*, 3>& names, bool require_finite,
               Eigen::Matrix3Xf& out, const std::string& name) {
   out.resize(3, static_cast<Eigen::Index>(e.count));
+  io_detail::PositionPrecision precision;  // positions (x, y, z) only, not normals
+  const bool positions = std::string_view(names[0]) == "x";
   for (int k = 0; k < 3; ++k) {
     const ply::Property& p = require_scalar(e, names[static_cast<std::size_t>(k)], name);
     for (std::size_t r = 0; r < e.count; ++r) {
-      const float v = static_cast<float>(p.values[r]);
+      const float v = precision.add(k, p.values[r], r);
       if (require_finite && !std::isfinite(v)) {
         throw IoError(fmt::format("{}: element {}, row {}, property {}: non-finite value {}", name,
                                   e.name, r, p.name, p.values[r]));
@@ -49,6 +52,7 @@ void read_xyz(const ply::Element& e, const std::array<const char*, 3>& names, bo
       out(k, static_cast<Eigen::Index>(r)) = v;
     }
   }
+  if (positions) precision.check(name, fmt::format("element {}, row", e.name).c_str());
 }
 
 // Present as a complete group (true), absent (false), or partial (error).

@@ -1,9 +1,11 @@
 // Point clouds from the plain text formats users bring: XYZ / PWN and point-only OFF (io.h).
 #include <fmt/format.h>
 
+#include <array>
 #include <cmath>
 #include <vector>
 
+#include "float_precision.h"
 #include "io_readers.h"
 #include "scanbench/core/errors.h"
 #include "text_lines.h"
@@ -22,12 +24,21 @@ PointCloud cloud_from_xyz(std::string_view text, const std::string& name) {
   std::int64_t declared = -1;
   std::int64_t points = 0;
   std::vector<float> row;
+  PositionPrecision precision;  // columns 1-3
+  std::array<double, 3> row_d{};
   while (lines.next(line)) {
     Tokens t(line);
     row.clear();
     while (t.next(tok)) {
       float x = 0.0f;
-      if (!parse_number(tok, x)) fail(fmt::format("'{}' is not a number", tok.substr(0, 40)));
+      if (row.size() < 3) {
+        double d = 0.0;  // positions in double first, for the float32 precision check
+        if (!parse_number(tok, d)) fail(fmt::format("'{}' is not a number", tok.substr(0, 40)));
+        row_d[row.size()] = d;
+        x = static_cast<float>(d);
+      } else if (!parse_number(tok, x)) {
+        fail(fmt::format("'{}' is not a number", tok.substr(0, 40)));
+      }
       if (!std::isfinite(x)) fail(fmt::format("non-finite value in column {}", row.size() + 1));
       row.push_back(x);
     }
@@ -41,6 +52,8 @@ PointCloud cloud_from_xyz(std::string_view text, const std::string& name) {
       continue;
     }
     if (row.size() < 3) fail(fmt::format("expected x y z, got {} value(s)", row.size()));
+    for (int k = 0; k < 3; ++k)
+      (void)precision.add(k, row_d[static_cast<std::size_t>(k)], lines.number());
     if (columns == 0) columns = row.size();
     if (row.size() != columns) {
       fail(fmt::format("{} values where the first point has {} (inconsistent columns)", row.size(),
@@ -50,6 +63,7 @@ PointCloud cloud_from_xyz(std::string_view text, const std::string& name) {
     ++points;
   }
   if (points == 0) throw IoError(fmt::format("{}: no points", name));
+  precision.check(name, "line");
   if (declared >= 0 && declared != points) {
     throw IoError(fmt::format("{}: the first line declares {} points, the file holds {}", name,
                               declared, points));

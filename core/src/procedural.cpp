@@ -106,8 +106,9 @@ void cube_lattice(MeshBuilder& b, int n, const std::function<Eigen::Vector3d(int
 }
 
 // Samples the segment a -> b with about `per_unit` segments per unit length (at least `min_n`),
-// appending every point but a.
-void append_segment(std::vector<Eigen::Vector2d>& out, const Eigen::Vector2d& a,
+// appending every point but a. `a` by value: callers pass out.back(), which the first emplace_back
+// may reallocate (AddressSanitizer found the heap-use-after-free of a reference here).
+void append_segment(std::vector<Eigen::Vector2d>& out, const Eigen::Vector2d a,
                     const Eigen::Vector2d& b, int per_unit, int min_n) {
   const int n = std::max(min_n, static_cast<int>(std::ceil((b - a).norm() * per_unit)));
   for (int k = 1; k <= n; ++k)

@@ -110,7 +110,14 @@ void add_algo_command(Cli& cli) {
 
       RunContext ctx(opts->seed, opts->threads);
       const auto t0 = std::chrono::steady_clock::now();
-      StageData out = entry.fn(input, params, ctx);
+      StageData out;
+      try {
+        out = entry.fn(input, params, ctx);
+      } catch (const InputError& e) {
+        // The algorithm rejected the data (a non-manifold mesh, too few points...): name the files
+        // it came from, so the one-line error says which input to look at.
+        throw InputError(fmt::format("{}: {}", fmt::join(opts->inputs, ", "), e.what()));
+      }
       const double total =
           std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 

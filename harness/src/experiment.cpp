@@ -312,6 +312,58 @@ VariantSpec parse_variant(const Json& j, const Where& w) {
   return v;
 }
 
+/// The JSON pointer of the first key that appears twice in one object of `text`, or "" when none
+/// does. JSON (RFC 8259 sec. 4) leaves duplicate names undefined and nlohmann::json keeps one of
+/// them silently, so a config with two "seed" keys would run with a seed its author did not read;
+/// load_experiment rejects it instead. The text is known to parse.
+std::string first_duplicate_key(const std::string& text) {
+  struct Frame {
+    bool object = false;
+    std::set<std::string> keys;
+    std::string key;        // the current key of an object
+    std::size_t index = 0;  // the current index of an array
+  };
+  std::vector<Frame> stack;
+  std::string duplicate;
+  auto pointer = [&](const std::string& last) {
+    std::string ptr;
+    for (std::size_t i = 0; i + 1 < stack.size(); ++i)
+      ptr += "/" + (stack[i].object ? stack[i].key : std::to_string(stack[i].index));
+    return ptr + "/" + last;
+  };
+  // Called after a complete value inside the top frame: an array moves to its next index.
+  auto next_element = [&] {
+    if (!stack.empty() && !stack.back().object) ++stack.back().index;
+  };
+  using Event = Json::parse_event_t;
+  const Json::parser_callback_t cb = [&](int, Event ev, Json& parsed) {
+    switch (ev) {
+      case Event::object_start:
+      case Event::array_start:
+        stack.push_back(Frame{ev == Event::object_start, {}, {}, 0});
+        break;
+      case Event::key: {
+        Frame& f = stack.back();
+        f.key = parsed.get<std::string>();
+        if (!f.keys.insert(f.key).second && duplicate.empty()) duplicate = pointer(f.key);
+        break;
+      }
+      case Event::object_end:
+      case Event::array_end:
+        stack.pop_back();
+        next_element();
+        break;
+      case Event::value:
+        next_element();
+        break;
+    }
+    return true;
+  };
+  [[maybe_unused]] const Json parsed =
+      Json::parse(text, cb, /*allow_exceptions=*/false, /*ignore_comments=*/true);
+  return duplicate;
+}
+
 /// Splits "resample.clop.alpha" into target "resample.clop" and parameter "alpha".
 std::pair<std::string, std::string> split_key(const std::string& key) {
   const auto dot = key.rfind('.');
@@ -333,6 +385,10 @@ Experiment load_experiment(const fs::path& file) {
     } catch (const std::exception& e) {
       throw IoError(fmt::format("{}: not valid JSON: {}", file.string(), e.what()));
     }
+  }
+  if (const std::string dup = first_duplicate_key(ss.str()); !dup.empty()) {
+    throw ParamError(
+        fmt::format("{}: {}: duplicate key (JSON keeps only one of them)", file.string(), dup));
   }
   Experiment e = parse_experiment(j, file.string());  // errors name the path as given
   e.file = file;

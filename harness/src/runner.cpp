@@ -10,11 +10,14 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <deque>
 #include <regex>
 #include <set>
+#include <string>
 #include <thread>
+#include <vector>
 
 #include "scanbench/core/errors.h"
 #include "scanbench/harness/records.h"
@@ -96,6 +99,21 @@ pid_t spawn(const fs::path& exe, const Child& c, double memory_limit_mb) {
                     log_s = c.log.string();
   const char* argv[] = {exe_s.c_str(), "job", spec_s.c_str(), result_s.c_str(), nullptr};
   const rlim_t limit = static_cast<rlim_t>(memory_limit_mb * 1024.0 * 1024.0);
+#ifdef SCANBENCH_SANITIZE
+  // Sanitizer builds cannot limit the address space (see below): the child's AddressSanitizer
+  // enforces the limit on its resident set instead (hard_rss_limit_mb; the log then says "hard
+  // rss limit exhausted", which finish() records as status "memory").
+  const char* prev_options = std::getenv("ASAN_OPTIONS");
+  const std::string asan_options =
+      fmt::format("ASAN_OPTIONS={}{}hard_rss_limit_mb={}", prev_options ? prev_options : "",
+                  prev_options && *prev_options ? ":" : "", static_cast<long>(memory_limit_mb));
+  std::vector<const char*> envp;
+  for (char** e = environ; *e != nullptr; ++e) {
+    if (std::strncmp(*e, "ASAN_OPTIONS=", 13) != 0) envp.push_back(*e);
+  }
+  envp.push_back(asan_options.c_str());
+  envp.push_back(nullptr);
+#endif
   const pid_t parent = getpid();
   const pid_t pid = fork();
   if (pid < 0) throw Error(fmt::format("run: fork failed: {}", std::strerror(errno)));
@@ -108,11 +126,22 @@ pid_t spawn(const fs::path& exe, const Child& c, double memory_limit_mb) {
       dup2(fd, STDERR_FILENO);
       close(fd);
     }
+#ifndef SCANBENCH_SANITIZE
     struct rlimit rl {
       limit, limit
     };
     setrlimit(RLIMIT_AS, &rl);
+#else
+    // AddressSanitizer reserves terabytes of address space for its shadow memory, so an address-
+    // space limit stops the child before main(); sanitizer builds (cmake/Sanitizers.cmake) run
+    // jobs without the memory limit.
+    (void)limit;
+#endif
+#ifdef SCANBENCH_SANITIZE
+    execve(argv[0], const_cast<char* const*>(argv), const_cast<char* const*>(envp.data()));
+#else
     execv(argv[0], const_cast<char* const*>(argv));
+#endif
     _exit(127);
   }
   return pid;
@@ -178,6 +207,12 @@ Json finish_record(const Child& c, int wstatus, const struct rusage& ru, const J
         alloc ? fmt::format(" after failing to allocate under the {} MB limit", job.memory_limit_mb)
               : "");
     if (!log_tail.empty()) error += ": " + log_tail;
+  } else if (!result.is_object() &&
+             log_tail.find("hard rss limit exhausted") != std::string::npos) {
+    // A sanitizer build's child over its memory limit (see spawn).
+    status = "memory";
+    error = fmt::format("exceeded the {} MB limit on its resident set: {}", job.memory_limit_mb,
+                        log_tail);
   } else if (result.is_object() && result.contains("status")) {
     status = result.value("status", std::string("error"));
     error = result.value("error", std::string());

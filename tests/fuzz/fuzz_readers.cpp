@@ -1,7 +1,8 @@
-// libFuzzer target for core's hand-written readers (PLY codec and its mesh/cloud/mixture mapping,
-// OFF, STL, XYZ/PWN, point-only OFF). The first byte picks the reader, the rest is the file
-// content. A reader may only return a valid object or throw IoError; any other exception, crash,
-// leak or sanitizer report is a bug. Build and run: see tests/fuzz/CMakeLists.txt.
+// libFuzzer target for core's hand-written readers (PLY codec and its mesh/cloud/mixture/covariance
+// mesh mapping, OFF, STL, XYZ/PWN, point-only OFF), on data in memory. The first byte picks the
+// reader, the rest is the file content. A reader may only return a valid object or throw IoError;
+// any other exception, crash, leak or sanitizer report is a bug. Build and run: see
+// tests/fuzz/CMakeLists.txt.
 #include <cstddef>
 #include <cstdint>
 #include <sstream>
@@ -17,7 +18,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   const std::string_view body(reinterpret_cast<const char*>(data) + 1, size - 1);
   const std::string name = "fuzz";
   try {
-    switch (data[0] % 7) {
+    switch (data[0] % 8) {
       case 0: {
         std::istringstream in{std::string(body)};
         (void)scanbench::io_detail::mesh_from_ply(scanbench::ply::read(in, name), name);
@@ -42,6 +43,11 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       case 5:
         (void)scanbench::io_detail::cloud_from_xyz(body, name);
         break;
+      case 6: {
+        std::istringstream in{std::string(body)};
+        (void)scanbench::io_detail::covariance_mesh_from_ply(scanbench::ply::read(in, name), name);
+        break;
+      }
       default:
         (void)scanbench::io_detail::cloud_from_off(scanbench::io_detail::parse_off(body, name),
                                                    name);
