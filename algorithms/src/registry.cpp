@@ -12,6 +12,7 @@
 #include "scanbench/algorithms/cgal_reconstruction.h"
 #include "scanbench/algorithms/clop.h"
 #include "scanbench/algorithms/csw.h"
+#include "scanbench/algorithms/decimate.h"
 #include "scanbench/algorithms/external.h"
 #include "scanbench/algorithms/gps.h"
 #include "scanbench/algorithms/hem.h"
@@ -161,6 +162,14 @@ const AlgorithmRegistry& registry() {
         "Gaussian-product Catmull-Clark subdivision (GPS paper sec. 4-5, Fig. 9): Catmull-Clark "
         "on the dual vertices (eq. 10-12). Output: the covariance mesh and its mean mesh.",
         gp_catmull_clark_stage, gp_io));
+    reg.add(make_entry<DecimateParams>(
+        "mesh.decimate",
+        "Edge-collapse simplification to a coarse control mesh (CGAL 5.5 "
+        "Surface_mesh_simplification; coarse inputs of GPS sec. 6.1 inference): policy "
+        "lindstrom_turk (Lindstrom-Turk 1998 cost and placement, CGAL's default) or "
+        "garland_heckbert (quadric error metrics); stops at `faces` (or ratio x input) faces; "
+        "topology kept (closed stays closed); non-manifold input is an error naming the face.",
+        decimate_mesh, mesh_io));
     reg.add(make_entry<InferenceParams>(
         "subdivide.infer_covariances",
         "Covariances for an ordinary mesh (GPS sec. 6.1): face-based (eq. 16-17) or vertex-based "

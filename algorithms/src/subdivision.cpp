@@ -344,6 +344,11 @@ std::size_t memory_limit_bytes() {
 
 }  // namespace
 
+void check_polygon_mesh(const PolygonFaces& faces, int num_vertices, bool triangles_only,
+                        std::string_view where) {
+  (void)build_topology(faces, num_vertices, where, triangles_only);
+}
+
 SubdivisionCounts subdivision_counts(const PolygonFaces& faces, int num_vertices, int levels,
                                      SubdivisionScheme scheme) {
   // Euler bookkeeping per level; edges from the half-edge count (boundary edges counted once).

@@ -173,6 +173,11 @@ ScannerSpec parse_scanner(const Json& j, const Where& w) {
       s.overrides = j["params"];
     }
   }
+  if (s.preset == kGroundTruthInput) {
+    if (!s.overrides.empty()) fail(w / "params", "the ground_truth input takes no parameters");
+    if (s.label.empty()) s.label = s.preset;
+    return s;
+  }
   if (!scanner::presets().find(s.preset)) {
     try {
       scanner::presets().at(s.preset);
@@ -285,19 +290,6 @@ VariantSpec parse_variant(const Json& j, const Where& w) {
       }
     }
   }
-  // Type check: a scan enters as points; each step must find what it consumes in what the steps
-  // before it produced (every kind is carried on until a step replaces it).
-  DataKinds have = DataKind::Points;
-  for (std::size_t i = 0; i < v.chain.size(); ++i) {
-    const auto& io = algorithm_entry(v.chain[i].algorithm).fn.io;
-    if (!have.contains(io.consumes)) {
-      const Where at = j.contains("chain") ? w / "chain" / i : w;
-      fail(at, "step '" + v.chain[i].label + "' (" + v.chain[i].algorithm + ") consumes " +
-                   kinds_names(io.consumes) + ", but the chain before it provides only " +
-                   kinds_names(have) + " (" + kinds_names(io.consumes - have) + " missing)");
-    }
-    have = have | io.produces;
-  }
   if (j.contains("label")) {
     v.label = get_string(j["label"], w / "label");
   } else {
@@ -312,6 +304,7 @@ VariantSpec parse_variant(const Json& j, const Where& w) {
   return v;
 }
 
+<<<<<<< HEAD
 /// The JSON pointer of the first key that appears twice in one object of `text`, or "" when none
 /// does. JSON (RFC 8259 sec. 4) leaves duplicate names undefined and nlohmann::json keeps one of
 /// them silently, so a config with two "seed" keys would run with a seed its author did not read;
@@ -362,6 +355,29 @@ std::string first_duplicate_key(const std::string& text) {
   [[maybe_unused]] const Json parsed =
       Json::parse(text, cb, /*allow_exceptions=*/false, /*ignore_comments=*/true);
   return duplicate;
+=======
+/// What a chain starts from: a scan enters as points, the ground_truth input as the mesh.
+DataKinds entry_kinds(const ScannerSpec& s) {
+  return s.preset == kGroundTruthInput ? DataKinds(DataKind::Mesh) : DataKinds(DataKind::Points);
+}
+
+// Type check: each step must find what it consumes in the chain's input (`entry`) and what the
+// steps before it produced (every kind is carried on until a step replaces it).
+void check_chain(const VariantSpec& v, const Json& j, const Where& w, DataKinds entry,
+                 const std::string& input_name) {
+  DataKinds have = entry;
+  for (std::size_t i = 0; i < v.chain.size(); ++i) {
+    const auto& io = algorithm_entry(v.chain[i].algorithm).fn.io;
+    if (!have.contains(io.consumes)) {
+      const Where at = j.contains("chain") ? w / "chain" / i : w;
+      fail(at, "step '" + v.chain[i].label + "' (" + v.chain[i].algorithm + ") consumes " +
+                   kinds_names(io.consumes) + ", but the chain before it provides only " +
+                   kinds_names(have) + " (" + kinds_names(io.consumes - have) + " missing" +
+                   (i == 0 ? "; input: " + input_name : std::string()) + ")");
+    }
+    have = have | io.produces;
+  }
+>>>>>>> i13
 }
 
 /// Splits "resample.clop.alpha" into target "resample.clop" and parameter "alpha".
@@ -464,6 +480,18 @@ Experiment parse_experiment(const Json& j, const std::string& where) {
   std::set<std::string> vlabels;
   for (std::size_t i = 0; i < vs.size(); ++i) {
     e.variants.push_back(parse_variant(vs[i], w / "variants" / i));
+    // Against every input a dataset gives it: a scan (points), the ground_truth mesh.
+    std::set<unsigned> checked;
+    for (const DatasetSpec& d : e.datasets) {
+      for (const ScannerSpec& sc : d.scanners) {
+        const DataKinds entry = entry_kinds(sc);
+        if (!checked.insert(entry.bits).second) continue;
+        check_chain(e.variants.back(), vs[i], w / "variants" / i, entry,
+                    sc.preset == kGroundTruthInput
+                        ? "the ground-truth mesh of scanner '" + sc.label + "'"
+                        : "the points of scanner '" + sc.label + "'");
+      }
+    }
     if (!vlabels.insert(e.variants.back().label).second) {
       fail(w / "variants" / i,
            "duplicate variant label '" + e.variants.back().label + "' (give a \"label\")");
@@ -657,7 +685,8 @@ Plan expand(const Experiment& e) {
       throw IoError(fmt::format("{}: /datasets/{}: mesh file {} does not exist", file, di, d.name));
     }
     for (const ScannerSpec& sc : d.scanners) {
-      const auto& preset = scanner::presets().at(sc.preset);
+      const bool ground_truth = sc.preset == kGroundTruthInput;
+      const auto* preset = ground_truth ? nullptr : &scanner::presets().at(sc.preset);
       for (std::size_t vi = 0; vi < e.variants.size(); ++vi) {
         const VariantSpec& v = e.variants[vi];
         std::vector<Json> points;
@@ -709,8 +738,16 @@ Plan expand(const Experiment& e) {
                                    : Json::object();
           job.scanner_label = sc.label;
           job.scanner_preset = sc.preset;
+          if (ground_truth && !sparams.empty()) {
+            throw ParamError(
+                fmt::format("{}: scanner {}: the ground_truth input takes no "
+                            "parameters (got {})",
+                            file, sc.label, sparams.dump()));
+          }
           job.scanner_params =
-              preset.params.validate(sparams, file + ": scanner " + sc.label + " " + plabel);
+              ground_truth
+                  ? Json::object()
+                  : preset->params.validate(sparams, file + ": scanner " + sc.label + " " + plabel);
           job.variant = v.label;
           for (std::size_t si = 0; si < v.chain.size(); ++si) {
             const auto& entry = algorithm_entry(v.chain[si].algorithm);

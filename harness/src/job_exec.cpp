@@ -108,6 +108,8 @@ Json execute_job(const Job& job, const fs::path& out) {
   RunContext ctx(job.seed, job.threads);
 
   const TriangleMesh mesh = load_dataset(job.dataset, job.dataset_params);
+  // The ground_truth input (experiment.h): no scan, the chain starts from the mesh itself.
+  const bool from_ground_truth = job.scanner_preset == kGroundTruthInput;
 
   // Scan, cached by content: the mesh bytes, the effective scanner parameters, the seed and the
   // scan model version.
@@ -118,7 +120,8 @@ Json execute_job(const Job& job, const fs::path& out) {
   const std::string scan_hash = content_hash(scan_key.dump());
   const fs::path ply = out / "scans" / (scan_hash + ".ply");
   const auto t_scan = Clock::now();
-  const bool cached = fs::exists(ply) && fs::exists(scanner::sidecar_path(ply));
+  const bool cached =
+      from_ground_truth || (fs::exists(ply) && fs::exists(scanner::sidecar_path(ply)));
   if (!cached) {
     const auto p = params_from_json<scanner::ScannerParams>(job.scanner_params,
                                                             "scanner " + job.scanner_label);
@@ -133,12 +136,17 @@ Json execute_job(const Job& job, const fs::path& out) {
   }
   // Every job reads the scan back from the cache, so a cached and a fresh scan give the same
   // input bit for bit.
-  const PointCloud cloud = read_point_cloud(ply);
+  const PointCloud cloud = from_ground_truth ? PointCloud() : read_point_cloud(ply);
   timing["scan_s"] = seconds_since(t_scan);
   timing["scan_cached"] = cached;
-  artifacts["scan"] = "scans/" + scan_hash + ".ply";
-  artifacts["scan_record"] = "scans/" + scan_hash + ".ply.json";
-  sizes["scan_points"] = cloud.size();
+  if (from_ground_truth) {
+    sizes["input_mesh_vertices"] = mesh.num_vertices();
+    sizes["input_mesh_faces"] = mesh.num_faces();
+  } else {
+    artifacts["scan"] = "scans/" + scan_hash + ".ply";
+    artifacts["scan_record"] = "scans/" + scan_hash + ".ply.json";
+    sizes["scan_points"] = cloud.size();
+  }
   if (cloud.has_property("outlier")) {
     sizes["scan_outliers"] = cloud.properties.at("outlier").sum();
   }
@@ -160,7 +168,11 @@ Json execute_job(const Job& job, const fs::path& out) {
       algorithm_entry(job.chain.back().at("algorithm").get<std::string>()).fn.io.primary;
   for (int rep = 0; rep < job.repeats; ++rep) {
     StageData cur;
-    cur.points = cloud;
+    if (from_ground_truth) {
+      cur.mesh = mesh;
+    } else {
+      cur.points = cloud;
+    }
     std::map<std::string, double> rep_phases;
     double rep_total = 0;
     const double cpu0 = cpu_seconds();
@@ -241,13 +253,13 @@ Json execute_job(const Job& job, const fs::path& out) {
   ctx.clear_phases();
   const auto t_metrics = Clock::now();
   const metrics::GroundTruth gt(mesh, ctx.stream_seed("ground_truth"));
-  Json m =
-      primary == DataKind::CovarianceMesh
-          ? metrics::evaluate_covariance_mesh(gt, *final_out.covariance_mesh, &cloud, job.metrics,
-                                              job.metric_params, ctx)
-      : scored_mesh
-          ? metrics::evaluate_mesh(gt, *scored_mesh, &cloud, job.metrics, job.metric_params, ctx)
-          : metrics::evaluate(gt, final_out.points, &cloud, job.metrics, job.metric_params, ctx);
+  const PointCloud* scan = from_ground_truth ? nullptr : &cloud;
+  Json m = primary == DataKind::CovarianceMesh
+               ? metrics::evaluate_covariance_mesh(gt, *final_out.covariance_mesh, scan,
+                                                   job.metrics, job.metric_params, ctx)
+           : scored_mesh
+               ? metrics::evaluate_mesh(gt, *scored_mesh, scan, job.metrics, job.metric_params, ctx)
+               : metrics::evaluate(gt, final_out.points, scan, job.metrics, job.metric_params, ctx);
   timing["metrics_s"] = seconds_since(t_metrics);
   Json metric_phases = Json::object();
   for (const auto& [k, v] : ctx.phase_seconds())
@@ -267,8 +279,10 @@ Json execute_job(const Job& job, const fs::path& out) {
 
   if (job.save_outputs) {
     const fs::path base = out / "outputs" / job.id;
-    write_point_cloud(final_out.points, base.string() + ".ply");
-    artifacts["output"] = "outputs/" + job.id + ".ply";
+    if (final_out.points.size() > 0) {  // none when the chain started from the ground truth
+      write_point_cloud(final_out.points, base.string() + ".ply");
+      artifacts["output"] = "outputs/" + job.id + ".ply";
+    }
     if (final_out.mixture) {
       write_mixture(*final_out.mixture, base.string() + ".mixture.ply");
       artifacts["mixture"] = "outputs/" + job.id + ".mixture.ply";

@@ -595,6 +595,37 @@ TEST(BadInput, ConnectivityErrorsNameTheFace) {
   EXPECT_NE(e.find("o: face 1 has vertex index 17"), std::string::npos) << e;
 }
 
+// The GP schemes take the same connectivity checks (a covariance mesh given to gp_subdivide),
+// and Catmull-Clark takes triangles (documented: every face is a quad after one level).
+TEST(BadInput, GpSchemesNameTheFaceAndCatmullClarkTakesTriangles) {
+  RunContext ctx(1);
+  SubdivideParams p;
+  p.levels = 1;
+  Mesh fin = fixtures::octahedron();
+  fin.positions.conservativeResize(3, 7);
+  fin.positions.col(6) << 2, 2, 2;
+  fin.faces.add({0, 2, 6});
+  for (auto scheme : {SubdivisionScheme::Loop, SubdivisionScheme::CatmullClark}) {
+    const std::string e = error_of([&] {
+      gp_subdivide(with_covariance(fin, Eigen::Matrix3d::Identity()), scheme, p, ctx, "fin.ply");
+    });
+    EXPECT_NE(e.find("fin.ply: face 8"), std::string::npos) << e;
+    EXPECT_NE(e.find("non-manifold"), std::string::npos) << e;
+  }
+  const std::string q = error_of([&] {
+    gp_subdivide(with_covariance(fixtures::quad_cube(), Eigen::Matrix3d::Identity()),
+                 SubdivisionScheme::Loop, p, ctx, "cube.ply");
+  });
+  EXPECT_NE(q.find("cube.ply: face 0 has 4 vertices; Loop subdivision takes triangles only"),
+            std::string::npos)
+      << q;
+  const CovarianceMesh tri =
+      gp_subdivide(with_covariance(fixtures::coarse_sphere(2), 0.1 * Eigen::Matrix3d::Identity()),
+                   SubdivisionScheme::CatmullClark, p, ctx, "tri");
+  EXPECT_TRUE(faces_of(tri).all_of_size(4));
+  EXPECT_EQ(faces_of(tri).num_faces(), 3 * 48);  // each triangle -> 3 quads
+}
+
 TEST(BadInput, LevelsBeyondMemoryAreRefusedBeforeAllocating) {
   RunContext ctx(1);
   SubdivideParams p;

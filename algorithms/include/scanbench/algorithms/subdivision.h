@@ -88,6 +88,13 @@ template <int D>
 void subdivide_values(ValueMatrix<D>& values, PolygonFaces& faces, int levels,
                       const SubdivisionOptions& options, std::string_view where);
 
+/// The engine's connectivity check alone (used by mesh.decimate before CGAL sees a mesh): throws
+/// InputError as subdivide_values for an index out of range, a face with fewer than 3 or repeated
+/// vertices, a non-manifold edge or vertex, inconsistent orientation, or (triangles_only) a
+/// non-triangle.
+void check_polygon_mesh(const PolygonFaces& faces, int num_vertices, bool triangles_only,
+                        std::string_view where);
+
 /// Vertex and face counts after `levels` levels (for the memory check, before allocating).
 struct SubdivisionCounts {
   double vertices = 0, faces = 0, corners = 0;

@@ -19,6 +19,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "scanbench/core/params.h"
@@ -27,6 +28,14 @@ namespace scanbench::harness {
 
 /// Current config format version (key "scanbench_experiment").
 inline constexpr int kExperimentVersion = 1;
+
+/// The scanner entry that does not scan: `"scanners": ["ground_truth"]` hands the dataset's
+/// ground-truth mesh to the chain as its input (StageData.mesh, no points), e.g. for
+/// mesh.decimate -> subdivide.*; the metrics still score the output against that same, untouched
+/// ground truth, and the metrics of a scan (surface.input_distance) are skipped. It takes no
+/// parameters; its jobs write no scan. Every variant must accept every input its datasets get
+/// (a scan's points, or this mesh): the chain type check names the step that does not.
+inline constexpr std::string_view kGroundTruthInput = "ground_truth";
 
 struct ScannerSpec {
   std::string label;   ///< shown in tables; defaults to the preset name
