@@ -304,7 +304,6 @@ VariantSpec parse_variant(const Json& j, const Where& w) {
   return v;
 }
 
-<<<<<<< HEAD
 /// The JSON pointer of the first key that appears twice in one object of `text`, or "" when none
 /// does. JSON (RFC 8259 sec. 4) leaves duplicate names undefined and nlohmann::json keeps one of
 /// them silently, so a config with two "seed" keys would run with a seed its author did not read;
@@ -355,7 +354,8 @@ std::string first_duplicate_key(const std::string& text) {
   [[maybe_unused]] const Json parsed =
       Json::parse(text, cb, /*allow_exceptions=*/false, /*ignore_comments=*/true);
   return duplicate;
-=======
+}
+
 /// What a chain starts from: a scan enters as points, the ground_truth input as the mesh.
 DataKinds entry_kinds(const ScannerSpec& s) {
   return s.preset == kGroundTruthInput ? DataKinds(DataKind::Mesh) : DataKinds(DataKind::Points);
@@ -377,7 +377,6 @@ void check_chain(const VariantSpec& v, const Json& j, const Where& w, DataKinds 
     }
     have = have | io.produces;
   }
->>>>>>> i13
 }
 
 /// Splits "resample.clop.alpha" into target "resample.clop" and parameter "alpha".
