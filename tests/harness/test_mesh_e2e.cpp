@@ -89,3 +89,58 @@ TEST(MeshE2E, RunRecordsSurfaceMetricsForMeshOutputs) {
   EXPECT_EQ(ccode, 0) << ctext;
   fs::remove_all(dir);
 }
+
+// The GPS reconstruction chain through `scanbench run` (GPS paper sec. 7.2): every step's working
+// memory is recorded, the control covariance mesh's size is that of mesh.facts (36 bytes per
+// vertex, 12 per triangle), and the report's cost section (Fig. 13c table, Fig. 14 plots) appears
+// when the config asks for it.
+TEST(MeshE2E, GpsChainRecordsStepMemoryControlMeshAndCostSection) {
+  std::string tmpl = (fs::temp_directory_path() / "scanbench-gps-XXXXXX").string();
+  ASSERT_NE(mkdtemp(tmpl.data()), nullptr);
+  const fs::path dir = tmpl;
+  std::ofstream(dir / "gps.json") << R"({
+    "scanbench_experiment": 1, "name": "gps", "seed": 3, "repeats": 1,
+    "datasets": [{"name": "sphere"}],
+    "scanners": [{"preset": "clean", "params": {"views": 4, "resolution": 60}}],
+    "variants": [
+      {"label": "gps", "chain": [
+        {"algorithm": "mixture.hem", "params": {"sigma0": 0.02}},
+        {"algorithm": "triangulate.bhattacharyya"},
+        {"algorithm": "subdivide.gp_loop", "params": {"levels": 1}}]},
+      {"label": "mesh", "algorithm": "test.sphere_mesh", "params": {"resolution": 8}}
+    ],
+    "metrics": ["surface.input_distance", "mesh.facts"],
+    "report": {"cost": {"exclude_steps": ["subdivide.gp_loop"]}}
+  })";
+  const fs::path out = dir / "out";
+  const auto [code, text] = sh(std::string(SCANBENCH_BINARY) + " run " +
+                               (dir / "gps.json").string() + " -o " + out.string());
+  ASSERT_EQ(code, 0) << text;
+  std::map<std::string, Json> rec;
+  std::istringstream lines(slurp(out / "runs.jsonl"));
+  for (std::string l; std::getline(lines, l);)
+    if (!l.empty()) {
+      const Json r = Json::parse(l);
+      rec[r["variant"]["label"].get<std::string>()] = r;
+    }
+  const Json& g = rec["gps"];
+  ASSERT_EQ(g["status"], "ok") << g.dump();
+  for (const char* step : {"mixture.hem", "triangulate.bhattacharyya", "subdivide.gp_loop"}) {
+    EXPECT_GE(g["timing"]["step_work_mb"][step].get<double>(), 0.0) << step;
+    EXPECT_GT(g["timing"]["step_peak_rss_mb"][step].get<double>(), 1.0) << step;
+  }
+  const auto v = g["sizes"]["covmesh_vertices"].get<long>();
+  const auto f = g["sizes"]["covmesh_faces"].get<long>();
+  EXPECT_GT(f, 100);
+  EXPECT_EQ(g["sizes"]["covmesh_bytes"].get<long>(), 36 * v + 12 * f);
+  // The subdivided surface (1 level) has 4x the control faces.
+  EXPECT_EQ(g["sizes"]["mesh_faces"].get<long>(), 4 * f);
+  EXPECT_FALSE(rec["mesh"]["sizes"].contains("covmesh_bytes"));
+  const auto [rcode, rtext] = sh(std::string(SCANBENCH_BINARY) + " report " + out.string());
+  ASSERT_EQ(rcode, 0) << rtext;
+  const std::string html = slurp(out / "index.html");
+  for (const char* k : {"Reconstruction cost", "build MB", "input RMSE vs seconds",
+                        "input RMSE vs working memory", "without subdivide.gp_loop"})
+    EXPECT_NE(html.find(k), std::string::npos) << k;
+  fs::remove_all(dir);
+}
