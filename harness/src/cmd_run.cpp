@@ -2,7 +2,7 @@
 //               [--executor local|slurm [--partition P] [--array-limit N] [--chunk N]
 //                [--sbatch-arg ARG]... [--wait]]
 // scanbench job SPEC RESULT            (hidden: the child process of one job)
-// scanbench nightly [-o DIR] [--baseline DIR] [--update-baseline]
+// scanbench nightly [-o DIR] [--baseline DIR] [--update-baseline] [--no-claims]  (+ claims --quick)
 #include <fmt/format.h>
 
 #include <ctime>

@@ -6,6 +6,7 @@
 #include <set>
 
 #include "scanbench/core/errors.h"
+#include "scanbench/core/procedural.h"
 #include "scanbench/metrics/evaluate.h"
 #include "scanbench/metrics/ground_truth.h"
 #include "scanbench/metrics/mesh_facts.h"
@@ -132,10 +133,17 @@ TEST(MetricDirections, EveryEmittedKeyIsDeclaredAndEveryDeclaredKeyEmitted) {
                        {"surface.chamfer", {{"samples", 1000}}}};
   const Json rp = evaluate(gt, pts, &scan, {}, params, ctx);
   const Json rm = evaluate_mesh(gt, icosphere(1, 1.01f), &scan, {}, params, ctx, 1000);
-  EXPECT_TRUE(rp["skipped"].size() == 5u) << rp["skipped"].dump();  // the mesh metrics
-  EXPECT_TRUE(rm["skipped"].size() == 5u) << rm["skipped"].dump();  // the point metrics
+  // The mesh metrics, and the sharp-edge metrics (a sphere has no sharp edge).
+  EXPECT_TRUE(rp["skipped"].size() == 7u) << rp["skipped"].dump();
+  EXPECT_TRUE(rm["skipped"].size() == 7u) << rm["skipped"].dump();  // the point metrics
+  // The sharp-edge metrics on a truth that has sharp edges.
+  const TriangleMesh cube = make_cube({});
+  GroundTruth cgt(cube, 1, kCoarse);
+  PointCloud cpts = sample_surface(cube, 800, 5);
+  cpts.properties.clear();
+  const Json re = evaluate(cgt, cpts, nullptr, {"edges.p2plane", "edges.normals"}, params, ctx);
   std::set<std::string> emitted;
-  for (const Json* r : {&rp, &rm})
+  for (const Json* r : {&rp, &rm, &re})
     for (const auto& [k, v] : r->items())
       if (k != "histograms" && k != "metric_params" && k != "skipped") emitted.insert(k);
   for (const auto& k : emitted)
