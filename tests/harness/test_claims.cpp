@@ -10,12 +10,17 @@
 #include <fstream>
 #include <sstream>
 
+#include "cli_test_util.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/harness/claims.h"
 
 namespace fs = std::filesystem;
 using scanbench::Json;
 using namespace scanbench::harness;
+using scanbench::test::make_temp_dir;
+using scanbench::test::Result;
+using scanbench::test::sh;
+using scanbench::test::slurp;
 
 namespace {
 
@@ -244,32 +249,8 @@ TEST(ClaimVerdicts, CombinationAndBaselineRegressions) {
 }
 
 // End to end: two claims on the test subsampler, through the real binary.
-struct Result {
-  int code;
-  std::string out;
-};
-Result sh(const std::string& cmd) {
-  const std::string full = "SCANBENCH_TEST_ALGORITHMS=1 " + cmd + " 2>&1";
-  FILE* p = popen(full.c_str(), "r");
-  std::string out;
-  char buf[4096];
-  while (p && fgets(buf, sizeof(buf), p))
-    out += buf;
-  const int status = p ? pclose(p) : -1;
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
-}
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
 TEST(ClaimsE2E, RunsJudgesWritesAndExitsOneOnARegression) {
-  std::string tmpl = (fs::temp_directory_path() / "scanbench-claims-XXXXXX").string();
-  ASSERT_NE(mkdtemp(tmpl.data()), nullptr);
-  const fs::path dir = tmpl;
+  const fs::path dir = make_temp_dir("claims");
   fs::create_directories(dir / "claims");
   auto write_claim = [&](const std::string& id, const std::string& op) {
     const Json c = {

@@ -15,6 +15,7 @@
 #include <sstream>
 #include <string>
 
+#include "cli_test_util.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/paths.h"
 #include "scanbench/harness/experiment.h"
@@ -24,22 +25,9 @@ namespace fs = std::filesystem;
 namespace scanbench::harness {
 namespace {
 
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
-std::pair<int, std::string> sh(const std::string& cmd) {
-  FILE* p = popen((cmd + " 2>&1").c_str(), "r");
-  std::string out;
-  char buf[4096];
-  while (p && fgets(buf, sizeof(buf), p))
-    out += buf;
-  const int status = p ? pclose(p) : -1;
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
-}
+using test::make_temp_dir;
+using test::sh;
+using test::slurp;
 
 Json config(const Json& scanners, const Json& variant) {
   Json c = Json::parse(R"({"scanbench_experiment": 1, "name": "t", "seed": 3,
@@ -106,9 +94,7 @@ TEST(GpsSubdivisionConfig, ShippedConfigLoadsWithBothSchemesPerLevel) {
 }
 
 TEST(GpsSubdivisionConfig, ReducedCopyRunsWithEveryJobOk) {
-  std::string tmpl = (fs::temp_directory_path() / "scanbench-gps-XXXXXX").string();
-  ASSERT_NE(mkdtemp(tmpl.data()), nullptr);
-  const fs::path dir = tmpl;
+  const fs::path dir = make_temp_dir("gps");
   // The shipped config with small procedural datasets and levels 2-3 (same variants, chains,
   // decimation target and metrics).
   Json c = Json::parse(slurp(config_root() / "gps-subdivision.json"), nullptr, true, true);
