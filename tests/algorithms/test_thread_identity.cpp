@@ -80,7 +80,7 @@ TriangleMesh test_sphere() {
 
 /// A small noisy scan with outliers and two misaligned views (the artifacts that have their own
 /// random streams), at `threads` threads.
-scanner::Scan small_scan(int threads) {
+scanner::Scan small_scan(int threads, const TriangleMesh& mesh = test_sphere()) {
   scanner::ScannerParams p;
   p.views = 4;
   p.resolution = 40;
@@ -90,7 +90,7 @@ scanner::Scan small_scan(int threads) {
   p.misalign_fraction = 0.5;
   p.misalign_deg = 0.5;
   RunContext ctx(11, threads);
-  return scanner::scan(test_sphere(), p, ctx);
+  return scanner::scan(mesh, p, ctx);
 }
 
 TEST(ThreadIdentity, ScannerAt1_2_7Threads) {
@@ -176,28 +176,56 @@ TEST(ThreadIdentity, EveryAlgorithmAt1_2_7Threads) {
   EXPECT_EQ(n, static_cast<int>(algorithms::registry().entries().size()));
 }
 
+/// What a metric is scored on: a ground truth, an output cloud (with PCA normals), the scan and a
+/// slightly perturbed copy of the ground truth as a "reconstruction" for the mesh metrics.
+struct MetricCase {
+  TriangleMesh truth;
+  metrics::GroundTruth gt;
+  PointCloud output;
+  PointCloud scan;
+  TriangleMesh recon;
+  MetricCase(const TriangleMesh& t, PointCloud out, PointCloud sc)
+      : truth(t), gt(truth, 9), output(std::move(out)), scan(std::move(sc)), recon(t) {
+    recon.vertices *= 1.01f;
+  }
+};
+
+/// The metric's record on `c` at `threads` threads (NotApplicable passes through).
+Json score(const RegistryEntry<metrics::Metric>& e, const MetricCase& c, int threads) {
+  RunContext ctx(7, threads);
+  if (metrics::scores_mesh(e.fn.scores)) {
+    return metrics::evaluate_mesh(c.gt, c.recon, &c.scan, {e.name}, Json::object(), ctx, 20000);
+  }
+  return metrics::evaluate(c.gt, c.output, &c.scan, {e.name}, Json::object(), ctx);
+}
+
 TEST(ThreadIdentity, EveryMetricAt1_2_7Threads) {
-  const TriangleMesh truth = test_sphere();
-  const metrics::GroundTruth gt(truth, 9);
-  const StageData all = every_kind();
-  const PointCloud scan = small_scan(1).cloud;
-  // A slightly perturbed mesh as a "reconstruction" for the mesh metrics.
-  TriangleMesh recon = truth;
-  recon.vertices *= 1.01f;
+  // The sphere for every metric; the cube for those with nothing to score on a smooth shape (the
+  // sharp-edge metrics).
+  const MetricCase sphere(test_sphere(), every_kind().points, small_scan(1).cloud);
+  CubeParams cp;
+  cp.resolution = 8;
+  const TriangleMesh cube_mesh = make_cube(cp);
+  const PointCloud cube_scan = small_scan(1, cube_mesh).cloud;
+  RunContext nctx(3, 1);
+  const auto& pca = algorithms::registry().at("normals.pca");
+  const MetricCase cube(
+      cube_mesh,
+      pca.fn(StageData{cube_scan}, pca.params.validate(Json::object(), "t"), nctx).points,
+      cube_scan);
   int n = 0;
   for (const auto& e : metrics::registry().entries()) {
     SCOPED_TRACE(e.name);
+    const MetricCase* c = &sphere;
+    try {
+      score(e, sphere, 1);
+    } catch (const metrics::NotApplicable&) {
+      c = &cube;
+    }
     std::string ref;
     for (int t : kThreads) {
-      RunContext ctx(7, t);
       Json rec;
-      if (metrics::scores_mesh(e.fn.scores)) {
-        ASSERT_NO_THROW(
-            rec = metrics::evaluate_mesh(gt, recon, &scan, {e.name}, Json::object(), ctx, 20000));
-      } else {
-        ASSERT_NO_THROW(
-            rec = metrics::evaluate(gt, all.points, &scan, {e.name}, Json::object(), ctx));
-      }
+      ASSERT_NO_THROW(rec = score(e, *c, t)) << t << " threads";
       // The metric ran (not skipped) and produced its declared keys.
       ASSERT_TRUE(rec.contains(e.fn.keys.front().key)) << rec.dump();
       if (t == 1) {
