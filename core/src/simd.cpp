@@ -37,10 +37,21 @@ bool cpu_has_impl(Isa isa) {
   switch (isa) {
     case Isa::sse2:
       return true;
+#if defined(__clang__)
+    // clang 14 knows no x86-64-vN level names here: the features that define the levels.
+    case Isa::avx2:
+      return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma") &&
+             __builtin_cpu_supports("bmi") && __builtin_cpu_supports("bmi2");
+    case Isa::avx512:
+      return cpu_has_impl(Isa::avx2) && __builtin_cpu_supports("avx512f") &&
+             __builtin_cpu_supports("avx512vl") && __builtin_cpu_supports("avx512bw") &&
+             __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512cd");
+#else
     case Isa::avx2:
       return __builtin_cpu_supports("x86-64-v3") != 0;
     case Isa::avx512:
       return __builtin_cpu_supports("x86-64-v4") != 0;
+#endif
   }
   return false;
 #else
