@@ -89,6 +89,7 @@ void CovarianceMesh::validate(std::string_view where) const {
 TriangleMesh CovarianceMesh::mean_mesh() const {
   TriangleMesh m;
   m.vertices = means.cast<float>();
+  m.origin = origin;
   Eigen::Index t = 0;
   for (Eigen::Index f = 0; f < num_faces(); ++f)
     t += face_size(f) - 2;

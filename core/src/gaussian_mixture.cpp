@@ -33,6 +33,7 @@ PointCloud GaussianMixture::component_points() const {
   c.positions = means;
   c.normals = normal_axes;
   c.weights = weights;
+  c.origin = origin;
   return c;
 }
 

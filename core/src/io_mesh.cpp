@@ -25,6 +25,7 @@ namespace scanbench {
 namespace {
 
 using io_detail::Lines;
+using io_detail::localize;
 using io_detail::parse_number;
 using io_detail::slurp;
 using io_detail::space;
@@ -53,6 +54,7 @@ TriangleMesh read_obj(const std::filesystem::path& path) {
   // warning; scanbench never repairs silently, so geometric vertex lines are checked first.
   Lines lines(text);
   std::string_view line;
+  std::vector<double> xyz_d;  // x y z of every `v` in double, for the local origin
   while (lines.next(line)) {
     Tokens t(line);
     std::string_view tok;
@@ -77,6 +79,7 @@ TriangleMesh read_obj(const std::filesystem::path& path) {
         throw IoError(fmt::format("{}: line {}: vertex coordinate '{}' is not a finite number",
                                   name, lines.number(), tok.substr(0, 40)));
       }
+      if (n < 3) xyz_d.push_back(x);
       ++n;
     }
     if (n < 3 || n > 7) {
@@ -105,7 +108,17 @@ TriangleMesh read_obj(const std::filesystem::path& path) {
     throw IoError(fmt::format("{}: malformed face ({})", name, warn.substr(0, warn.find('\n'))));
   }
   const auto& attrib = reader.GetAttrib();
-  std::vector<float> xyz(attrib.vertices.begin(), attrib.vertices.end());
+  if (attrib.vertices.size() != xyz_d.size()) {
+    throw IoError(fmt::format("{}: {} vertices read, {} `v` lines", name,
+                              attrib.vertices.size() / 3, xyz_d.size() / 3));
+  }
+  // tinyobjloader reads float32; the positions are taken from the double values instead.
+  Eigen::Matrix3Xf local;
+  const Eigen::Vector3d origin = localize(
+      static_cast<Eigen::Index>(xyz_d.size() / 3),
+      [&](int k, Eigen::Index i) { return xyz_d[static_cast<std::size_t>(3 * i + k)]; }, local,
+      name, "vertex");
+  std::vector<float> xyz(local.data(), local.data() + local.size());
   const auto nv = static_cast<std::int64_t>(xyz.size() / 3);
   std::vector<int> tri;
   for (const auto& shape : reader.GetShapes()) {
@@ -128,6 +141,7 @@ TriangleMesh read_obj(const std::filesystem::path& path) {
     }
   }
   TriangleMesh m = to_mesh(xyz, tri);
+  m.origin = origin;
   io_detail::check_mesh(m, name);
   return m;
 }
@@ -137,10 +151,18 @@ void write_obj(const TriangleMesh& mesh, const std::filesystem::path& path) {
   std::ofstream out(path, std::ios::binary | std::ios::trunc);
   if (!out) throw IoError(fmt::format("{}: cannot open for writing", path.string()));
   std::string buf = "# scanbench mesh\n";
+  const bool local = !mesh.origin.isZero(0.0);
+  if (local) buf += "# " + io_detail::origin_comment(mesh.origin) + "\n";
   for (Eigen::Index v = 0; v < mesh.num_vertices(); ++v) {
-    // Shortest representation that reads back to the same float.
-    fmt::format_to(std::back_inserter(buf), "v {} {} {}\n", mesh.vertices(0, v),
-                   mesh.vertices(1, v), mesh.vertices(2, v));
+    // Shortest representation that reads back to the same float (the same double: world
+    // coordinates origin + local when the mesh has a local origin).
+    if (local) {
+      const Eigen::Vector3d w = mesh.origin + mesh.vertices.col(v).cast<double>();
+      fmt::format_to(std::back_inserter(buf), "v {} {} {}\n", w.x(), w.y(), w.z());
+    } else {
+      fmt::format_to(std::back_inserter(buf), "v {} {} {}\n", mesh.vertices(0, v),
+                     mesh.vertices(1, v), mesh.vertices(2, v));
+    }
   }
   for (Eigen::Index f = 0; f < mesh.num_faces(); ++f) {
     fmt::format_to(std::back_inserter(buf), "f {} {} {}\n", mesh.faces(0, f) + 1,
@@ -229,8 +251,8 @@ OffData parse_off(std::string_view text, const std::string& name) {
   }
   OffData off;
   std::vector<float>& xyz = off.xyz;
-  xyz.reserve(static_cast<std::size_t>(3 * nv));
-  PositionPrecision precision;
+  std::vector<double> xyz_d;  // in double, for the local origin (float_precision.h)
+  xyz_d.reserve(static_cast<std::size_t>(3 * nv));
   for (std::int64_t v = 0; v < nv; ++v) {
     if (!lines.next(line)) {
       throw IoError(fmt::format("{}: unexpected end of file at vertex {} of {}", name, v, nv));
@@ -243,10 +265,11 @@ OffData parse_off(std::string_view text, const std::string& name) {
       }
     }
     for (int k = 0; k < 3; ++k) {
-      const float x =
-          precision.add(k, c[static_cast<std::size_t>(k)] / c[3], static_cast<std::size_t>(v));
-      if (!std::isfinite(x)) fail(fmt::format("vertex {}: non-finite coordinate", v));
-      xyz.push_back(x);
+      const double x = c[static_cast<std::size_t>(k)] / c[3];
+      if (!std::isfinite(static_cast<float>(x))) {
+        fail(fmt::format("vertex {}: non-finite coordinate", v));
+      }
+      xyz_d.push_back(x);
     }
     if (with_normals) {
       for (int k = 0; k < 3; ++k) {
@@ -258,7 +281,14 @@ OffData parse_off(std::string_view text, const std::string& name) {
       }
     }
   }
-  precision.check(name, "vertex");
+  {
+    Eigen::Matrix3Xf local;
+    off.origin = localize(
+        static_cast<Eigen::Index>(nv),
+        [&](int k, Eigen::Index i) { return xyz_d[static_cast<std::size_t>(3 * i + k)]; }, local,
+        name, "vertex");
+    xyz.assign(local.data(), local.data() + local.size());
+  }
   std::vector<int>& tri = off.tri;
   tri.reserve(static_cast<std::size_t>(3 * nf));
   std::vector<int> poly;
@@ -297,11 +327,13 @@ TriangleMesh read_off(std::string_view text, const std::string& name) {
 
 TriangleMesh mesh_from_off(const OffData& off, const std::string& name) {
   TriangleMesh m = to_mesh(off.xyz, off.tri);
+  m.origin = off.origin;
   check_mesh(m, name);
   return m;
 }
 
 TriangleMesh read_stl(std::string_view data, const std::string& name) {
+  Eigen::Vector3d origin = Eigen::Vector3d::Zero();  // binary STL is float32: never needs one
   std::vector<float> xyz;
   std::vector<int> tri;
   auto add_vertex = [&](float x, float y, float z) {
@@ -347,8 +379,7 @@ TriangleMesh read_stl(std::string_view data, const std::string& name) {
     // States: 0 outside solid, 1 in solid, 2 in facet, 3 in loop (k vertices read), 4 loop closed.
     int state = 0;
     int k = 0;
-    PositionPrecision precision;
-    std::size_t vertices = 0;
+    std::vector<double> xyz_d;  // in double, for the local origin (float_precision.h)
     auto fail = [&](const std::string& what) -> void {
       throw IoError(fmt::format("{}: line {}: {}", name, lines.number(), what));
     };
@@ -367,14 +398,17 @@ TriangleMesh read_stl(std::string_view data, const std::string& name) {
         k = 0;
       } else if (tok == "vertex" && state == 3) {
         if (k == 3) fail("facet with more than 3 vertices");
-        std::array<float, 3> c{};
+        std::array<double, 3> c{};
         for (int a = 0; a < 3; ++a) {
-          double x = 0.0;
-          if (!t.next(tok) || !parse_number(tok, x)) fail("expected 'vertex <x> <y> <z>'");
-          c[static_cast<std::size_t>(a)] = precision.add(a, x, static_cast<std::size_t>(vertices));
+          if (!t.next(tok) || !parse_number(tok, c[static_cast<std::size_t>(a)])) {
+            fail("expected 'vertex <x> <y> <z>'");
+          }
         }
-        ++vertices;
-        if (!add_vertex(c[0], c[1], c[2])) fail("non-finite coordinate");
+        xyz_d.insert(xyz_d.end(), c.begin(), c.end());
+        if (!add_vertex(static_cast<float>(c[0]), static_cast<float>(c[1]),
+                        static_cast<float>(c[2]))) {
+          fail("non-finite coordinate");
+        }
         ++k;
       } else if (tok == "endloop" && state == 3) {
         if (k != 3) fail(fmt::format("facet with {} vertices", k));
@@ -388,9 +422,15 @@ TriangleMesh read_stl(std::string_view data, const std::string& name) {
     if (state != 0) {
       throw IoError(fmt::format("{}: unexpected end of file (missing endsolid)", name));
     }
-    precision.check(name, "vertex");
+    Eigen::Matrix3Xf local;
+    origin = localize(
+        static_cast<Eigen::Index>(xyz_d.size() / 3),
+        [&](int k, Eigen::Index i) { return xyz_d[static_cast<std::size_t>(3 * i + k)]; }, local,
+        name, "vertex");
+    xyz.assign(local.data(), local.data() + local.size());
   }
   TriangleMesh m = weld_coincident_vertices(to_mesh(xyz, tri));
+  m.origin = origin;
   check_mesh(m, name);
   return m;
 }

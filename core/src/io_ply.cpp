@@ -2,6 +2,8 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <cstdlib>
+#include <optional>
 #include <set>
 
 #include "float_precision.h"
@@ -34,25 +36,46 @@ const ply::Property& require_scalar(const ply::Element& e, std::string_view prop
   return *p;
 }
 
-// Fills `out` (rows x 3, column-major 3 x rows) from three scalar properties; every value must be
-// finite as a float.
-void read_xyz(const ply::Element& e, const std::array<const char*, 3>& names, bool require_finite,
-              Eigen::Matrix3Xf& out, const std::string& name) {
-  out.resize(3, static_cast<Eigen::Index>(e.count));
-  io_detail::PositionPrecision precision;  // positions (x, y, z) only, not normals
-  const bool positions = std::string_view(names[0]) == "x";
-  for (int k = 0; k < 3; ++k) {
-    const ply::Property& p = require_scalar(e, names[static_cast<std::size_t>(k)], name);
+// The three scalar properties `names`; every value must be finite as a float.
+std::array<const ply::Property*, 3> finite_xyz(const ply::Element& e,
+                                               const std::array<const char*, 3>& names,
+                                               const std::string& name) {
+  std::array<const ply::Property*, 3> ps{};
+  for (std::size_t k = 0; k < 3; ++k) {
+    const ply::Property& p = require_scalar(e, names[k], name);
     for (std::size_t r = 0; r < e.count; ++r) {
-      const float v = precision.add(k, p.values[r], r);
-      if (require_finite && !std::isfinite(v)) {
+      if (!std::isfinite(static_cast<float>(p.values[r]))) {
         throw IoError(fmt::format("{}: element {}, row {}, property {}: non-finite value {}", name,
                                   e.name, r, p.name, p.values[r]));
       }
-      out(k, static_cast<Eigen::Index>(r)) = v;
     }
+    ps[k] = &p;
   }
-  if (positions) precision.check(name, fmt::format("element {}, row", e.name).c_str());
+  return ps;
+}
+
+// Fills `out` (3 x rows) from three scalar properties that are not positions (normals).
+void read_xyz(const ply::Element& e, const std::array<const char*, 3>& names, Eigen::Matrix3Xf& out,
+              const std::string& name) {
+  const auto ps = finite_xyz(e, names, name);
+  out.resize(3, static_cast<Eigen::Index>(e.count));
+  for (int k = 0; k < 3; ++k)
+    for (std::size_t r = 0; r < e.count; ++r)
+      out(k, static_cast<Eigen::Index>(r)) =
+          static_cast<float>(ps[static_cast<std::size_t>(k)]->values[r]);
+}
+
+// Positions x, y, z of element `e` in the local frame (float_precision.h); returns the origin.
+Eigen::Vector3d read_positions(const ply::Element& e, Eigen::Matrix3Xf& out,
+                               const std::string& name,
+                               const std::optional<Eigen::Vector3d>& stated) {
+  const auto ps = finite_xyz(e, {"x", "y", "z"}, name);
+  return io_detail::localize(
+      static_cast<Eigen::Index>(e.count),
+      [&](int k, Eigen::Index i) {
+        return ps[static_cast<std::size_t>(k)]->values[static_cast<std::size_t>(i)];
+      },
+      out, name, fmt::format("element {}, row", e.name).c_str(), stated);
 }
 
 // Present as a complete group (true), absent (false), or partial (error).
@@ -94,6 +117,27 @@ void append_xyz(ply::Element& e, const Eigen::Matrix3Xf& m, std::array<const cha
   }
 }
 
+// Positions x, y, z in world coordinates: float32 as stored when the origin is zero (the bytes of
+// before local origins), else double origin + local (float32 could not hold them) and the origin
+// as a comment (`comment scanbench_origin X Y Z`), which a re-read uses as its local origin.
+void append_positions(ply::File& f, ply::Element& e, const Eigen::Matrix3Xf& m,
+                      const Eigen::Vector3d& origin, bool add_comment = true) {
+  if (origin.isZero(0.0)) {
+    append_xyz(e, m, {"x", "y", "z"});
+    return;
+  }
+  if (add_comment) f.comments.push_back(io_detail::origin_comment(origin));
+  static constexpr std::array<const char*, 3> kNames{"x", "y", "z"};
+  for (int k = 0; k < 3; ++k) {
+    ply::Property p;
+    p.name = kNames[static_cast<std::size_t>(k)];
+    p.type = ply::Type::Float64;
+    p.values =
+        column(m.cols(), [&](Eigen::Index i) { return origin[k] + static_cast<double>(m(k, i)); });
+    e.properties.push_back(std::move(p));
+  }
+}
+
 ply::Format to_ply(PlyFormat f) {
   return f == PlyFormat::Ascii ? ply::Format::Ascii : ply::Format::BinaryLittleEndian;
 }
@@ -116,6 +160,37 @@ void require_ply_extension(const std::filesystem::path& path, const char* what) 
 
 namespace io_detail {
 
+std::optional<Eigen::Vector3d> stated_origin(const std::vector<std::string>& comments,
+                                             const std::string& name) {
+  static constexpr std::string_view kKey = "scanbench_origin";
+  for (const std::string& c : comments) {
+    if (c.compare(0, kKey.size(), kKey) != 0) continue;
+    Eigen::Vector3d o;
+    const char* s = c.c_str() + kKey.size();
+    for (int k = 0; k < 3; ++k) {
+      char* end = nullptr;
+      o[k] = std::strtod(s, &end);
+      if (end == s || !std::isfinite(o[k])) {
+        throw IoError(fmt::format("{}: comment '{}': expected scanbench_origin X Y Z (finite)",
+                                  name, c.substr(0, 80)));
+      }
+      s = end;
+    }
+    while (*s == ' ' || *s == '\t' || *s == '\r')
+      ++s;
+    if (*s != 0) {
+      throw IoError(fmt::format("{}: comment '{}': expected scanbench_origin X Y Z (finite)", name,
+                                c.substr(0, 80)));
+    }
+    return o;
+  }
+  return std::nullopt;
+}
+
+std::string origin_comment(const Eigen::Vector3d& o) {
+  return fmt::format("scanbench_origin {:.17g} {:.17g} {:.17g}", o.x(), o.y(), o.z());
+}
+
 void check_mesh(const TriangleMesh& mesh, const std::string& name) {
   if (mesh.num_faces() == 0) throw IoError(fmt::format("{}: mesh has no faces", name));
   for (Eigen::Index v = 0; v < mesh.num_vertices(); ++v) {
@@ -136,7 +211,7 @@ void check_mesh(const TriangleMesh& mesh, const std::string& name) {
 TriangleMesh mesh_from_ply(const ply::File& file, const std::string& name) {
   const ply::Element& ve = require_element(file, "vertex", name);
   TriangleMesh mesh;
-  read_xyz(ve, {"x", "y", "z"}, true, mesh.vertices, name);
+  mesh.origin = read_positions(ve, mesh.vertices, name, stated_origin(file.comments, name));
   const ply::Element& fe = require_element(file, "face", name);
   const ply::Property* idx = fe.find("vertex_indices");
   if (idx == nullptr) idx = fe.find("vertex_index");
@@ -173,10 +248,10 @@ TriangleMesh mesh_from_ply(const ply::File& file, const std::string& name) {
 PointCloud cloud_from_ply(const ply::File& file, const std::string& name) {
   const ply::Element& ve = require_element(file, "vertex", name);
   PointCloud cloud;
-  read_xyz(ve, {"x", "y", "z"}, true, cloud.positions, name);
+  cloud.origin = read_positions(ve, cloud.positions, name, stated_origin(file.comments, name));
   const auto n = static_cast<Eigen::Index>(ve.count);
   if (group_present(ve, {"nx", "ny", "nz"}, name)) {
-    read_xyz(ve, {"nx", "ny", "nz"}, true, cloud.normals, name);
+    read_xyz(ve, {"nx", "ny", "nz"}, cloud.normals, name);
   }
   static const std::set<std::string> known{"x", "y", "z", "nx", "ny", "nz", "weight", "scan_id"};
   for (const ply::Property& p : ve.properties) {
@@ -206,7 +281,14 @@ PointCloud cloud_from_ply(const ply::File& file, const std::string& name) {
     }
   }
   if (const ply::Element* se = file.find("sensor")) {
-    read_xyz(*se, {"x", "y", "z"}, true, cloud.sensor_origins, name);
+    // In the points' frame; an origin-free file keeps the check of before on the sensors.
+    const Eigen::Vector3d o = read_positions(
+        *se, cloud.sensor_origins, name,
+        cloud.origin.isZero(0.0) ? std::nullopt : std::optional<Eigen::Vector3d>(cloud.origin));
+    if (o != cloud.origin) {
+      throw IoError(fmt::format(
+          "{}: element sensor: positions need a local origin the points do not have", name));
+    }
   }
   try {
     cloud.validate(name);
@@ -221,7 +303,7 @@ GaussianMixture mixture_from_ply(const ply::File& file, const std::string& name)
   const auto k = static_cast<Eigen::Index>(ce.count);
   GaussianMixture m;
   m.resize(k);
-  read_xyz(ce, {"x", "y", "z"}, true, m.means, name);
+  m.origin = read_positions(ce, m.means, name, stated_origin(file.comments, name));
   static constexpr std::array<const char*, 6> cov{"covxx", "covxy", "covxz",
                                                   "covyy", "covyz", "covzz"};
   for (std::size_t c = 0; c < cov.size(); ++c) {
@@ -234,7 +316,7 @@ GaussianMixture mixture_from_ply(const ply::File& file, const std::string& name)
   for (Eigen::Index i = 0; i < k; ++i)
     m.weights[i] = static_cast<float>(w.values[static_cast<std::size_t>(i)]);
   if (group_present(ce, {"nx", "ny", "nz", "normal_spread"}, name)) {
-    read_xyz(ce, {"nx", "ny", "nz"}, true, m.normal_axes, name);
+    read_xyz(ce, {"nx", "ny", "nz"}, m.normal_axes, name);
     const ply::Property& s = require_scalar(ce, "normal_spread", name);
     m.normal_spreads.resize(k);
     for (Eigen::Index i = 0; i < k; ++i)
@@ -256,7 +338,7 @@ void write_mesh_ply(const TriangleMesh& mesh, const std::filesystem::path& path)
   ply::Element ve;
   ve.name = "vertex";
   ve.count = static_cast<std::size_t>(mesh.num_vertices());
-  append_xyz(ve, mesh.vertices, {"x", "y", "z"});
+  append_positions(f, ve, mesh.vertices, mesh.origin);
   ply::Element fe;
   fe.name = "face";
   fe.count = static_cast<std::size_t>(mesh.num_faces());
@@ -308,7 +390,7 @@ void write_point_cloud(const PointCloud& cloud, const std::filesystem::path& pat
   ply::Element ve;
   ve.name = "vertex";
   ve.count = static_cast<std::size_t>(cloud.size());
-  append_xyz(ve, cloud.positions, {"x", "y", "z"});
+  append_positions(f, ve, cloud.positions, cloud.origin);
   if (cloud.has_normals()) append_xyz(ve, cloud.normals, {"nx", "ny", "nz"});
   if (cloud.has_weights()) {
     ve.properties.push_back(float_prop(
@@ -335,7 +417,7 @@ void write_point_cloud(const PointCloud& cloud, const std::filesystem::path& pat
     ply::Element se;
     se.name = "sensor";
     se.count = static_cast<std::size_t>(cloud.sensor_origins.cols());
-    append_xyz(se, cloud.sensor_origins, {"x", "y", "z"});
+    append_positions(f, se, cloud.sensor_origins, cloud.origin, false);
     f.elements.push_back(std::move(se));
   }
   ply::write(f, path);
@@ -364,6 +446,15 @@ CovarianceMesh covariance_mesh_from_ply(const ply::File& file, const std::string
         m.covariances(static_cast<Eigen::Index>(c - 3), i) = v;
       }
     }
+  }
+  // Means are double, but their mean mesh (and every consumer of positions) is float: the same
+  // local origin as the other readers.
+  {
+    Eigen::Matrix3Xf local;
+    m.origin = io_detail::localize(
+        nv, [&](int k, Eigen::Index i) { return m.means(k, i); }, local, name,
+        "element vertex, row", stated_origin(file.comments, name));
+    if (!m.origin.isZero(0.0)) m.means.colwise() -= m.origin;
   }
   if (const ply::Element* fe = file.find("face")) {
     const ply::Property* idx = fe->find("vertex_indices");
@@ -407,6 +498,7 @@ void write_covariance_mesh(const CovarianceMesh& mesh, const std::filesystem::pa
   ply::File f;
   f.format = to_ply(format);
   f.comments.push_back("scanbench covariance mesh");
+  if (!mesh.origin.isZero(0.0)) f.comments.push_back(io_detail::origin_comment(mesh.origin));
   ply::Element ve;
   ve.name = "vertex";
   ve.count = static_cast<std::size_t>(mesh.num_vertices());
@@ -417,7 +509,8 @@ void write_covariance_mesh(const CovarianceMesh& mesh, const std::filesystem::pa
     p.name = props[c];
     p.type = ply::Type::Float64;  // the dual map inverts covariances: keep every bit
     p.values = column(mesh.num_vertices(), [&](Eigen::Index i) {
-      return c < 3 ? mesh.means(static_cast<Eigen::Index>(c), i)
+      return c < 3 ? mesh.origin[static_cast<Eigen::Index>(c)] +
+                         mesh.means(static_cast<Eigen::Index>(c), i)
                    : mesh.covariances(static_cast<Eigen::Index>(c - 3), i);
     });
     ve.properties.push_back(std::move(p));
@@ -500,7 +593,7 @@ void write_point_cloud_rgb(const PointCloud& cloud, const std::filesystem::path&
   ply::Element ve;
   ve.name = "vertex";
   ve.count = static_cast<std::size_t>(cloud.size());
-  append_xyz(ve, cloud.positions, {"x", "y", "z"});
+  append_xyz(ve, cloud.positions, {"x", "y", "z"});  // local frame: external tools read float32
   if (cloud.has_normals()) append_xyz(ve, cloud.normals, {"nx", "ny", "nz"});
   for (const char* c : {"red", "green", "blue"}) {
     ply::Property p;
@@ -528,7 +621,7 @@ void write_mixture(const GaussianMixture& mixture, const std::filesystem::path& 
   ply::Element ce;
   ce.name = "component";
   ce.count = static_cast<std::size_t>(mixture.size());
-  append_xyz(ce, mixture.means, {"x", "y", "z"});
+  append_positions(f, ce, mixture.means, mixture.origin);
   static constexpr std::array<const char*, 6> cov{"covxx", "covxy", "covxz",
                                                   "covyy", "covyz", "covzz"};
   for (int c = 0; c < 6; ++c) {

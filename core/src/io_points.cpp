@@ -24,7 +24,7 @@ PointCloud cloud_from_xyz(std::string_view text, const std::string& name) {
   std::int64_t declared = -1;
   std::int64_t points = 0;
   std::vector<float> row;
-  PositionPrecision precision;  // columns 1-3
+  std::vector<double> xyz;  // columns 1-3 in double, for the local origin (float_precision.h)
   std::array<double, 3> row_d{};
   while (lines.next(line)) {
     Tokens t(line);
@@ -52,8 +52,7 @@ PointCloud cloud_from_xyz(std::string_view text, const std::string& name) {
       continue;
     }
     if (row.size() < 3) fail(fmt::format("expected x y z, got {} value(s)", row.size()));
-    for (int k = 0; k < 3; ++k)
-      (void)precision.add(k, row_d[static_cast<std::size_t>(k)], lines.number());
+    xyz.insert(xyz.end(), row_d.begin(), row_d.end());
     if (columns == 0) columns = row.size();
     if (row.size() != columns) {
       fail(fmt::format("{} values where the first point has {} (inconsistent columns)", row.size(),
@@ -63,7 +62,6 @@ PointCloud cloud_from_xyz(std::string_view text, const std::string& name) {
     ++points;
   }
   if (points == 0) throw IoError(fmt::format("{}: no points", name));
-  precision.check(name, "line");
   if (declared >= 0 && declared != points) {
     throw IoError(fmt::format("{}: the first line declares {} points, the file holds {}", name,
                               declared, points));
@@ -72,7 +70,9 @@ PointCloud cloud_from_xyz(std::string_view text, const std::string& name) {
   const auto cols = static_cast<Eigen::Index>(columns);
   const Eigen::Map<const Eigen::MatrixXf> table(values.data(), cols, n);
   PointCloud cloud;
-  cloud.positions = table.topRows(3);
+  cloud.origin = localize(
+      n, [&](int k, Eigen::Index i) { return xyz[static_cast<std::size_t>(3 * i + k)]; },
+      cloud.positions, name, "point");
   if (columns == 6) {
     // CGAL writes (0, 0, 0) for a point set without normals (e.g. data/points_3/blobby.xyz).
     if (!table.bottomRows(3).isZero(0.0f)) cloud.normals = table.bottomRows(3);
@@ -97,6 +97,7 @@ PointCloud cloud_from_off(const OffData& off, const std::string& name) {
   const auto n = static_cast<Eigen::Index>(off.xyz.size() / 3);
   PointCloud cloud;
   cloud.positions = Eigen::Map<const Eigen::Matrix3Xf>(off.xyz.data(), 3, n);
+  cloud.origin = off.origin;
   if (!off.normals.empty())
     cloud.normals = Eigen::Map<const Eigen::Matrix3Xf>(off.normals.data(), 3, n);
   cloud.validate(name);

@@ -35,7 +35,8 @@ CovarianceMesh covariance_mesh_from_ply(const ply::File& file, const std::string
 /// for the NOFF variants), the fan-triangulated faces (3 indices each) and the face count of the
 /// header (0 for a point-only OFF such as CGAL's data/points_3/kitten.off).
 struct OffData {
-  std::vector<float> xyz;
+  std::vector<float> xyz;  ///< local coordinates (x - origin), see float_precision.h
+  Eigen::Vector3d origin = Eigen::Vector3d::Zero();
   std::vector<float> normals;
   std::vector<int> tri;
   std::int64_t faces = 0;

@@ -67,6 +67,7 @@ PointCloud PointCloud::subset(const std::vector<Eigen::Index>& indices) const {
       out.properties[name][k] = values[i];
   }
   out.sensor_origins = sensor_origins;
+  out.origin = origin;
   return out;
 }
 

@@ -83,4 +83,78 @@ StageData StageData::carry(StageData produced, const StageData& input, DataKinds
   return produced;
 }
 
+Eigen::Vector3d StageData::origin(std::string_view where) const {
+  std::optional<Eigen::Vector3d> o;
+  auto take = [&](const Eigen::Vector3d& x, DataKind k) {
+    if (!o) {
+      o = x;
+    } else if (*o != x) {
+      throw InputError(fmt::format("{}: the {} has local origin ({} {} {}), other data ({} {} {})",
+                                   where, kind_name(k), x.x(), x.y(), x.z(), o->x(), o->y(),
+                                   o->z()));
+    }
+  };
+  if (!points.empty()) take(points.origin, DataKind::Points);
+  if (mixture) take(mixture->origin, DataKind::Mixture);
+  if (mesh) take(mesh->origin, DataKind::Mesh);
+  if (covariance_mesh) take(covariance_mesh->origin, DataKind::CovarianceMesh);
+  return o ? *o : Eigen::Vector3d::Zero();
+}
+
+namespace {
+
+void shift(Eigen::Matrix3Xf& m, const Eigen::Vector3d& d) {
+  for (Eigen::Index i = 0; i < m.cols(); ++i)
+    m.col(i) = (m.col(i).cast<double>() + d).cast<float>();
+}
+
+}  // namespace
+
+void rebase(PointCloud& cloud, const Eigen::Vector3d& o) {
+  if (cloud.origin == o) return;
+  const Eigen::Vector3d d = cloud.origin - o;
+  shift(cloud.positions, d);
+  shift(cloud.sensor_origins, d);
+  static constexpr std::array<const char*, 3> kClean{"clean_x", "clean_y", "clean_z"};
+  for (int k = 0; k < 3; ++k) {
+    const auto it = cloud.properties.find(kClean[static_cast<std::size_t>(k)]);
+    if (it == cloud.properties.end()) continue;
+    for (Eigen::Index i = 0; i < it->second.size(); ++i)
+      it->second[i] = static_cast<float>(static_cast<double>(it->second[i]) + d[k]);
+  }
+  cloud.origin = o;
+}
+
+void rebase(TriangleMesh& mesh, const Eigen::Vector3d& o) {
+  if (mesh.origin == o) return;
+  shift(mesh.vertices, mesh.origin - o);
+  mesh.origin = o;
+}
+
+void rebase(GaussianMixture& mixture, const Eigen::Vector3d& o) {
+  if (mixture.origin == o) return;
+  shift(mixture.means, mixture.origin - o);
+  mixture.origin = o;
+}
+
+void rebase(CovarianceMesh& mesh, const Eigen::Vector3d& o) {
+  if (mesh.origin == o) return;
+  mesh.means.colwise() += mesh.origin - o;
+  mesh.origin = o;
+}
+
+void StageData::rebase(const Eigen::Vector3d& o) {
+  scanbench::rebase(points, o);
+  if (mixture) scanbench::rebase(*mixture, o);
+  if (mesh) scanbench::rebase(*mesh, o);
+  if (covariance_mesh) scanbench::rebase(*covariance_mesh, o);
+}
+
+void StageData::set_origin(const Eigen::Vector3d& o) {
+  points.origin = o;
+  if (mixture) mixture->origin = o;
+  if (mesh) mesh->origin = o;
+  if (covariance_mesh) covariance_mesh->origin = o;
+}
+
 }  // namespace scanbench

@@ -91,8 +91,10 @@ void add_algo_command(Cli& cli) {
         apply_assignment(given, s);
       const Json params = entry.params.validate(given, "algo " + entry.name);
       StageData input;
+      Eigen::Vector3d origin = Eigen::Vector3d::Zero();
       for (const auto& path : opts->inputs) {
         StageData d = read_stage_file(path);
+        if (&path == &opts->inputs.front()) origin = d.origin(path);
         const DataKinds k = d.kinds();
         if ((input.kinds().bits & k.bits) != 0) {
           throw ParamError(fmt::format("algo: {}: a second {} input (give one file per kind)", path,
@@ -100,6 +102,10 @@ void add_algo_command(Cli& cli) {
         }
         input = StageData::carry(std::move(d), input, k);
       }
+      // Local origin (core stage_data.h): the inputs in the frame of the first one; the algorithm
+      // sees them at origin zero (as data at the world origin) and the outputs get it back.
+      input.rebase(origin);
+      input.set_origin(Eigen::Vector3d::Zero());
       const auto& io = entry.fn.io;
       if (!input.kinds().contains(io.consumes)) {
         throw ParamError(
@@ -121,6 +127,7 @@ void add_algo_command(Cli& cli) {
       const double total =
           std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 
+      out.set_origin(origin);
       write_stage_kind(out, io.primary, opts->output);
       std::string extra;
       const std::pair<DataKind, std::string> others[] = {
@@ -148,6 +155,7 @@ void add_algo_command(Cli& cli) {
         record["inputs"] = opts->inputs;
         record["input_points"] = input.points.size();
         record["output_kind"] = kind_name(io.primary);
+        if (!origin.isZero(0.0)) record["dataset_origin"] = {origin.x(), origin.y(), origin.z()};
         record["output_points"] = out.points.size();
         if (out.mesh) record["output_mesh_faces"] = out.mesh->num_faces();
         if (out.covariance_mesh)

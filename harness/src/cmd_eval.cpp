@@ -142,17 +142,24 @@ void add_eval_command(Cli& cli) {
       gopt.field_voxel = opts->field_voxel;
       const metrics::GroundTruth gt(gt_mesh, ctx.stream_seed("metrics.surface_samples"), gopt);
 
+      // Local origins (core stage_data.h): every input is re-expressed in the ground truth's
+      // frame, so metrics compare like with like whatever origin each file was read with.
       std::unique_ptr<PointCloud> scan;
-      if (!opts->scan.empty()) scan = std::make_unique<PointCloud>(read_point_cloud(opts->scan));
+      if (!opts->scan.empty()) {
+        scan = std::make_unique<PointCloud>(read_point_cloud(opts->scan));
+        rebase(*scan, gt_mesh.origin);
+      }
 
       Json record;
       PointCloud points;  // what the point metrics saw (for the heatmap)
       std::unique_ptr<TriangleMesh> out_mesh;
       if (!opts->points.empty()) {
         points = read_point_cloud(opts->points);
+        rebase(points, gt_mesh.origin);
         record = metrics::evaluate(gt, points, scan.get(), opts->metrics, metric_params, ctx);
       } else {
         out_mesh = std::make_unique<TriangleMesh>(read_mesh(opts->output_mesh));
+        rebase(*out_mesh, gt_mesh.origin);
         record = metrics::evaluate_mesh(gt, *out_mesh, scan.get(), opts->metrics, metric_params,
                                         ctx, opts->mesh_samples);
         points = metrics::sample_surface(*out_mesh, opts->mesh_samples,
@@ -192,6 +199,9 @@ void add_eval_command(Cli& cli) {
       inputs["ground_truth_params"] = dataset_params;
       inputs["gt_vertices"] = gt_mesh.num_vertices();
       inputs["gt_faces"] = gt_mesh.num_faces();
+      if (!gt_mesh.origin.isZero(0.0)) {
+        inputs["dataset_origin"] = {gt_mesh.origin.x(), gt_mesh.origin.y(), gt_mesh.origin.z()};
+      }
       inputs["output"] = opts->points.empty() ? opts->output_mesh : opts->points;
       inputs["output_kind"] = opts->points.empty() ? "mesh" : "points";
       inputs["scan"] = opts->scan.empty() ? Json(nullptr) : Json(opts->scan);

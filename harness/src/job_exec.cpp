@@ -108,15 +108,24 @@ Json execute_job(const Job& job, const fs::path& out) {
   RunContext ctx(job.seed, job.threads);
 
   const TriangleMesh mesh = load_dataset(job.dataset, job.dataset_params);
+  // The dataset's local origin (core stage_data.h): zero, except for a mesh file whose coordinates
+  // float32 cannot hold (survey / UTM data). Scan, chain and metrics run in the local frame; the
+  // origin is recorded and restored on every file written.
+  const Eigen::Vector3d origin = mesh.origin;
+  const bool has_origin = !origin.isZero(0.0);
+  if (has_origin) res["dataset_origin"] = {origin.x(), origin.y(), origin.z()};
   // The ground_truth input (experiment.h): no scan, the chain starts from the mesh itself.
   const bool from_ground_truth = job.scanner_preset == kGroundTruthInput;
 
   // Scan, cached by content: the mesh bytes, the effective scanner parameters, the seed and the
   // scan model version.
-  const Json scan_key = {{"mesh", mesh_hash(mesh)},
-                         {"scanner", job.scanner_params},
-                         {"seed", job.seed},
-                         {"scan_model", scanner::kScanModelVersion}};
+  Json scan_key = {{"mesh", mesh_hash(mesh)},
+                   {"scanner", job.scanner_params},
+                   {"seed", job.seed},
+                   {"scan_model", scanner::kScanModelVersion}};
+  // The local vertices of a mesh and of its translate can be equal bit for bit; the scan file
+  // (world coordinates) differs. Absent at origin zero, so earlier caches stay valid.
+  if (has_origin) scan_key["origin"] = res["dataset_origin"];
   const std::string scan_hash = content_hash(scan_key.dump());
   const fs::path ply = out / "scans" / (scan_hash + ".ply");
   const auto t_scan = Clock::now();
@@ -136,7 +145,12 @@ Json execute_job(const Job& job, const fs::path& out) {
   }
   // Every job reads the scan back from the cache, so a cached and a fresh scan give the same
   // input bit for bit.
-  const PointCloud cloud = from_ground_truth ? PointCloud() : read_point_cloud(ply);
+  PointCloud cloud = from_ground_truth ? PointCloud() : read_point_cloud(ply);
+  if (!from_ground_truth && cloud.origin != origin) {
+    throw IoError(fmt::format("{}: the scan's local origin ({} {} {}) is not its mesh's ({} {} {})",
+                              ply.string(), cloud.origin.x(), cloud.origin.y(), cloud.origin.z(),
+                              origin.x(), origin.y(), origin.z()));
+  }
   timing["scan_s"] = seconds_since(t_scan);
   timing["scan_cached"] = cached;
   if (from_ground_truth) {
@@ -173,6 +187,10 @@ Json execute_job(const Job& job, const fs::path& out) {
     } else {
       cur.points = cloud;
     }
+    // Every step sees its input in the local frame with origin zero, as data at the world origin
+    // (an external program is handed float32 local coordinates); the origin goes back on the
+    // chain's result below, whatever each step did with it.
+    cur.set_origin(Eigen::Vector3d::Zero());
     std::map<std::string, double> rep_phases;
     double rep_total = 0;
     const double cpu0 = cpu_seconds();
@@ -229,6 +247,7 @@ Json execute_job(const Job& job, const fs::path& out) {
   timing["step_peak_rss_mb"] = step_peak;
   timing["step_work_mb"] = step_work;
   res["repeat_outputs_identical"] = identical;
+  final_out.set_origin(origin);  // written outputs restore world coordinates
   // The scored mesh (mean mesh of a covariance mesh); sizes describe the scored output (a mesh
   // output's points are the input carried through, not an output).
   // A chain ending in a mixture is scored on its components as points.

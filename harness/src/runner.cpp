@@ -226,7 +226,7 @@ Json finish_record(const Child& c, int wstatus, const struct rusage& ru, const J
   Json timing = Json::object();
   if (result.is_object()) {
     for (const char* k : {"metrics", "histograms", "metric_params", "skipped", "sizes", "artifacts",
-                          "repeat_outputs_identical", "output_kind"}) {
+                          "repeat_outputs_identical", "output_kind", "dataset_origin"}) {
       if (result.contains(k)) r[k] = result[k];
     }
     if (result.contains("timing")) timing = result["timing"];

@@ -956,7 +956,15 @@ Scan ScannerEngine::run(RunContext& ctx) const {
 
 Scan scan(const TriangleMesh& mesh, const ScannerParams& p, RunContext& ctx) {
   const detail::ScannerEngine engine(mesh, p);
-  return engine.run(ctx);
+  // The scan happens in the mesh's local frame (core stage_data.h, "Local origin"): a mesh far
+  // from the world origin scans exactly as the same mesh at the origin, and the cloud gets its
+  // origin (written back into world coordinates by write_scan).
+  Scan s = engine.run(ctx);
+  s.cloud.origin = mesh.origin;
+  if (!mesh.origin.isZero(0.0)) {
+    s.record["origin"] = {mesh.origin.x(), mesh.origin.y(), mesh.origin.z()};
+  }
+  return s;
 }
 
 std::filesystem::path sidecar_path(const std::filesystem::path& ply) {

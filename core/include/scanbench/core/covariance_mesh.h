@@ -22,6 +22,9 @@ struct CovarianceMesh {
   /// num_faces() + 1 entries (a single 0 for a mesh without faces).
   std::vector<int> face_offsets{0};
   std::vector<int> face_vertices;
+  /// Local origin (see stage_data.h, "Local origin"): the world position of vertex i is
+  /// origin + means.col(i) in double; zero for data near the world origin.
+  Eigen::Vector3d origin = Eigen::Vector3d::Zero();
 
   Eigen::Index num_vertices() const { return means.cols(); }
   Eigen::Index num_faces() const { return static_cast<Eigen::Index>(face_offsets.size()) - 1; }

@@ -20,6 +20,9 @@ struct GaussianMixture {
   Eigen::Matrix3Xf normal_axes;
   /// k normal-axis spreads sigma^2 in radians^2, or empty (present iff normal_axes is).
   Eigen::VectorXf normal_spreads;
+  /// Local origin (see stage_data.h, "Local origin"): the world position of component i is
+  /// origin + means.col(i) in double; zero for data near the world origin.
+  Eigen::Vector3d origin = Eigen::Vector3d::Zero();
 
   Eigen::Index size() const { return means.cols(); }
   bool has_normal_axes() const { return normal_axes.cols() > 0; }

@@ -3,6 +3,16 @@
 // throws IoError("<path>: <what>") for a missing, truncated or malformed file and for non-finite
 // coordinates; nothing is silently repaired.
 //
+// Survey-scale coordinates (stage_data.h, "Local origin"): every reader reads positions in double.
+// When float32 would move a coordinate by more than 1e-5 of the data's bounding-box diagonal (e.g.
+// UTM coordinates near 1e6..1e7 m), the result gets a local origin (the bounding-box centre rounded
+// to a multiple of 2^k, 2^k the largest power of two not above the diagonal) and stores
+// float(x - origin); otherwise the origin is zero and the floats are the file's. A PLY comment
+// `scanbench_origin X Y Z` states the origin (the reader then uses it). Writers restore it: with a
+// nonzero origin, PLY positions (and sensor positions) are written as double origin + local with
+// that comment, OBJ vertices as the shortest decimal of the double; at origin zero every file is
+// written exactly as without local origins (float32).
+//
 // Formats:
 //  - meshes: read .off, .ply (ascii, binary little/big endian), .obj (tinyobjloader, polygons
 //    fan-triangulated), .stl (ascii and binary; coincident vertices merged exactly);
@@ -47,7 +57,8 @@ PointCloud read_point_cloud(const std::filesystem::path& path);
 void write_point_cloud(const PointCloud& cloud, const std::filesystem::path& path,
                        PlyFormat format = PlyFormat::BinaryLittleEndian);
 
-/// Binary PLY of positions and normals (when present) as float x y z [nx ny nz] plus uchar red
+/// Binary PLY of positions (in the LOCAL frame, the origin is not written: external tools read
+/// float32) and normals (when present) as float x y z [nx ny nz] plus uchar red
 /// green blue, all set to `gray`: the layout external tools built on PoissonRecon require (COLMAP's
 /// poisson_mesher reads nothing, and exits 0, from a PLY without uchar colours).
 void write_point_cloud_rgb(const PointCloud& cloud, const std::filesystem::path& path,

@@ -24,6 +24,11 @@ struct PointCloud {
   std::map<std::string, Eigen::VectorXf> properties;
   /// 3 x s sensor positions, one per scan id (metadata: not per point). Empty when unknown.
   Eigen::Matrix3Xf sensor_origins;
+  /// Sensor positions are in the same local frame as `positions`.
+  /// Local origin (see stage_data.h, "Local origin"): the world position of a point is
+  /// origin + positions.col(i) in double. Zero for data near the world origin (most data); a reader
+  /// sets it for survey-scale files whose coordinates float32 cannot hold, and writers restore it.
+  Eigen::Vector3d origin = Eigen::Vector3d::Zero();
 
   Eigen::Index size() const { return positions.cols(); }
   bool empty() const { return positions.cols() == 0; }

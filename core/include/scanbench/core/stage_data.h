@@ -4,6 +4,13 @@
 // mixture) or a triangle mesh (a reconstruction), and the next step consumes what it declares.
 // A step's result carries every kind it does not produce unchanged from its input, so a chain
 // `normals.pca -> reconstruct.poisson` ends with the mesh and still holds the points.
+//
+// Local origin. Positions are float32 (24 bits: a spacing of 0.06 m at 1e6, 1 m at 1e7), so survey
+// and UTM coordinates are held relative to a local origin: every kind carries `origin` (double),
+// and world = origin + stored position. The readers choose it (io.h), the writers restore it, the
+// scanner gives a scan its mesh's origin, and the runner (`scanbench run`, `algo`) hands every step
+// its input in the local frame with the origin set to zero and puts the origin back on the chain's
+// result: algorithms and metrics only ever see local coordinates, as at the world origin.
 #include <optional>
 #include <string>
 #include <string_view>
@@ -66,6 +73,25 @@ struct StageData {
   /// `produced` with every kind it does not hold (of `kinds`) taken from `input`: the result of a
   /// step that produces `kinds`.
   static StageData carry(StageData produced, const StageData& input, DataKinds kinds);
+
+  /// The local origin of the data: that of the first kind present (points, mixture, mesh,
+  /// covariance mesh); zero when it holds nothing. Throws InputError naming `where` when two kinds
+  /// present have different origins.
+  Eigen::Vector3d origin(std::string_view where = "stage data") const;
+  /// Sets the origin of every kind present (positions unchanged: they stay in the local frame).
+  void set_origin(const Eigen::Vector3d& o);
+  /// Re-expresses every kind present in the frame of `o` (rebase below).
+  void rebase(const Eigen::Vector3d& o);
 };
+
+/// Re-expresses data in the local frame of origin `o`: every position p becomes
+/// float(p + (old origin - o)), computed in double, and the origin becomes `o` (no change when the
+/// origins are equal). For comparing data read with different origins (e.g. `scanbench eval` of a
+/// cloud against a mesh). Points: positions, sensor origins and the scanner's clean_x, clean_y,
+/// clean_z properties (positions too); normals are unchanged.
+void rebase(PointCloud& cloud, const Eigen::Vector3d& o);
+void rebase(TriangleMesh& mesh, const Eigen::Vector3d& o);
+void rebase(GaussianMixture& mixture, const Eigen::Vector3d& o);
+void rebase(CovarianceMesh& mesh, const Eigen::Vector3d& o);
 
 }  // namespace scanbench

@@ -13,6 +13,10 @@ struct TriangleMesh {
   Eigen::Matrix3Xf vertices;
   /// 3 x f vertex indices per triangle.
   Eigen::Matrix3Xi faces;
+  /// Local origin (see stage_data.h, "Local origin"): the world position of a point is
+  /// origin + vertices.col(i) in double. Zero for data near the world origin (most data); a reader
+  /// sets it for survey-scale files whose coordinates float32 cannot hold, and writers restore it.
+  Eigen::Vector3d origin = Eigen::Vector3d::Zero();
 
   Eigen::Index num_vertices() const { return vertices.cols(); }
   Eigen::Index num_faces() const { return faces.cols(); }

@@ -99,7 +99,9 @@ struct Scan {
   /// positions; scan_ids; sensor_origins (one per view, in the scan's registered frame, i.e.
   /// misaligned with it); properties "outlier" (0/1: uniform outliers and flying pixels) and
   /// "clean_x", "clean_y", "clean_z" (the noise-free surface hit in the true frame; for uniform
-  /// outliers, which have none, the outlier's own position).
+  /// outliers, which have none, the outlier's own position). A mesh with a local origin (core
+  /// stage_data.h) is scanned in its local frame: positions, sensor origins and clean_* are local,
+  /// and cloud.origin is the mesh's (recorded as "origin" in the record).
   PointCloud cloud;
   /// {"params", "seed", "mesh", "counts", "scans": [{"id", "sensor_origin", "registered_origin",
   ///  "forward", "up", "fov_deg", "resolution", "points", "outliers", "misaligned",
