@@ -73,11 +73,11 @@ struct Neighbor {
 // The growing mesh: faces, per-edge faces (at most two), per-vertex state.
 class Front {
  public:
+  // `adj` holds only the pairs with BC above bc_min (eq. 19), so every candidate edge passes it.
   Front(const std::vector<Gaussian>& g, const std::vector<std::vector<Neighbor>>& adj,
-        double bc_min, double beta_min)
+        double beta_min)
       : g_(g),
         adj_(adj),
-        bc_min_(bc_min),
         beta_min_(beta_min),
         used_(g.size(), 0),
         boundary_(g.size(), 0),
@@ -304,7 +304,7 @@ class Front {
 
   const std::vector<Gaussian>& g_;
   const std::vector<std::vector<Neighbor>>& adj_;
-  double bc_min_, beta_min_;
+  double beta_min_;
   std::vector<std::array<int, 3>> faces_;
   std::vector<Eigen::Vector3d> normals_;
   std::unordered_map<std::uint64_t, std::array<int, 2>> edges_;
@@ -524,7 +524,7 @@ CovarianceMesh triangulate_bhattacharyya(const GaussianMixture& mixture,
     });
   }
 
-  Front front(g, adj, p.bc_min, p.beta_min_deg * std::numbers::pi / 180.0);
+  Front front(g, adj, p.beta_min_deg * std::numbers::pi / 180.0);
   Eigen::Index seeds = 0;
   {
     auto timer = ctx.phase("front");

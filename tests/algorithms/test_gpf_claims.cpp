@@ -7,7 +7,8 @@
 //  - outliers (Fig. 18, second row): with 20% uniform outliers GPF's outlier residue is below
 //    WLOP's.
 // "Near a sharp edge": the output point's closest ground-truth point lies within 0.02 of the
-// bbox diagonal of a mesh edge whose dihedral angle exceeds 30 degrees. Normal error: the angle
+// bbox diagonal of a mesh edge whose dihedral angle exceeds 30 degrees (metrics::near_sharp_edges,
+// the region of the edges.* metrics). Normal error: the angle
 // arccos|n . N_p| to the closest face's normal, with n the PCA normal (k = 16) of the output
 // cloud for every method (WLOP and CLOP carry no normals; the same estimator for all measures
 // the geometry, not the carried normals). The figures are printed for the record.
@@ -16,10 +17,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <limits>
-#include <map>
 #include <string>
-#include <utility>
 #include <vector>
 
 #include "scanbench/algorithms/bilateral_normals.h"
@@ -29,6 +27,7 @@
 #include "scanbench/algorithms/pca_normals.h"
 #include "scanbench/core/procedural.h"
 #include "scanbench/metrics/ground_truth.h"
+#include "scanbench/metrics/sharp_edges.h"
 #include "scanbench/scanner/scanner.h"
 
 namespace scanbench::algorithms {
@@ -42,34 +41,6 @@ double kernel_width(double noise, Eigen::Index n) {
   return 800.0 * noise / std::sqrt(static_cast<double>(n));
 }
 
-struct Segment {
-  Eigen::Vector3f a, b;
-};
-
-// Mesh edges whose two faces' normals differ by more than 30 degrees.
-std::vector<Segment> sharp_edges(const TriangleMesh& mesh) {
-  std::map<std::pair<int, int>, std::vector<Eigen::Index>> faces_of;
-  for (Eigen::Index f = 0; f < mesh.num_faces(); ++f)
-    for (int k = 0; k < 3; ++k) {
-      const int a = mesh.faces(k, f), b = mesh.faces((k + 1) % 3, f);
-      faces_of[std::minmax(a, b)].push_back(f);
-    }
-  std::vector<Segment> out;
-  const float cos30 = std::cos(30.0f * static_cast<float>(M_PI) / 180.0f);
-  for (const auto& [e, fs] : faces_of) {
-    if (fs.size() != 2) continue;
-    if (mesh.face_normal(fs[0]).dot(mesh.face_normal(fs[1])) < cos30)
-      out.push_back({mesh.vertices.col(e.first), mesh.vertices.col(e.second)});
-  }
-  return out;
-}
-
-float distance_to_segment(const Eigen::Vector3f& p, const Segment& s) {
-  const Eigen::Vector3f d = s.b - s.a;
-  const float t = std::clamp((p - s.a).dot(d) / d.squaredNorm(), 0.0f, 1.0f);
-  return (p - (s.a + t * d)).norm();
-}
-
 struct EdgeErrors {
   double p2plane = 0.0;     // mean |<q - p, N_p>| / diag over the points near a sharp edge
   double normal_deg = 0.0;  // mean arccos|n . N_p| (PCA normal of the output) near a sharp edge
@@ -77,23 +48,21 @@ struct EdgeErrors {
   double residue = 0.0;  // share of all output points farther than 3 sigma from the surface
 };
 
-EdgeErrors measure(const metrics::GroundTruth& gt, const std::vector<Segment>& edges,
-                   const PointCloud& out, double sigma) {
+EdgeErrors measure(const metrics::GroundTruth& gt, const PointCloud& out, double sigma) {
   RunContext ctx(1);
   PcaNormalsParams pp;
   pp.orientation = "none";
   const PointCloud with_normals = pca_normals(out, pp, ctx);
   const auto cps = gt.closest_points(out.positions);
+  // The region of the edges.* metrics (30 degrees, 0.02 of the diagonal).
+  const std::vector<bool> near = metrics::near_sharp_edges(gt, cps, metrics::SharpEdgeParams{});
   const float diag = gt.diagonal();
   EdgeErrors e;
   long far = 0;
   for (Eigen::Index i = 0; i < out.size(); ++i) {
     const auto& cp = cps[static_cast<std::size_t>(i)];
     if (cp.distance > 3.0 * sigma) ++far;
-    float best = std::numeric_limits<float>::infinity();
-    for (const Segment& s : edges)
-      best = std::min(best, distance_to_segment(cp.point, s));
-    if (best > 0.02f * diag) continue;
+    if (!near[static_cast<std::size_t>(i)]) continue;
     e.p2plane += std::abs((out.positions.col(i) - cp.point).dot(cp.normal)) / diag;
     e.normal_deg +=
         std::acos(std::min(1.0f, std::abs(with_normals.normals.col(i).dot(cp.normal)))) * 180.0 /
@@ -151,19 +120,18 @@ struct Compared {
 Compared compare_on(const TriangleMesh& mesh, double noise, double outliers, bool with_clop) {
   const PointCloud scan = scan_of(mesh, noise, outliers, 3);
   const metrics::GroundTruth gt(mesh, 1);
-  const std::vector<Segment> edges = sharp_edges(mesh);
   const double sigma = noise * gt.diagonal();
   Compared c;
-  c.input = measure(gt, edges, scan, sigma);
+  c.input = measure(gt, scan, sigma);
   const double h = kernel_width(noise, scan.size());
-  c.gpf = measure(gt, edges, run_gpf(scan, h), sigma);
-  c.gpf_fixed = measure(gt, edges, run_gpf(scan, h, "fixed"), sigma);
-  c.wlop = measure(gt, edges, run_wlop(scan, h), sigma);
-  if (with_clop) c.clop = measure(gt, edges, run_clop(scan, h), sigma);
+  c.gpf = measure(gt, run_gpf(scan, h), sigma);
+  c.gpf_fixed = measure(gt, run_gpf(scan, h, "fixed"), sigma);
+  c.wlop = measure(gt, run_wlop(scan, h), sigma);
+  if (with_clop) c.clop = measure(gt, run_clop(scan, h), sigma);
   std::printf(
-      "%zu scan points, noise %.3f, outliers %.2f, %zu sharp segments, h %.4f\n"
+      "%zu scan points, noise %.3f, outliers %.2f, h %.4f\n"
       "  method  edge_points  p2plane_edge  normal_edge_deg  outlier_residue\n",
-      static_cast<std::size_t>(scan.size()), noise, outliers, edges.size(), h);
+      static_cast<std::size_t>(scan.size()), noise, outliers, h);
   auto row = [](const char* name, const EdgeErrors& e) {
     std::printf("  %-12s  %11ld  %12.5f  %15.2f  %15.4f\n", name, e.points, e.p2plane, e.normal_deg,
                 e.residue);
