@@ -11,7 +11,7 @@
 #                          bytes and its tests (core/, harness/, tests/); algorithms/, metrics/ and
 #                          scanner-sim/ are then compiled plainly at -O0, since the sanitized
 #                          targets use only their registries (the config loader looks names up in
-#                          them). CI uses `input`: the whole tree sanitized is a second full build.
+#                          them). CI (scripts/test.sh) uses `all` and runs the whole test suite.
 #
 # One sanitized tree serves both: the test executables run under ASan/UBSan (the libFuzzer
 # coverage hooks are no-ops outside a fuzz target) and the fuzz targets link -fsanitize=fuzzer.
@@ -28,8 +28,12 @@ if(SCANBENCH_FUZZ)
 endif()
 set(scanbench_san_flags -fsanitize=address,undefined -fno-sanitize-recover=undefined
                         -fno-omit-frame-pointer)
+# libFuzzer's coverage hooks, only on the code the fuzz targets explore (core's readers and
+# parameters, the harness's config loader); the algorithms, metrics and scanner behind the
+# registries are only looked up by name there, and coverage would cost compile and test time.
+set(scanbench_fuzz_cov_flags)
 if(SCANBENCH_FUZZ)
-  list(APPEND scanbench_san_flags -fsanitize=fuzzer-no-link)
+  set(scanbench_fuzz_cov_flags -fsanitize=fuzzer-no-link)
 endif()
 if(SCANBENCH_SANITIZE)
   # Code that must behave differently under ASan (RLIMIT_AS cannot cap a process whose shadow
@@ -62,4 +66,8 @@ function(scanbench_apply_sanitizers target)
   endif()
   target_compile_options(${target} PRIVATE ${scanbench_san_flags})
   target_link_options(${target} PRIVATE ${scanbench_san_flags})
+  if(NOT dir MATCHES "/(algorithms|metrics|scanner-sim)$")
+    target_compile_options(${target} PRIVATE ${scanbench_fuzz_cov_flags})
+    target_link_options(${target} PRIVATE ${scanbench_fuzz_cov_flags})
+  endif()
 endfunction()

@@ -1,14 +1,13 @@
 #!/usr/bin/env bash
 # Install what is missing, build with warnings as errors, check formatting, run every test; then
-# the sanitizer and fuzz tree (README "Hardening"): clang at -O1 with AddressSanitizer,
-# UndefinedBehaviorSanitizer and libFuzzer coverage on the code that reads untrusted bytes (core:
-# the readers, parameters, procedural shapes): core's tests incl. the malformed and bad-input
-# corpora, and a short run of the reader fuzz targets.
+# the sanitizer and fuzz tree (README "Hardening"): the whole test suite again, built by clang at
+# -O1 with AddressSanitizer, UndefinedBehaviorSanitizer and libFuzzer coverage on every library,
+# test and the scanbench binary the end-to-end tests run, plus a short run of each fuzz target.
 #   SCANBENCH_SANITIZE=0       skips the sanitizer tree
+#   SCANBENCH_SAN_SCOPE=input  sanitizes only the code that reads untrusted bytes (core/, harness/,
+#                              tests/) and runs only core's tests and the reader fuzz targets there:
+#                              a quicker local check, not what CI runs
 #   SCANBENCH_FUZZ_SECONDS=N   each fuzz target's time (default 20)
-#   SCANBENCH_FUZZ_CONFIG=1    also builds and fuzzes the config loader (fuzz_experiment): it links
-#                              the algorithm, metric and scanner registries, which costs ~6 more
-#                              minutes of a cold 2-core build, beyond the CI budget.
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 bash "$here/scripts/setup.sh"
@@ -19,18 +18,19 @@ build="${SCANBENCH_BUILD_DIR:-$here/build}"
 
 if [ "${SCANBENCH_SANITIZE:-1}" != 0 ]; then
   san="${SCANBENCH_SAN_BUILD_DIR:-$here/build-san}"
+  scope="${SCANBENCH_SAN_SCOPE:-all}"
   export CCACHE_BASEDIR="${CCACHE_BASEDIR:-$here}"
   cmake -S "$here" -B "$san" -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_BUILD_TYPE=Sanitize \
-    -DSCANBENCH_FUZZ=ON -DSCANBENCH_SANITIZE_SCOPE=input -DSCANBENCH_WERROR=ON \
+    -DSCANBENCH_FUZZ=ON -DSCANBENCH_SANITIZE_SCOPE="$scope" -DSCANBENCH_WERROR=ON \
     -DSCANBENCH_BUILD_BENCH=OFF \
     -DSCANBENCH_FUZZ_SECONDS="${SCANBENCH_FUZZ_SECONDS:-20}" >/dev/null
-  targets=(test_core test_core_io fuzz_readers fuzz_stage_file)
-  skip='_NOT_BUILT$|FuzzSmoke.fuzz_experiment'
-  if [ "${SCANBENCH_FUZZ_CONFIG:-0}" = 1 ]; then
-    targets+=(fuzz_experiment)
-    skip='_NOT_BUILT$'
+  if [ "$scope" = all ]; then
+    cmake --build "$san" -j"$(nproc)"
+    (cd "$san" && ctest --output-on-failure -j"$(nproc)" --timeout 1800)
+  else
+    cmake --build "$san" -j"$(nproc)" --target test_core test_core_io fuzz_readers fuzz_stage_file
+    # Only the executables built above have tests here (the others register *_NOT_BUILT).
+    (cd "$san" && ctest --output-on-failure -j"$(nproc)" --timeout 900 \
+      -E '_NOT_BUILT$|FuzzSmoke.fuzz_experiment')
   fi
-  cmake --build "$san" -j"$(nproc)" --target "${targets[@]}"
-  # Only the executables built above have tests here (the others register *_NOT_BUILT).
-  (cd "$san" && ctest --output-on-failure -j"$(nproc)" --timeout 900 -E "$skip")
 fi
