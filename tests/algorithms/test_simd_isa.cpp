@@ -3,6 +3,7 @@
 // within stated tolerances, and checked bit-identical at 1 and 2 threads on each ISA. On a
 // machine with only sse2 the comparisons are trivially equal; on this project's CI VM (AVX2, no
 // AVX-512) they compare sse2 with avx2; the avx512 path is compiled only by an avx512 build.
+// The distance field's packet sampler is checked per ISA in tests/metrics/test_field_sampler.cpp.
 #include <gtest/gtest.h>
 
 #include <algorithm>
