@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 #include <signal.h>
 #include <spawn.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -59,6 +60,17 @@ std::string log_tail(const fs::path& workdir, int lines) {
 
 namespace {
 
+// kB value of a field ("VmHWM") of a /proc/<pid>/status file, or -1 when unavailable (not Linux,
+// or the process has exited and released its memory).
+long proc_status_kb(const std::string& path, const std::string& field) {
+  std::ifstream f(path);
+  std::string line;
+  while (std::getline(f, line)) {
+    if (line.rfind(field + ":", 0) == 0) return std::atol(line.c_str() + field.size() + 1);
+  }
+  return -1;
+}
+
 std::string with_log(std::string message, const fs::path& workdir) {
   const std::string tail = log_tail(workdir);
   return tail.empty() ? message + " (no output on stderr or stdout)" : message + ": " + tail;
@@ -95,18 +107,25 @@ void run_program(const std::vector<std::string>& argv, const fs::path& workdir, 
   if (rc != 0) {
     throw Error(fmt::format("{}: cannot run '{}': {}", stage, program, std::strerror(rc)));
   }
+  // posix_spawn returns once the child has exec'ed: our peak now bounds the memory the child's
+  // ru_maxrss inherited (see run_program.h).
+  const long own_hwm_kb = proc_status_kb("/proc/self/status", "VmHWM");
+  const std::string child_status = fmt::format("/proc/{}/status", pid);
+  long sampled_kb = -1;
+  struct rusage usage {};
 
   using Clock = std::chrono::steady_clock;
   const auto deadline = Clock::now() + std::chrono::duration<double>(timeout_s);
   int status = 0;
   auto kill_group = [&] {
     ::kill(-pid, SIGKILL);
-    while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+    while (::wait4(pid, &status, 0, &usage) < 0 && errno == EINTR) {
     }
   };
   for (auto pause = std::chrono::milliseconds(1);;
        pause = std::min(pause * 2, std::chrono::milliseconds(50))) {
-    const pid_t w = ::waitpid(pid, &status, WNOHANG);
+    sampled_kb = std::max(sampled_kb, proc_status_kb(child_status, "VmHWM"));
+    const pid_t w = ::wait4(pid, &status, WNOHANG, &usage);
     if (w == pid) break;
     if (w < 0 && errno != EINTR) {
       throw Error(
@@ -128,6 +147,8 @@ void run_program(const std::vector<std::string>& argv, const fs::path& workdir, 
   }
   // The program's children may outlive it; they belong to its group.
   ::kill(-pid, SIGKILL);
+  const long maxrss_kb = usage.ru_maxrss;  // kB on Linux
+  ctx.note_program_peak_rss_kb(own_hwm_kb >= 0 && maxrss_kb > own_hwm_kb ? maxrss_kb : sampled_kb);
   if (WIFSIGNALED(status)) {
     throw Error(with_log(fmt::format("{}: '{}' was killed by signal {} ({})", stage, program,
                                      WTERMSIG(status), strsignal(WTERMSIG(status))),

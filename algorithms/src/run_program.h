@@ -32,6 +32,13 @@ class TempDir {
 /// timeout_s seconds, then kills the group. Honours ctx cancellation (the group is killed first).
 /// Throws Error("<stage>: ...") when the program cannot start, exits non-zero, dies from a signal
 /// or times out; the message ends with the last lines of its stderr (or stdout).
+/// On Linux, the program's own peak RSS goes to ctx.note_program_peak_rss_kb. The kernel's
+/// ru_maxrss of the child (wait4) is not that peak alone: execve folds the high-water mark of the
+/// memory the child had before exec into it, and a posix_spawn child shares the caller's memory
+/// until exec, so ru_maxrss is at least this process's peak RSS at the spawn. So: ru_maxrss when
+/// it exceeds this process's VmHWM read after the spawn (then it is the program's own peak,
+/// exactly); else the program stayed below that, and its peak is the largest VmHWM of
+/// /proc/<pid>/status sampled while it ran (the wait loop's polls, every 1 to 50 ms).
 void run_program(const std::vector<std::string>& argv, const std::filesystem::path& workdir,
                  double timeout_s, std::string_view stage, RunContext& ctx);
 

@@ -44,13 +44,6 @@ double cpu_seconds() {
          1e-6 * static_cast<double>(ru.ru_utime.tv_usec + ru.ru_stime.tv_usec);
 }
 
-// Peak RSS (kB) of the largest waited-for child process so far.
-long children_max_rss_kb() {
-  struct rusage ru {};
-  getrusage(RUSAGE_CHILDREN, &ru);
-  return ru.ru_maxrss;
-}
-
 std::string mesh_hash(const TriangleMesh& m) {
   std::string bytes;
   bytes.append(reinterpret_cast<const char*>(m.vertices.data()),
@@ -171,9 +164,10 @@ Json execute_job(const Job& job, const fs::path& out) {
   // Memory of each step (first repeat; Linux /proc, else absent): step_peak_rss_mb = the job's
   // peak RSS while the step ran (the peak is reset before it), step_work_mb = that peak minus the
   // RSS before the step, plus the peak RSS of a program the step ran (reconstruct.poisson's
-  // colmap: getrusage(RUSAGE_CHILDREN) when its maximum grew during the step): the working memory
-  // the step needed on top of its input (the GPS paper's "build MB" of Fig. 13c and 14).
-  Json step_peak = Json::object(), step_work = Json::object();
+  // colmap, measured alone: RunContext::program_peak_rss_kb, also recorded as
+  // step_program_peak_rss_mb): the working memory the step needed on top of its input (the GPS
+  // paper's "build MB" of Fig. 13c and 14).
+  Json step_peak = Json::object(), step_work = Json::object(), step_program = Json::object();
   StageData final_out;
   bool identical = true;
   // What the chain is scored on: the primary kind of its last step (a mesh for a reconstruction,
@@ -201,16 +195,17 @@ Json execute_job(const Job& job, const fs::path& out) {
       ctx.clear_phases();
       const bool mem = rep == 0 && reset_peak_rss();
       const long rss0 = mem ? status_kb("VmRSS") : -1;
-      const long child0 = children_max_rss_kb();
+      ctx.reset_program_peak_rss();
       const auto t0 = Clock::now();
       StageData next = entry.fn(cur, step.at("params"), ctx);
       const double dt = seconds_since(t0);
       const long hwm = mem ? status_kb("VmHWM") : -1;
       if (rss0 >= 0 && hwm >= 0) {
         step_peak[label] = static_cast<double>(hwm) / 1024.0;
-        const long child = children_max_rss_kb();
+        const long program = ctx.program_peak_rss_kb();
         step_work[label] =
-            static_cast<double>(std::max(hwm - rss0, 0L) + (child > child0 ? child : 0L)) / 1024.0;
+            static_cast<double>(std::max(hwm - rss0, 0L) + std::max(program, 0L)) / 1024.0;
+        if (program >= 0) step_program[label] = static_cast<double>(program) / 1024.0;
       }
       rep_total += dt;
       rep_phases[label] += dt;
@@ -246,6 +241,7 @@ Json execute_job(const Job& job, const fs::path& out) {
   timing["phases"] = ph;
   timing["step_peak_rss_mb"] = step_peak;
   timing["step_work_mb"] = step_work;
+  timing["step_program_peak_rss_mb"] = step_program;
   res["repeat_outputs_identical"] = identical;
   final_out.set_origin(origin);  // written outputs restore world coordinates
   // The scored mesh (mean mesh of a covariance mesh); sizes describe the scored output (a mesh

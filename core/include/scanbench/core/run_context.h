@@ -63,6 +63,15 @@ class RunContext {
     phases_cpu_.clear();
   }
 
+  /// Peak resident memory (kB) of the external programs a step ran (reconstruct.poisson's colmap),
+  /// each measured alone, not counting this process (algorithms' run_program); -1 when no program
+  /// ran since the last reset. The harness resets it before each step of a chain.
+  void note_program_peak_rss_kb(long kb) {
+    if (kb > program_peak_rss_kb_) program_peak_rss_kb_ = kb;
+  }
+  long program_peak_rss_kb() const { return program_peak_rss_kb_; }
+  void reset_program_peak_rss() { program_peak_rss_kb_ = -1; }
+
   /// Requests cancellation (thread-safe; e.g. from a signal handler thread or a watchdog).
   void cancel() { cancelled_.store(true, std::memory_order_relaxed); }
   bool cancelled() const { return cancelled_.load(std::memory_order_relaxed); }
@@ -76,6 +85,7 @@ class RunContext {
   std::map<std::string, double> phases_;
   std::map<std::string, double> phases_cpu_;
   std::atomic<bool> cancelled_{false};
+  long program_peak_rss_kb_ = -1;
 };
 
 }  // namespace scanbench
