@@ -16,6 +16,7 @@
 #include <filesystem>
 #include <string>
 
+#include "registry_fixtures.h"
 #include "scanbench/algorithms/registry.h"
 #include "scanbench/core/io.h"
 #include "scanbench/core/procedural.h"
@@ -49,25 +50,7 @@ PointCloud small_scan() {
 }
 
 StageData every_kind() {
-  RunContext ctx(3, 1);
-  const auto& reg = algorithms::registry();
-  StageData d{small_scan()};
-  d = reg.at("normals.pca").fn(d, reg.at("normals.pca").params.validate(Json::object(), "t"), ctx);
-  d.mixture = reg.at("mixture.hem")
-                  .fn(d, reg.at("mixture.hem").params.validate(Json::object(), "t"), ctx)
-                  .mixture;
-  d.mesh = test_sphere();
-  CovarianceMesh cm;
-  cm.resize(d.mesh->num_vertices());
-  cm.means = d.mesh->vertices.cast<double>();
-  for (Eigen::Index i = 0; i < cm.num_vertices(); ++i)
-    cm.set_covariance(i, 0.01 * Eigen::Matrix3d::Identity());
-  for (Eigen::Index f = 0; f < d.mesh->num_faces(); ++f) {
-    const int t[3] = {d.mesh->faces(0, f), d.mesh->faces(1, f), d.mesh->faces(2, f)};
-    cm.add_face(t);
-  }
-  d.covariance_mesh = std::move(cm);
-  return d;
+  return algorithms::fixtures::every_kind(small_scan(), test_sphere());
 }
 
 /// `d` written with origin kT (world coordinates, double) kind by kind, and read back.
@@ -97,15 +80,6 @@ StageData run_local(const RegistryEntry<algorithms::Algorithm>& e, StageData in,
   StageData out = e.fn(in, params, ctx);
   out.set_origin(o);
   return out;
-}
-
-Json test_params(const std::string& name) {
-  if (name == "external.points") return Json{{"command", "cp {in} {out}"}};
-  if (name == "external.mesh") {
-    return Json{{"command", "printf 'OFF\\n3 1 0\\n0 0 0\\n1 0 0\\n0 1 0\\n3 0 1 2\\n' > {out}"},
-                {"extension", ".off"}};
-  }
-  return Json::object();
 }
 
 /// Size and mean distance of the output's positions to the unit sphere (the ground truth), in
@@ -153,7 +127,7 @@ TEST_F(LocalOriginAll, EveryAlgorithmFarAgreesWithAtOrigin) {
   int n = 0;
   for (const auto& e : algorithms::registry().entries()) {
     SCOPED_TRACE(e.name);
-    const Json params = e.params.validate(test_params(e.name), e.name);
+    const Json params = e.params.validate(algorithms::fixtures::required_params(e.name), e.name);
     StageData in0, in1;
     if (e.fn.io.consumes.has(DataKind::Points)) {
       in0.points = near_all.points;

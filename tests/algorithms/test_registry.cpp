@@ -6,6 +6,7 @@
 #include <cmath>
 #include <set>
 
+#include "registry_fixtures.h"
 #include "scanbench/algorithms/registry.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/procedural.h"
@@ -57,39 +58,10 @@ TEST(AlgorithmRegistry, SchemasRejectUnknownKeys) {
   }
 }
 
-// Stage data holding every kind an entry may consume: the small scan with its PCA normals
-// (reconstruct.poisson needs oriented normals), its HEM mixture, a coarse sphere mesh and that
-// mesh with isotropic covariances.
 StageData every_kind() {
-  RunContext ctx(3);
-  const auto& pca = registry().at("normals.pca");
-  StageData d = pca.fn(small_scan(), pca.params.validate(Json::object(), "test"), ctx).points;
-  const auto& hem = registry().at("mixture.hem");
-  d.mixture = hem.fn(d, hem.params.validate(Json::object(), "test"), ctx).mixture;
   SphereParams sp;
   sp.resolution = 4;
-  d.mesh = make_sphere(sp);
-  CovarianceMesh cm;
-  cm.resize(d.mesh->num_vertices());
-  cm.means = d.mesh->vertices.cast<double>();
-  for (Eigen::Index i = 0; i < cm.num_vertices(); ++i)
-    cm.set_covariance(i, 0.01 * Eigen::Matrix3d::Identity());
-  for (Eigen::Index f = 0; f < d.mesh->num_faces(); ++f) {
-    const int t[3] = {d.mesh->faces(0, f), d.mesh->faces(1, f), d.mesh->faces(2, f)};
-    cm.add_face(t);
-  }
-  d.covariance_mesh = std::move(cm);
-  return d;
-}
-
-// Parameters an entry cannot run without (external.*: the command to run).
-Json test_params(const std::string& name) {
-  if (name == "external.points") return Json{{"command", "cp {in} {out}"}};
-  if (name == "external.mesh") {
-    return Json{{"command", "printf 'OFF\\n3 1 0\\n0 0 0\\n1 0 0\\n0 1 0\\n3 0 1 2\\n' > {out}"},
-                {"extension", ".off"}};
-  }
-  return Json::object();
+  return fixtures::every_kind(small_scan(), make_sphere(sp));
 }
 
 TEST(AlgorithmRegistry, EveryEntryRunsByNameOnASmallScan) {
@@ -98,7 +70,7 @@ TEST(AlgorithmRegistry, EveryEntryRunsByNameOnASmallScan) {
   for (const auto& e : registry().entries()) {
     SCOPED_TRACE(e.name);
     RunContext ctx(5);
-    const Json params = e.params.validate(test_params(e.name), e.name);
+    const Json params = e.params.validate(fixtures::required_params(e.name), e.name);
     EXPECT_TRUE(e.fn.io.produces.has(e.fn.io.primary));
     // The entry gets exactly what it consumes, nothing else.
     StageData in;

@@ -9,6 +9,7 @@
 #include <map>
 #include <string>
 
+#include "registry_fixtures.h"
 #include "scanbench/algorithms/registry.h"
 #include "scanbench/core/procedural.h"
 #include "scanbench/metrics/evaluate.h"
@@ -100,38 +101,8 @@ TEST(ThreadIdentity, ScannerAt1_2_7Threads) {
     expect_same_bits(ref, blobs(StageData{small_scan(t).cloud}), t);
 }
 
-/// Stage data holding every kind an entry may consume: the scan with PCA normals, its HEM
-/// mixture, the sphere mesh and that mesh with isotropic covariances.
 StageData every_kind() {
-  RunContext ctx(3, 1);
-  const auto& reg = algorithms::registry();
-  StageData d{small_scan(1).cloud};
-  d = reg.at("normals.pca").fn(d, reg.at("normals.pca").params.validate(Json::object(), "t"), ctx);
-  d.mixture = reg.at("mixture.hem")
-                  .fn(d, reg.at("mixture.hem").params.validate(Json::object(), "t"), ctx)
-                  .mixture;
-  d.mesh = test_sphere();
-  CovarianceMesh cm;
-  cm.resize(d.mesh->num_vertices());
-  cm.means = d.mesh->vertices.cast<double>();
-  for (Eigen::Index i = 0; i < cm.num_vertices(); ++i)
-    cm.set_covariance(i, 0.01 * Eigen::Matrix3d::Identity());
-  for (Eigen::Index f = 0; f < d.mesh->num_faces(); ++f) {
-    const int t[3] = {d.mesh->faces(0, f), d.mesh->faces(1, f), d.mesh->faces(2, f)};
-    cm.add_face(t);
-  }
-  d.covariance_mesh = std::move(cm);
-  return d;
-}
-
-// Parameters an entry cannot run without (external.*: the command to run).
-Json test_params(const std::string& name) {
-  if (name == "external.points") return Json{{"command", "cp {in} {out}"}};
-  if (name == "external.mesh") {
-    return Json{{"command", "printf 'OFF\\n3 1 0\\n0 0 0\\n1 0 0\\n0 1 0\\n3 0 1 2\\n' > {out}"},
-                {"extension", ".off"}};
-  }
-  return Json::object();
+  return algorithms::fixtures::every_kind(small_scan(1).cloud, test_sphere());
 }
 
 // CGAL's advancing-front meshing (Cohen-Steiner and Da 2004; CGAL 5.5, also the scale-space
@@ -149,7 +120,7 @@ TEST(ThreadIdentity, EveryAlgorithmAt1_2_7Threads) {
   int n = 0;
   for (const auto& e : algorithms::registry().entries()) {
     SCOPED_TRACE(e.name);
-    const Json params = e.params.validate(test_params(e.name), e.name);
+    const Json params = e.params.validate(algorithms::fixtures::required_params(e.name), e.name);
     StageData in;
     if (e.fn.io.consumes.has(DataKind::Points)) in.points = all.points;
     if (e.fn.io.consumes.has(DataKind::Mixture)) in.mixture = all.mixture;
