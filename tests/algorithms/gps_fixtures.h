@@ -66,6 +66,15 @@ inline Mesh octahedron() {
   return m;
 }
 
+/// The octahedron with a fin: a third triangle {0, 2, 6} on edge 0-2 (face 8, non-manifold).
+inline Mesh octahedron_with_fin() {
+  Mesh m = octahedron();
+  m.positions.conservativeResize(3, 7);
+  m.positions.col(6) << 2, 2, 2;
+  m.faces.add({0, 2, 6});
+  return m;
+}
+
 /// The unit cube [-1, 1]^3 as 6 outward quads (GPS Fig. 9's control mesh).
 inline Mesh quad_cube() {
   Mesh m;

@@ -558,10 +558,7 @@ TEST(BadInput, ConnectivityErrorsNameTheFace) {
   SubdivideParams p;
   p.levels = 1;
   // A fin: three triangles on one edge.
-  Mesh fin = fixtures::octahedron();
-  fin.positions.conservativeResize(3, 7);
-  fin.positions.col(6) << 2, 2, 2;
-  fin.faces.add({0, 2, 6});
+  Mesh fin = fixtures::octahedron_with_fin();
   std::string e = error_of(
       [&] { subdivide_linear(fin.positions, fin.faces, SubdivisionScheme::Loop, p, "fin"); });
   EXPECT_NE(e.find("fin: face 8"), std::string::npos) << e;
@@ -601,10 +598,7 @@ TEST(BadInput, GpSchemesNameTheFaceAndCatmullClarkTakesTriangles) {
   RunContext ctx(1);
   SubdivideParams p;
   p.levels = 1;
-  Mesh fin = fixtures::octahedron();
-  fin.positions.conservativeResize(3, 7);
-  fin.positions.col(6) << 2, 2, 2;
-  fin.faces.add({0, 2, 6});
+  Mesh fin = fixtures::octahedron_with_fin();
   for (auto scheme : {SubdivisionScheme::Loop, SubdivisionScheme::CatmullClark}) {
     const std::string e = error_of([&] {
       gp_subdivide(with_covariance(fin, Eigen::Matrix3d::Identity()), scheme, p, ctx, "fin.ply");

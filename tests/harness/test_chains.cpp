@@ -5,6 +5,7 @@
 
 #include <string>
 
+#include "experiment_test_util.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/harness/experiment.h"
 
@@ -23,25 +24,17 @@ Json config_with(const Json& variant) {
   return c;
 }
 
-std::string load_error(const Json& cfg) {
-  try {
-    parse_experiment(cfg, "cfg.json");
-  } catch (const ParamError& e) {
-    return e.what();
-  }
-  return "";
-}
-
 TEST(Chains, AStepMissingTheMixtureFailsAtLoadNamingTheStep) {
   // normals.csw consumes the mixture of mixture.hem; normals.pca provides only points.
-  const std::string e = load_error(config_with(Json::parse(R"({"label": "csw", "chain": [
+  const std::string e =
+      test::experiment_load_error(config_with(Json::parse(R"({"label": "csw", "chain": [
       {"algorithm": "normals.pca"}, {"algorithm": "normals.csw"}]})")));
   EXPECT_NE(e.find("cfg.json: /variants/0/chain/1"), std::string::npos) << e;
   EXPECT_NE(e.find("(normals.csw) consumes points and mixture"), std::string::npos) << e;
   EXPECT_NE(e.find("(mixture missing)"), std::string::npos) << e;
   // The one-step form too.
-  const std::string e1 =
-      load_error(config_with(Json::parse(R"({"label": "csw", "algorithm": "normals.csw"})")));
+  const std::string e1 = test::experiment_load_error(
+      config_with(Json::parse(R"({"label": "csw", "algorithm": "normals.csw"})")));
   EXPECT_NE(e1.find("cfg.json: /variants/0"), std::string::npos) << e1;
   EXPECT_NE(e1.find("mixture missing"), std::string::npos) << e1;
 }
@@ -55,7 +48,7 @@ TEST(Chains, ReconstructionAndCswChainsLoad) {
            R"({"label": "af", "algorithm": "peer.cgal_advancing_front"})",
            R"({"label": "ext", "algorithm": "external.mesh",
                "params": {"command": "cp {in} {out}"}})"}) {
-    EXPECT_EQ(load_error(config_with(Json::parse(v))), "") << v;
+    EXPECT_EQ(test::experiment_load_error(config_with(Json::parse(v))), "") << v;
   }
 }
 

@@ -16,6 +16,7 @@
 #include <string>
 
 #include "cli_test_util.h"
+#include "experiment_test_util.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/paths.h"
 #include "scanbench/harness/experiment.h"
@@ -37,15 +38,6 @@ Json config(const Json& scanners, const Json& variant) {
   return c;
 }
 
-std::string load_error(const Json& cfg) {
-  try {
-    parse_experiment(cfg, "cfg.json");
-  } catch (const ParamError& e) {
-    return e.what();
-  }
-  return "";
-}
-
 const Json kMeshChain = Json::parse(R"({"label": "loop", "chain": [
     {"algorithm": "mesh.decimate", "params": {"faces": 100}}, {"algorithm": "subdivide.loop"}]})");
 
@@ -59,21 +51,22 @@ TEST(GroundTruthInput, ChainsAreCheckedAgainstTheInputTheyGet) {
   EXPECT_EQ(plan.jobs[0].scanner_params, Json::object());
   EXPECT_NE(plan.jobs[0].id, plan.jobs[1].id);
   // The same chain on a scan: mesh.decimate finds only points.
-  std::string e = load_error(config(Json::array({"clean"}), kMeshChain));
+  std::string e = test::experiment_load_error(config(Json::array({"clean"}), kMeshChain));
   EXPECT_NE(e.find("cfg.json: /variants/0/chain/0"), std::string::npos) << e;
   EXPECT_NE(e.find("(mesh.decimate) consumes mesh"), std::string::npos) << e;
   EXPECT_NE(e.find("input: the points of scanner 'clean'"), std::string::npos) << e;
   // Both inputs in one config: each variant must take both.
-  e = load_error(config(Json::array({"clean", "ground_truth"}), kMeshChain));
+  e = test::experiment_load_error(config(Json::array({"clean", "ground_truth"}), kMeshChain));
   EXPECT_NE(e.find("scanner 'clean'"), std::string::npos) << e;
   // A points chain on the ground-truth mesh.
-  e = load_error(config(Json::array({"ground_truth"}),
-                        Json::parse(R"({"label": "pca", "algorithm": "normals.pca"})")));
+  e = test::experiment_load_error(
+      config(Json::array({"ground_truth"}),
+             Json::parse(R"({"label": "pca", "algorithm": "normals.pca"})")));
   EXPECT_NE(e.find("(normals.pca) consumes points"), std::string::npos) << e;
   EXPECT_NE(e.find("input: the ground-truth mesh of scanner 'ground_truth'"), std::string::npos)
       << e;
   // ground_truth takes no parameters, neither in the entry nor from a sweep.
-  e = load_error(
+  e = test::experiment_load_error(
       config(Json::parse(R"([{"preset": "ground_truth", "params": {"views": 3}}])"), kMeshChain));
   EXPECT_NE(e.find("cfg.json: /scanners/0/params"), std::string::npos) << e;
   Json swept = config(Json::array({"ground_truth"}), kMeshChain);
