@@ -11,7 +11,7 @@ namespace scanbench::test {
 /// when the config loads.
 inline std::string experiment_load_error(const Json& cfg) {
   try {
-    parse_experiment(cfg, "cfg.json");
+    harness::parse_experiment(cfg, "cfg.json");
   } catch (const ParamError& e) {
     return e.what();
   }
