@@ -14,20 +14,21 @@
 namespace scanbench::algorithms {
 
 namespace {
-constexpr std::string_view kStage = "normals.bilateral";
+constexpr std::string_view kBilateralStage = "normals.bilateral";
 }  // namespace
 
 PointCloud bilateral_normals(const PointCloud& input, const BilateralNormalsParams& p,
                              RunContext& ctx) {
-  input.validate(kStage);
-  detail::require_unit_normals(input, kStage, "normals.pca -> normals.bilateral");
+  input.validate(kBilateralStage);
+  detail::require_unit_normals(input, kBilateralStage, "normals.pca -> normals.bilateral");
   PointCloud out = input;
   const Eigen::Index n = input.size();
   if (n <= 1) return out;
   const float diag = input.bbox().diagonal();
   if (!(diag > 0.0f)) {
-    throw InputError(fmt::format(
-        "{}: the input's bounding box has a zero diagonal (all {} points coincide)", kStage, n));
+    throw InputError(
+        fmt::format("{}: the input's bounding box has a zero diagonal (all {} points coincide)",
+                    kBilateralStage, n));
   }
   auto timer = ctx.phase("bilateral");
   const float h = static_cast<float>(p.h) * diag;
@@ -40,7 +41,7 @@ PointCloud bilateral_normals(const PointCloud& input, const BilateralNormalsPara
   // Normals in the grid's sorted order (refreshed every iteration), beside its coordinates.
   std::vector<float> nx(static_cast<std::size_t>(n)), ny(nx.size()), nz(nx.size());
   for (int it = 0; it < p.iterations; ++it) {
-    ctx.check_cancelled(kStage);
+    ctx.check_cancelled(kBilateralStage);
     for (Eigen::Index s = 0; s < n; ++s) {
       const Eigen::Index j = grid.index(s);
       nx[static_cast<std::size_t>(s)] = normals(0, j);
@@ -76,7 +77,7 @@ PointCloud bilateral_normals(const PointCloud& input, const BilateralNormalsPara
     normals.swap(next);
   }
   out.normals = std::move(normals);
-  out.validate(kStage);
+  out.validate(kBilateralStage);
   return out;
 }
 

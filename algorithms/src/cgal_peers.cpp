@@ -23,10 +23,10 @@ namespace scanbench::algorithms {
 
 namespace {
 
-using Kernel = CGAL::Simple_cartesian<double>;
-using Point = Kernel::Point_3;
-using Vector = Kernel::Vector_3;
-using PointWithNormal = std::pair<Point, Vector>;
+using PeerKernel = CGAL::Simple_cartesian<double>;
+using PeerPoint = PeerKernel::Point_3;
+using PeerVector = PeerKernel::Vector_3;
+using PointWithNormal = std::pair<PeerPoint, PeerVector>;
 
 void check_input(const PointCloud& input, std::string_view stage, Eigen::Index min_points) {
   input.validate(stage);
@@ -36,15 +36,15 @@ void check_input(const PointCloud& input, std::string_view stage, Eigen::Index m
   }
 }
 
-std::vector<Point> to_cgal(const Eigen::Matrix3Xf& p) {
-  std::vector<Point> out;
+std::vector<PeerPoint> to_cgal(const Eigen::Matrix3Xf& p) {
+  std::vector<PeerPoint> out;
   out.reserve(static_cast<std::size_t>(p.cols()));
   for (Eigen::Index i = 0; i < p.cols(); ++i)
     out.emplace_back(p(0, i), p(1, i), p(2, i));
   return out;
 }
 
-Eigen::Vector3f to_eigen(const Point& p) {
+Eigen::Vector3f to_eigen(const PeerPoint& p) {
   return {static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z())};
 }
 
@@ -62,13 +62,13 @@ PointCloud cgal_wlop(const PointCloud& input, const CgalWlopParams& p, RunContex
     throw ParamError(
         fmt::format("{}.particles: {} of {} points keeps no particle", stage, p.particles, n));
   }
-  std::vector<Point> points = to_cgal(input.positions);
+  std::vector<PeerPoint> points = to_cgal(input.positions);
   // Our seeded shuffle first: CGAL's own shuffle uses a fixed-seed rand48.
   Rng rng(ctx.stream_seed("particles"));
   for (std::size_t i = n; i > 1; --i)
     std::swap(points[i - 1], points[static_cast<std::size_t>(rng.below(i))]);
 
-  std::vector<Point> out;
+  std::vector<PeerPoint> out;
   out.reserve(kept);
   {
     auto timer = ctx.phase("cgal");
@@ -96,8 +96,8 @@ PointCloud cgal_bilateral(const PointCloud& input, const CgalBilateralParams& p,
   std::vector<PointWithNormal> pwn(n);
   for (std::size_t i = 0; i < n; ++i) {
     const auto c = static_cast<Eigen::Index>(i);
-    pwn[i] = {Point(out.positions(0, c), out.positions(1, c), out.positions(2, c)),
-              Vector(out.normals(0, c), out.normals(1, c), out.normals(2, c))};
+    pwn[i] = {PeerPoint(out.positions(0, c), out.positions(1, c), out.positions(2, c)),
+              PeerVector(out.normals(0, c), out.normals(1, c), out.normals(2, c))};
   }
   const auto k = static_cast<unsigned int>(std::min<Eigen::Index>(p.k, out.size()));
   {
@@ -114,7 +114,7 @@ PointCloud cgal_bilateral(const PointCloud& input, const CgalBilateralParams& p,
   for (std::size_t i = 0; i < n; ++i) {
     const auto c = static_cast<Eigen::Index>(i);
     out.positions.col(c) = to_eigen(pwn[i].first);
-    const Vector& v = pwn[i].second;
+    const PeerVector& v = pwn[i].second;
     out.normals.col(c) = Eigen::Vector3f(static_cast<float>(v.x()), static_cast<float>(v.y()),
                                          static_cast<float>(v.z()))
                              .normalized();
@@ -135,7 +135,7 @@ PointCloud cgal_jet(const PointCloud& input, const CgalJetParams& p, RunContext&
                                  stage, p.degree_fitting, coefficients, p.k));
   }
   check_input(input, stage, p.k);
-  std::vector<Point> points = to_cgal(input.positions);
+  std::vector<PeerPoint> points = to_cgal(input.positions);
   {
     auto timer = ctx.phase("cgal");
     CGAL::jet_smooth_point_set<CGAL::Parallel_tag>(
@@ -173,8 +173,8 @@ PointCloud cgal_ear(const PointCloud& input, const CgalEarParams& p, RunContext&
   for (std::size_t i = 0; i < n; ++i) {
     const auto c = static_cast<Eigen::Index>(i);
     const Eigen::Vector3d q = ((input.positions.col(c) - centre).cast<double>()) / diag;
-    pwn[i] = {Point(q.x(), q.y(), q.z()),
-              Vector(unit_normals(0, c), unit_normals(1, c), unit_normals(2, c))};
+    pwn[i] = {PeerPoint(q.x(), q.y(), q.z()),
+              PeerVector(unit_normals(0, c), unit_normals(1, c), unit_normals(2, c))};
   }
   std::vector<PointWithNormal> added;
   {
@@ -196,8 +196,8 @@ PointCloud cgal_ear(const PointCloud& input, const CgalEarParams& p, RunContext&
   out.normals.leftCols(input.size()) = unit_normals;
   for (std::size_t i = 0; i < added.size(); ++i) {
     const auto c = static_cast<Eigen::Index>(n + i);
-    const Point& q = added[i].first;
-    const Vector& v = added[i].second;
+    const PeerPoint& q = added[i].first;
+    const PeerVector& v = added[i].second;
     out.positions.col(c) = (Eigen::Vector3d(q.x(), q.y(), q.z()) * diag).cast<float>() + centre;
     out.normals.col(c) = Eigen::Vector3d(v.x(), v.y(), v.z()).normalized().cast<float>();
   }

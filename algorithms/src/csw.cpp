@@ -34,7 +34,7 @@ constexpr int kMean = 0, kInv = 3, kCoef = 9, kAxis = 10, kSpread = 13, kFields 
 struct Record {
   float f[kFields] = {};
 };
-const Record kZeroRecord{};
+const Record kZeroCswRecord{};
 
 // arccos of a packet of cosines c in [0, 1] (the axes are flipped into the particle's
 // hemisphere): Cephes' acosf, acos(c) = 2 asin(sqrt((1 - c) / 2)) above 1/2, pi/2 - asin(c)
@@ -93,7 +93,7 @@ void csw_particles(const GaussianMixture& m, const Eigen::Matrix3Xf& particles,
         for (int l = 0; l < kLanes; ++l)
           rec[l] = t + l < nc
                        ? records[static_cast<std::size_t>(ids[static_cast<std::size_t>(t + l)])].f
-                       : kZeroRecord.f;
+                       : kZeroCswRecord.f;
         float* block = soa.data() + static_cast<std::size_t>(t) * kFields;
         for (int b = 0; b < kFields; b += kLanes) {
           ei::PacketBlock<Packet, kLanes> pb;

@@ -273,17 +273,17 @@ Step em_step(const Problem& problem, const Eigen::Matrix3Xf& x, const Eigen::Mat
 }  // namespace gpf_detail
 
 namespace {
-constexpr std::string_view kStage = "filter.gpf";
+constexpr std::string_view kGpfStage = "filter.gpf";
 constexpr std::string_view kChain = "normals.pca -> normals.bilateral -> filter.gpf";
 }  // namespace
 
 PointCloud gpf(const PointCloud& input, const GpfParams& p, RunContext& ctx) {
-  input.validate(kStage);
-  if (input.empty()) throw InputError(fmt::format("{}: the input has no points", kStage));
+  input.validate(kGpfStage);
+  if (input.empty()) throw InputError(fmt::format("{}: the input has no points", kGpfStage));
   Eigen::Matrix3Xf normals;
   {
     auto timer = ctx.phase("normals");
-    detail::require_unit_normals(input, kStage, kChain);
+    detail::require_unit_normals(input, kGpfStage, kChain);
     normals = detail::unit_normals(input);
   }
   const BoundingBox box = input.bbox();
@@ -292,14 +292,14 @@ PointCloud gpf(const PointCloud& input, const GpfParams& p, RunContext& ctx) {
     throw InputError(fmt::format(
         "{}: the input's bounding box has a zero diagonal ({} point(s), all identical); GPF "
         "needs a surface",
-        kStage, input.size()));
+        kGpfStage, input.size()));
   }
   const Eigen::Index n = input.size();
-  const Eigen::Index m = kernels::particle_count(p.particles, n, kStage);
+  const Eigen::Index m = kernels::particle_count(p.particles, n, kGpfStage);
   if (m > n) {
     throw ParamError(
         fmt::format("{}.particles: {} particles exceed the {} input points (GPF projects a subset)",
-                    kStage, m, n));
+                    kGpfStage, m, n));
   }
   // Working units: centred, unit bbox diagonal (see gpf.h, "Units").
   const Eigen::Vector3f centre = box.center();
@@ -323,7 +323,7 @@ PointCloud gpf(const PointCloud& input, const GpfParams& p, RunContext& ctx) {
   double s2 = p.s2_init;
   const bool fixed_s2 = p.s2_update == "fixed";
   for (int it = 0; it < p.iterations; ++it) {
-    ctx.check_cancelled(kStage);
+    ctx.check_cancelled(kGpfStage);
     gpf_detail::Step step = gpf_detail::em_step(*problem, x, xb, s2, p.omega, p.mu, &ctx);
     x = std::move(step.x);
     if (!fixed_s2) s2 = step.s2;
@@ -335,7 +335,7 @@ PointCloud gpf(const PointCloud& input, const GpfParams& p, RunContext& ctx) {
       problem->set_h(static_cast<float>(p.h * p.gap_scale));
     }
     for (int it = 0; it < p.gap_iterations; ++it) {
-      ctx.check_cancelled(kStage);
+      ctx.check_cancelled(kGpfStage);
       gpf_detail::Step step = gpf_detail::em_step(*problem, x, xb, s2, p.omega, p.mu, &ctx);
       x = std::move(step.x);
       if (!fixed_s2) s2 = step.s2;
@@ -344,7 +344,7 @@ PointCloud gpf(const PointCloud& input, const GpfParams& p, RunContext& ctx) {
   PointCloud out;
   out.positions = (x * diag).colwise() + centre;
   out.normals = std::move(xb);
-  out.validate(kStage);  // never NaN: checked, not assumed
+  out.validate(kGpfStage);  // never NaN: checked, not assumed
   return out;
 }
 

@@ -18,7 +18,7 @@ namespace scanbench::algorithms {
 
 namespace {
 
-constexpr const char* kStage = "normals.pca";
+constexpr const char* kPcaStage = "normals.pca";
 
 // Orients along a minimum spanning tree of the symmetrised k-NN graph (Hoppe et al. 1992).
 void propagate(const Eigen::Matrix3Xf& pts, const std::vector<Eigen::Index>& knn, int k,
@@ -80,15 +80,15 @@ void propagate(const Eigen::Matrix3Xf& pts, const std::vector<Eigen::Index>& knn
 }  // namespace
 
 PointCloud pca_normals(const PointCloud& input, const PcaNormalsParams& p, RunContext& ctx) {
-  input.validate(kStage);
+  input.validate(kPcaStage);
   const Eigen::Index n = input.size();
-  if (n < 3) throw InputError(fmt::format("{}: needs at least 3 points, got {}", kStage, n));
+  if (n < 3) throw InputError(fmt::format("{}: needs at least 3 points, got {}", kPcaStage, n));
   std::string mode = p.orientation;
   const bool has_sensor = input.has_scan_ids() && input.sensor_origins.cols() > 0;
   if (mode == "auto") mode = has_sensor ? "sensor" : "propagate";
   if (mode == "sensor" && !has_sensor) {
     throw InputError(fmt::format(
-        "{}: orientation 'sensor' needs scan_ids and sensor_origins in the input", kStage));
+        "{}: orientation 'sensor' needs scan_ids and sensor_origins in the input", kPcaStage));
   }
 
   const Eigen::Matrix3Xf& pts = input.positions;

@@ -26,17 +26,11 @@ namespace {
 
 using io_detail::Lines;
 using io_detail::localize;
+using io_detail::lower_extension;
 using io_detail::parse_number;
 using io_detail::slurp;
 using io_detail::space;
 using io_detail::Tokens;
-
-std::string lower_extension(const std::filesystem::path& path) {
-  std::string ext = path.extension().string();
-  for (char& c : ext)
-    c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return ext;
-}
 
 TriangleMesh to_mesh(const std::vector<float>& xyz, const std::vector<int>& tri) {
   TriangleMesh m;
@@ -183,6 +177,13 @@ float read_le_float(const char* p) {
 }  // namespace
 
 namespace io_detail {
+
+std::string lower_extension(const std::filesystem::path& path) {
+  std::string ext = path.extension().string();
+  for (char& c : ext)
+    c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return ext;
+}
 
 std::string slurp(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);

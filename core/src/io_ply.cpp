@@ -142,15 +142,8 @@ ply::Format to_ply(PlyFormat f) {
   return f == PlyFormat::Ascii ? ply::Format::Ascii : ply::Format::BinaryLittleEndian;
 }
 
-std::string lower_extension(const std::filesystem::path& path) {
-  std::string ext = path.extension().string();
-  for (char& c : ext)
-    c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return ext;
-}
-
 void require_ply_extension(const std::filesystem::path& path, const char* what) {
-  if (lower_extension(path) != ".ply") {
+  if (io_detail::lower_extension(path) != ".ply") {
     throw IoError(fmt::format("{}: unsupported {} format '{}' (expected .ply)", path.string(), what,
                               path.extension().string()));
   }
@@ -364,7 +357,7 @@ void write_mesh_ply(const TriangleMesh& mesh, const std::filesystem::path& path)
 }  // namespace io_detail
 
 PointCloud read_point_cloud(const std::filesystem::path& path) {
-  const std::string ext = lower_extension(path);
+  const std::string ext = io_detail::lower_extension(path);
   if (io_detail::is_xyz_extension(ext))
     return io_detail::cloud_from_xyz(io_detail::slurp(path), path.string());
   if (ext == ".off") {
@@ -533,7 +526,7 @@ void write_covariance_mesh(const CovarianceMesh& mesh, const std::filesystem::pa
 
 StageData read_stage_file(const std::filesystem::path& path) {
   StageData d;
-  const std::string ext = lower_extension(path);
+  const std::string ext = io_detail::lower_extension(path);
   if (io_detail::is_xyz_extension(ext)) {
     d.points = io_detail::cloud_from_xyz(io_detail::slurp(path), path.string());
     return d;

@@ -19,6 +19,9 @@
 
 namespace scanbench::io_detail {
 
+/// The extension of `path` in lower case, with its dot (".ply"); "" when it has none.
+std::string lower_extension(const std::filesystem::path& path);
+
 /// The whole file; IoError("<path>: cannot open for reading") when it cannot be read.
 std::string slurp(const std::filesystem::path& path);
 

@@ -1,10 +1,15 @@
 #include "scanbench/core/timing.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <ctime>
 
 namespace scanbench {
+
+double wall_seconds() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
 
 double process_cpu_seconds() {
   timespec t{};

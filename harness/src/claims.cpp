@@ -10,6 +10,7 @@
 #include <set>
 #include <sstream>
 
+#include "json_checks.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/harness/experiment.h"
 #include "scanbench/harness/records.h"
@@ -23,20 +24,6 @@ namespace {
 
 [[noreturn]] void fail(const std::string& where, const std::string& what) {
   throw ParamError(fmt::format("{}: {}", where, what));
-}
-
-void check_keys(const Json& j, const std::string& where,
-                std::initializer_list<const char*> allowed) {
-  if (!j.is_object()) fail(where, "expected an object, got " + std::string(j.type_name()));
-  for (const auto& [k, v] : j.items()) {
-    bool ok = false;
-    std::string list;
-    for (const char* a : allowed) {
-      ok = ok || k == a;
-      list += (list.empty() ? "" : ", ") + std::string(a);
-    }
-    if (!ok) fail(where + "/" + k, "unknown key (expected one of: " + list + ")");
-  }
 }
 
 std::string get_string(const Json& j, const std::string& key, const std::string& where,

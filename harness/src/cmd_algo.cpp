@@ -15,6 +15,7 @@
 #include "scanbench/core/errors.h"
 #include "scanbench/core/io.h"
 #include "scanbench/core/run_context.h"
+#include "scanbench/harness/records.h"
 
 namespace scanbench::harness {
 
@@ -26,13 +27,6 @@ std::filesystem::path sibling(const std::filesystem::path& out, const std::strin
   p.replace_extension();
   p += "." + suffix + ".ply";
   return p;
-}
-
-void write_json(const Json& j, const std::filesystem::path& path) {
-  std::ofstream f(path);
-  if (!f) throw IoError(fmt::format("{}: cannot open for writing", path.string()));
-  f << j.dump(2) << '\n';
-  if (!f) throw IoError(fmt::format("{}: write failed", path.string()));
 }
 
 }  // namespace
@@ -169,7 +163,7 @@ void add_algo_command(Cli& cli) {
           cpu[name] = seconds;
         record["phases_cpu"] = cpu;
         record["total_s"] = total;
-        write_json(record, opts->timings);
+        write_file_atomic(opts->timings, record.dump(2) + "\n");
       }
       fmt::print("{}: {} -> {} in {:.3f} s -> {}{}\n", entry.name, kinds_names(input.kinds()),
                  kind_name(io.primary), total, opts->output, extra);

@@ -14,7 +14,7 @@
 //    as many new points as GPF outputs (factor 1 + particles); its total adds the normals' time
 //    too. CGAL has only EAR's upsampling, not its WLOP/ALOP resampling, so this is the peer's
 //    part of the paper's EAR column.
-// Accuracy (against the procedural ground truth): p2plane_mean over every output point and
+// FilterAccuracy (against the procedural ground truth): p2plane_mean over every output point and
 // p2plane_edge: the mean |<q - p, N_p>| / diag over the output points whose closest ground-truth
 // point lies within 0.02 diag of a mesh edge with a dihedral angle above 30 degrees.
 // Ratios: wlop_over_gpf, cgal_ear_over_gpf (totals), and the same over gpf_only; the paper's
@@ -52,21 +52,17 @@ namespace scanbench::harness {
 
 namespace {
 
-double now_seconds() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
-
-struct Accuracy {
+struct FilterAccuracy {
   double p2plane = 0.0, p2plane_edge = 0.0;
   long edge_points = 0;
 };
 
 // The edge set is edges.p2plane's (metrics/sharp_edges.h, at its defaults 30 degrees, 0.02 diag).
-Accuracy accuracy(const metrics::GroundTruth& gt, const PointCloud& out) {
+FilterAccuracy filter_accuracy(const metrics::GroundTruth& gt, const PointCloud& out) {
   const auto cps = gt.closest_points(out.positions);
   const std::vector<bool> near = metrics::near_sharp_edges(gt, cps, metrics::SharpEdgeParams{});
   const float diag = gt.diagonal();
-  Accuracy a;
+  FilterAccuracy a;
   for (Eigen::Index i = 0; i < out.size(); ++i) {
     const auto& cp = cps[static_cast<std::size_t>(i)];
     const double e = std::abs((out.positions.col(i) - cp.point).dot(cp.normal)) / diag;
@@ -92,10 +88,10 @@ Timed time_it(int repeats, int threads, std::uint64_t seed,
   Timed t;
   for (int i = 0; i < repeats; ++i) {
     RunContext ctx(seed, threads);
-    const double t0 = now_seconds();
+    const double t0 = wall_seconds();
     const double c0 = process_cpu_seconds();
     t.output = f(ctx);
-    t.seconds.push_back(now_seconds() - t0);
+    t.seconds.push_back(wall_seconds() - t0);
     t.cpu.push_back(process_cpu_seconds() - c0);
     t.phases_cpu = ctx.phase_cpu_seconds();
   }
@@ -227,7 +223,7 @@ void add_bench_filter(CLI::App* bench, Cli& cli) {
           {"cgal_ear", t_normals + median(e.seconds), c_normals + median(e.cpu), &e.output,
            &e.phases_cpu},
       };
-      const Accuracy in_acc = accuracy(gt, input);
+      const FilterAccuracy in_acc = filter_accuracy(gt, input);
       fmt::print("{:>12} {:>9} {:>9} {:>9} {:>13} {:>13}  phases (CPU s)\n", "method", "median_s",
                  "cpu_s", "points", "p2plane_mean", "p2plane_edge");
       fmt::print("{:>12} {:>9} {:>9} {:>9} {:>13.6f} {:>13.6f}\n", "input", "-", "-", input.size(),
@@ -235,7 +231,7 @@ void add_bench_filter(CLI::App* bench, Cli& cli) {
       Json cases = Json::array();
       std::map<std::string, double> med, med_cpu;
       for (const Row& r : rows) {
-        const Accuracy a = accuracy(gt, *r.out);
+        const FilterAccuracy a = filter_accuracy(gt, *r.out);
         med[r.name] = r.s;
         med_cpu[r.name] = r.cpu;
         std::string ph;

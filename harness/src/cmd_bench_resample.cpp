@@ -37,10 +37,6 @@ namespace scanbench::harness {
 
 namespace {
 
-double now_seconds() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
-
 // The camel scan of the paper's case, its resolution calibrated so that it holds about
 // target_points points (one scan at resolution 128, then the resolution scaled by the square
 // root of the ratio). Deterministic for a seed.
@@ -86,10 +82,10 @@ CaseResult run_case(const std::string& name, const std::string& algorithm, const
   r.params = entry.params.validate(given, "bench resample " + name);
   for (int i = 0; i < repeats; ++i) {
     RunContext ctx(seed, threads);
-    const double t0 = now_seconds();
+    const double t0 = wall_seconds();
     const double c0 = process_cpu_seconds();
     r.output = entry.fn(input, r.params, ctx);
-    r.seconds.push_back(now_seconds() - t0);
+    r.seconds.push_back(wall_seconds() - t0);
     r.cpu.push_back(process_cpu_seconds() - c0);
     r.phases = ctx.phase_seconds();
     r.phases_cpu = ctx.phase_cpu_seconds();

@@ -55,12 +55,13 @@ Control torus_control(int major, int minor) {
           }};
 }
 
-struct Accuracy {
+struct SurfaceDistance {
   double mean = 0, rms = 0, max = 0;
 };
 
-Accuracy accuracy(const Eigen::Matrix3Xd& p, double (*distance)(const Eigen::Vector3d&)) {
-  Accuracy a;
+SurfaceDistance surface_distance(const Eigen::Matrix3Xd& p,
+                                 double (*distance)(const Eigen::Vector3d&)) {
+  SurfaceDistance a;
   for (Eigen::Index i = 0; i < p.cols(); ++i) {
     const double d = distance(p.col(i));
     a.mean += d;
@@ -180,7 +181,7 @@ void add_bench_subdivide(CLI::App* bench, Cli& cli) {
                        {"gp_loop_over_loop_largest", ratios.back()}};
       out["targets"] = {{"gp_loop_over_loop_max", 2.0}};
 
-      // Accuracy: limit surfaces of coarse control meshes against their smooth originals.
+      // SurfaceDistance: limit surfaces of coarse control meshes against their smooth originals.
       fmt::print(
           "accuracy (distance of the limit vertices to the original, fraction of the bbox "
           "diagonal; face-based inference, sigma_0 = {})\n",
@@ -198,10 +199,10 @@ void add_bench_subdivide(CLI::App* bench, Cli& cli) {
           Eigen::Matrix3Xd x = k.positions;
           PolygonFaces f = k.faces;
           algorithms::subdivide_linear(x, f, SubdivisionScheme::Loop, p, k.name);
-          const Accuracy l = accuracy(x, k.distance);
-          const Accuracy g =
-              accuracy(algorithms::gp_subdivide(km, SubdivisionScheme::Loop, p, ctx, k.name).means,
-                       k.distance);
+          const SurfaceDistance l = surface_distance(x, k.distance);
+          const SurfaceDistance g = surface_distance(
+              algorithms::gp_subdivide(km, SubdivisionScheme::Loop, p, ctx, k.name).means,
+              k.distance);
           fmt::print("  {:<12} {:>6} {:>12.5f} {:>12.5f} {:>12.5f} {:>12.5f}\n", k.name, levels,
                      l.mean / diag, g.mean / diag, l.rms / diag, g.rms / diag);
           acc.push_back({{"control", k.name},

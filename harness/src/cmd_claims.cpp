@@ -28,15 +28,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-std::string stamp_now() {
-  const std::time_t now = std::time(nullptr);
-  std::tm tm{};
-  gmtime_r(&now, &tm);
-  char s[32];
-  std::strftime(s, sizeof(s), "%Y%m%d-%H%M%S", &tm);
-  return s;
-}
-
 void write_claims_page(const fs::path& dir, const Json& summary) {
   std::string h =
       "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>scanbench: "
@@ -145,7 +136,8 @@ void add_claims_command(Cli& cli) {
   sub->callback([&cli, a] {
     cli.action = [a] {
       ClaimsOptions o = a->o;
-      o.out = a->out.empty() ? fs::path("results/claims-" + stamp_now()) : fs::path(a->out);
+      o.out = a->out.empty() ? fs::path("results/claims-" + utc_now("%Y%m%d-%H%M%S"))
+                             : fs::path(a->out);
       const fs::path baseline = a->baseline.empty()
                                     ? project_root() / "results" / "baseline" / "claims.json"
                                     : fs::path(a->baseline);

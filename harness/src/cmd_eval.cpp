@@ -17,6 +17,7 @@
 #include "scanbench/core/errors.h"
 #include "scanbench/core/io.h"
 #include "scanbench/core/run_context.h"
+#include "scanbench/harness/records.h"
 #include "scanbench/metrics/distance_field.h"
 #include "scanbench/metrics/evaluate.h"
 #include "scanbench/metrics/ground_truth.h"
@@ -46,14 +47,6 @@ void apply_metric_set(Json& params, const std::string& s) {
   Json value = Json::parse(text, nullptr, /*allow_exceptions=*/false);
   if (value.is_discarded()) value = text;
   params[lhs.substr(0, dot)][lhs.substr(dot + 1)] = value;
-}
-
-void write_json(const Json& j, const std::string& path) {
-  if (fs::path(path).has_parent_path()) fs::create_directories(fs::path(path).parent_path());
-  std::ofstream f(path, std::ios::binary | std::ios::trunc);
-  f << j.dump(2) << "\n";
-  f.flush();
-  if (!f) throw IoError(path + ": cannot write");
 }
 
 std::string fmt_value(const Json& v) {
@@ -215,7 +208,9 @@ void add_eval_command(Cli& cli) {
         phases[k] = v;
       inputs["phase_seconds"] = phases;
       record["inputs"] = inputs;
-      write_json(record, opts->output);
+      const fs::path out_json(opts->output);
+      if (out_json.has_parent_path()) fs::create_directories(out_json.parent_path());
+      write_file_atomic(out_json, record.dump(2) + "\n");
 
       const double seconds =
           std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

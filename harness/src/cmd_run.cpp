@@ -51,15 +51,6 @@ void add_run_options(CLI::App* sub, RunArgs& a) {
   sub->add_flag("-q,--quiet", a.quiet, "No progress output");
 }
 
-std::string stamp() {
-  const std::time_t now = std::time(nullptr);
-  std::tm tm{};
-  gmtime_r(&now, &tm);
-  char s[32];
-  std::strftime(s, sizeof(s), "%Y%m%d-%H%M%S", &tm);
-  return s;
-}
-
 void add_slurm_options(CLI::App* sub, RunArgs& a) {
   sub->add_option("--executor", a.executor,
                   "local: child processes on this machine (default); slurm: one Slurm job array "
@@ -227,8 +218,8 @@ void add_nightly_command(Cli& cli) {
     cli.action = [a] {
       const fs::path baseline =
           a->baseline.empty() ? project_root() / "results" / "baseline" : fs::path(a->baseline);
-      const fs::path out =
-          do_run(a->run, config_root() / "nightly.json", "results/nightly-" + stamp());
+      const fs::path out = do_run(a->run, config_root() / "nightly.json",
+                                  "results/nightly-" + utc_now("%Y%m%d-%H%M%S"));
       // The papers' claims, quick set: DIR/claims/<id>/, summary also in DIR/claims.json (shown
       // by the report). A claim that held in the baseline and failed now is a regression.
       std::vector<std::string> claim_regressed;

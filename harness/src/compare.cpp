@@ -7,6 +7,7 @@
 #include <cmath>
 #include <set>
 
+#include "json_checks.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/harness/records.h"
 #include "scanbench/harness/stats.h"
@@ -26,18 +27,6 @@ double get_num(const Json& j, const char* key, double def, const std::string& wh
         fmt::format("{}/{}: expected a number in [{}, {}], got {}", where, key, lo, hi, v.dump()));
   }
   return v.get<double>();
-}
-
-void check_keys(const Json& j, const std::string& where, std::initializer_list<const char*> keys) {
-  if (!j.is_object()) throw ParamError(where + ": expected an object, got " + j.dump());
-  for (const auto& [k, v] : j.items()) {
-    if (std::none_of(keys.begin(), keys.end(), [&](const char* a) { return k == a; })) {
-      std::string list;
-      for (const char* a : keys)
-        list += (list.empty() ? "" : ", ") + std::string(a);
-      throw ParamError(fmt::format("{}/{}: unknown key (expected one of: {})", where, k, list));
-    }
-  }
 }
 
 Tolerance parse_tolerance(const Json& j, const std::string& where, Tolerance t) {
@@ -66,6 +55,22 @@ std::string fmt_num(double v) {
 }
 
 }  // namespace
+
+void check_keys(const Json& j, const std::string& where,
+                std::initializer_list<const char*> allowed) {
+  if (!j.is_object()) {
+    throw ParamError(fmt::format("{}: expected an object, got {}", where, j.type_name()));
+  }
+  for (const auto& item : j.items()) {
+    const std::string& key = item.key();
+    if (std::none_of(allowed.begin(), allowed.end(), [&](const char* a) { return key == a; })) {
+      std::string list;
+      for (const char* a : allowed)
+        list += (list.empty() ? "" : ", ") + std::string(a);
+      throw ParamError(fmt::format("{}/{}: unknown key (expected one of: {})", where, key, list));
+    }
+  }
+}
 
 int quantity_direction(const std::string& q) {
   if (q.rfind("time.", 0) == 0 || q == "peak_rss_mb") return -1;

@@ -82,12 +82,7 @@ Json run_context_json() {
   c["isa_compiled"] = std::string(simd::name(simd::compiled()));
   c["isa_flags"] = std::string(simd::compile_flags());
   c["allocator"] = std::string(allocator_policy());
-  const std::time_t now = std::time(nullptr);
-  std::tm tm{};
-  gmtime_r(&now, &tm);
-  char date[32];
-  std::strftime(date, sizeof(date), "%Y-%m-%dT%H:%M:%SZ", &tm);
-  c["date"] = date;
+  c["date"] = utc_now();
   return c;
 }
 
@@ -111,6 +106,25 @@ void write_file_atomic(const fs::path& path, const std::string& text) {
   std::error_code ec;
   fs::rename(tmp, path, ec);
   if (ec) throw IoError(fmt::format("{}: rename failed: {}", path.string(), ec.message()));
+}
+
+std::string utc_now(const char* format) {
+  const std::time_t now = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&now, &tm);
+  char date[64];
+  if (std::strftime(date, sizeof(date), format, &tm) == 0) return {};
+  return date;
+}
+
+std::string csv_field(const std::string& s) {
+  if (s.find_first_of(",\"\n") == std::string::npos) return s;
+  std::string out = "\"";
+  for (char c : s) {
+    if (c == '"') out += '"';
+    out += c == '\n' ? ' ' : c;
+  }
+  return out + "\"";
 }
 
 std::string read_file(const fs::path& path) {
@@ -237,21 +251,11 @@ double record_value(const Json& r, const std::string& q) {
 
 namespace {
 
-std::string csv_escape(const std::string& s) {
-  if (s.find_first_of(",\"\n") == std::string::npos) return s;
-  std::string out = "\"";
-  for (char c : s) {
-    if (c == '"') out += '"';
-    out += c == '\n' ? ' ' : c;
-  }
-  return out + "\"";
-}
-
 std::string csv_value(const Json& v) {
   if (v.is_null()) return "";
-  if (v.is_string()) return csv_escape(v.get<std::string>());
+  if (v.is_string()) return csv_field(v.get<std::string>());
   if (v.is_number_float()) return fmt::format("{:.9g}", v.get<double>());
-  return csv_escape(v.dump());
+  return csv_field(v.dump());
 }
 
 }  // namespace
@@ -273,12 +277,12 @@ std::string records_csv(const std::vector<Json>& records) {
   }
   std::string out = "id,key,status,dataset,scanner,variant,point,seed,repeats";
   for (const auto& k : params)
-    out += "," + csv_escape("params." + k);
+    out += "," + csv_field("params." + k);
   for (const auto& k : metrics)
-    out += "," + csv_escape("metrics." + k);
+    out += "," + csv_field("metrics." + k);
   out += ",time.total_median_s,time.cpu_median_s";
   for (const auto& k : phases)
-    out += "," + csv_escape("time." + k + "_median_s");
+    out += "," + csv_field("time." + k + "_median_s");
   out += ",peak_rss_mb,error\n";
   for (const auto& r : records) {
     auto label = [&](const char* field) {
@@ -287,8 +291,8 @@ std::string records_csv(const std::vector<Json>& records) {
     };
     out += fmt::format("{},{},{},{},{},{},{},{},{}", csv_value(r.value("id", Json())),
                        csv_value(r.value("key", Json())), csv_value(r.value("status", Json())),
-                       csv_escape(label("dataset")), csv_escape(label("scanner")),
-                       csv_escape(label("variant")), csv_value(r.value("point_label", Json())),
+                       csv_field(label("dataset")), csv_field(label("scanner")),
+                       csv_field(label("variant")), csv_value(r.value("point_label", Json())),
                        csv_value(r.value("seed", Json())), csv_value(r.value("repeats", Json())));
     const Json p = r.value("params", Json::object());
     for (const auto& k : params)

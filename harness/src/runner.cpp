@@ -84,15 +84,6 @@ struct Child {
   bool timed_out = false;
 };
 
-std::string utc_now() {
-  const std::time_t now = std::time(nullptr);
-  std::tm tm{};
-  gmtime_r(&now, &tm);
-  char date[32];
-  std::strftime(date, sizeof(date), "%Y-%m-%dT%H:%M:%SZ", &tm);
-  return date;
-}
-
 pid_t spawn(const fs::path& exe, const Child& c, double memory_limit_mb) {
   // Everything the child needs is prepared before fork (no allocation after it).
   const std::string exe_s = exe.string(), spec_s = c.spec.string(), result_s = c.result.string(),

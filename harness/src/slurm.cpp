@@ -232,15 +232,6 @@ std::string shell_quote(const std::string& s) {
   return out + "'";
 }
 
-std::string utc_now() {
-  const std::time_t now = std::time(nullptr);
-  std::tm tm{};
-  gmtime_r(&now, &tm);
-  char date[32];
-  std::strftime(date, sizeof(date), "%Y-%m-%dT%H:%M:%SZ", &tm);
-  return date;
-}
-
 /// Submission folders in DIR/slurm, by number.
 std::vector<std::string> submission_ids(const fs::path& dir) {
   std::vector<std::string> ids;

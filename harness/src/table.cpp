@@ -59,16 +59,6 @@ std::string tex_escape(const std::string& s) {
   return o;
 }
 
-std::string csv_escape(const std::string& s) {
-  if (s.find_first_of(",\"\n") == std::string::npos) return s;
-  std::string out = "\"";
-  for (char c : s) {
-    if (c == '"') out += '"';
-    out += c;
-  }
-  return out + "\"";
-}
-
 }  // namespace
 
 std::string html_escape(const std::string& s) {
@@ -245,8 +235,8 @@ std::string render_table(const Table& t, const std::string& format) {
         const TableCell& c = t.cells[r][k];
         if (c.n == 0 && c.status.empty()) continue;
         out += fmt::format(
-            "{},{},{},{},{},{},{},{}\n", csv_escape(t.row_labels[r]), csv_escape(t.col_labels[k]),
-            csv_escape(t.metric), c.n ? fmt::format("{:.9g}", c.median) : "",
+            "{},{},{},{},{},{},{},{}\n", csv_field(t.row_labels[r]), csv_field(t.col_labels[k]),
+            csv_field(t.metric), c.n ? fmt::format("{:.9g}", c.median) : "",
             c.n ? fmt::format("{:.9g}", c.spread) : "", c.n, c.best ? 1 : 0, c.n ? "ok" : c.status);
       }
     }

@@ -20,7 +20,7 @@ namespace {
 using testing::grid;
 using testing::icosphere;
 
-const GroundTruthOptions kCoarse{1.0 / 128.0, 3.0f};
+const GroundTruthOptions kCoarseSurface{1.0 / 128.0, 3.0f};
 
 // A sphere of radius 1 + d scored against the unit sphere (both icospheres of level 5, the outer
 // one the inner one scaled): every face of the outer mesh lies d h outside the matching inner
@@ -31,7 +31,7 @@ TEST(SurfaceMetrics, SphereOfRadiusOnePlusDAgainstTheUnitSphere) {
   const double d = 0.01;
   const TriangleMesh unit = icosphere(5, 1.0f);
   const TriangleMesh outer = icosphere(5, static_cast<float>(1.0 + d));
-  GroundTruth gt(unit, 3, kCoarse);
+  GroundTruth gt(unit, 3, kCoarseSurface);
   PointCloud scan = sample_surface(unit, 5000, 17);
   scan.properties.clear();
   RunContext ctx(5);
@@ -84,7 +84,7 @@ TEST(SurfaceMetrics, IndependentOfThreadCountAndSeeded) {
   scan.properties.clear();
   std::string dumps[3];
   for (int t : {1, 2, 3}) {
-    GroundTruth gt(unit, 1, kCoarse);
+    GroundTruth gt(unit, 1, kCoarseSurface);
     RunContext ctx(t == 3 ? 8 : 7, t == 3 ? 1 : t);
     dumps[t - 1] = evaluate_mesh(gt, out, &scan, {}, Json::object(), ctx, 20000).dump();
   }
@@ -94,7 +94,7 @@ TEST(SurfaceMetrics, IndependentOfThreadCountAndSeeded) {
 
 TEST(SurfaceMetrics, SkipsAndRefusals) {
   const TriangleMesh m = icosphere(2);
-  GroundTruth gt(m, 1, kCoarse);
+  GroundTruth gt(m, 1, kCoarseSurface);
   PointCloud pts = sample_surface(m, 500, 5);
   pts.properties.clear();
   RunContext ctx(1);
@@ -119,7 +119,7 @@ TEST(SurfaceMetrics, SkipsAndRefusals) {
 // Every key any metric can emit has a declared direction, and every declared key is emitted.
 TEST(MetricDirections, EveryEmittedKeyIsDeclaredAndEveryDeclaredKeyEmitted) {
   const TriangleMesh m = icosphere(2);
-  GroundTruth gt(m, 1, kCoarse);
+  GroundTruth gt(m, 1, kCoarseSurface);
   PointCloud pts = sample_surface(m, 800, 5);
   pts.properties.clear();
   PointCloud scan = pts;
@@ -138,7 +138,7 @@ TEST(MetricDirections, EveryEmittedKeyIsDeclaredAndEveryDeclaredKeyEmitted) {
   EXPECT_TRUE(rm["skipped"].size() == 7u) << rm["skipped"].dump();  // the point metrics
   // The sharp-edge metrics on a truth that has sharp edges.
   const TriangleMesh cube = make_cube({});
-  GroundTruth cgt(cube, 1, kCoarse);
+  GroundTruth cgt(cube, 1, kCoarseSurface);
   PointCloud cpts = sample_surface(cube, 800, 5);
   cpts.properties.clear();
   const Json re = evaluate(cgt, cpts, nullptr, {"edges.p2plane", "edges.normals"}, params, ctx);
@@ -272,7 +272,7 @@ TEST(MeshFacts, KnownMeshes) {
   EXPECT_TRUE(cf.closed);
   EXPECT_EQ(cf.bytes, 8 * 36 + 24 * 4);
   // Scored through its mean mesh, described as itself.
-  GroundTruth gt(icosphere(2), 1, kCoarse);
+  GroundTruth gt(icosphere(2), 1, kCoarseSurface);
   RunContext ctx(1);
   const Json r = evaluate_covariance_mesh(gt, cube, nullptr, {"mesh.facts", "surface.chamfer"},
                                           Json{{"surface.chamfer", {{"samples", 500}}}}, ctx, 500);

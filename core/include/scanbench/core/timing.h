@@ -4,6 +4,10 @@
 
 namespace scanbench {
 
+/// Seconds on the monotonic clock (std::chrono::steady_clock) since an arbitrary epoch: subtract
+/// two readings for a wall time.
+double wall_seconds();
+
 /// CPU seconds (user + system, every thread) this process has used so far.
 double process_cpu_seconds();
 

@@ -35,9 +35,16 @@ namespace scanbench::harness {
 /// hardware threads, date (UTC, ISO 8601).
 Json run_context_json();
 
+/// The current UTC time by strftime `format` (default ISO 8601, "2026-12-02T06:30:00Z"), as
+/// recorded in run contexts and job records.
+std::string utc_now(const char* format = "%Y-%m-%dT%H:%M:%SZ");
+
 /// Writes `text` to `path` atomically: a temp file in the same folder, fsync, rename. Throws
 /// IoError.
 void write_file_atomic(const std::filesystem::path& path, const std::string& text);
+/// One CSV field: as is, or quoted (RFC 4180, inner quotes doubled) when it holds a comma, quote
+/// or newline; a newline becomes a space so that every row stays on one line.
+std::string csv_field(const std::string& s);
 /// Reads a whole file; throws IoError.
 std::string read_file(const std::filesystem::path& path);
 /// Reads a JSON file; throws IoError naming the file for unreadable or invalid JSON.
