@@ -41,6 +41,8 @@
 //
 // Input: a mixture (from mixture.hem; GPS appendix A). Output: a covariance mesh whose vertices are
 // the triangulated components (mean and covariance) and whose faces are triangles.
+#include <string>
+
 #include "scanbench/core/covariance_mesh.h"
 #include "scanbench/core/gaussian_mixture.h"
 #include "scanbench/core/params.h"
@@ -54,6 +56,8 @@ struct BhattacharyyaParams {
   double beta_min_deg = 30.0;
   int max_neighbors = 32;
   int max_seeds = 0;
+  double max_angle_deg = 149.32;
+  std::string candidates = "delaunay";
 
   static void declare(ParamDeclarer<BhattacharyyaParams>& d) {
     d.real("bc_min", &BhattacharyyaParams::bc_min, Range{0.0, 1.0, true, true}, "",
@@ -62,11 +66,21 @@ struct BhattacharyyaParams {
     d.real("beta_min_deg", &BhattacharyyaParams::beta_min_deg, Range::half_open(0.0, 180.0), "deg",
            "minimal dihedral angle to the neighbouring triangles (GPS sec. 6.2 after Cohen-Steiner "
            "and Da 2004: pi/6)");
+    d.real("max_angle_deg", &BhattacharyyaParams::max_angle_deg, Range::open_min(60.0, 180.0),
+           "deg",
+           "largest interior angle of a candidate triangle (Cohen-Steiner and Da 2004; CGAL's "
+           "advancing front uses arccos(-0.86) = 149.32 deg; GPS sec. 6.2 is silent; 180 = off)");
     d.integer("max_neighbors", &BhattacharyyaParams::max_neighbors, Range::closed(3, 1024), "",
-              "partners of highest BC kept per Gaussian as candidates (a bound on the work; the "
-              "paper does not restrict candidates)");
+              "free candidates: partners of highest BC kept per Gaussian as candidates (a bound on "
+              "the work; the paper does not restrict candidates)");
     d.integer("max_seeds", &BhattacharyyaParams::max_seeds, Range::closed(0, 1000000), "",
-              "seed triangles (components) at most; 0 = as many as the mixture allows");
+              "seed triangles (components) at most; 0 = as many as the mixture allows (free "
+              "candidates only: CGAL's advancing front seeds every component it can)");
+    d.choice("candidates", &BhattacharyyaParams::candidates, {"free", "delaunay"},
+             "candidate triangles: delaunay = the Delaunay facets of the means through CGAL's "
+             "advancing front (Cohen-Steiner and Da 2004) graded by GPS eq. 19-22 (closes the "
+             "torus), free = every triangle of pairwise overlapping Gaussians (GPS sec. 6.2 does "
+             "not restrict them)");
   }
 };
 
