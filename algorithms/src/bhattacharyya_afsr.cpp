@@ -11,6 +11,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <memory>
 #include <numbers>
@@ -111,7 +112,15 @@ struct GpsPriority {
     }
     if (!(beta > beta_min)) return kInf;
     const double p_prob = std::exp(lij + ljk + lik);  // eq. 20
-    return std::numbers::pi / (p_prob * beta);        // 1 / P, eq. 21-22
+    // Ties broken by the vertex ids, not by CGAL: its front is a std::set of (value, pointer)
+    // pairs, so equal values would be ordered by heap addresses (run-dependent).
+    std::array<std::size_t, 3> key = id;
+    std::sort(key.begin(), key.end());
+    std::uint64_t h = 0x9e3779b97f4a7c15ull;
+    for (std::size_t v : key)
+      h = (h ^ static_cast<std::uint64_t>(v)) * 0x100000001b3ull;
+    const double jitter = 1.0 + 1e-12 * static_cast<double>(h >> 11) * 0x1.0p-53;
+    return std::numbers::pi / (p_prob * beta) * jitter;  // 1 / P, eq. 21-22
   }
 };
 

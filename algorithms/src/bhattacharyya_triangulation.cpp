@@ -651,6 +651,12 @@ CovarianceMesh triangulate_bhattacharyya(const GaussianMixture& mixture,
   const Eigen::Index unpinched = unpinch(faces, static_cast<std::size_t>(n));
   const EdgeFaces final_edges = edge_faces(faces);
   orient_components(faces, final_edges, g);
+  if (p.candidates == "delaunay") {
+    // CGAL returns either orientation per component: the canonical order again after orienting.
+    for (auto& t : faces)
+      std::rotate(t.begin(), std::min_element(t.begin(), t.end()), t.end());
+    std::sort(faces.begin(), faces.end());
+  }
 
   // Compact: only Gaussians in a triangle, in index order.
   std::vector<int> remap(static_cast<std::size_t>(n), -1);
