@@ -101,13 +101,13 @@ TEST(Triangulation, SphereMixtureGivesAClosedOrientedManifoldOfEulerCharacterist
 
 // A torus (genus 1) with the "free" candidates: the fronts meet around both of its circles and
 // must be glued (Cohen-Steiner and Da 2004). The default "delaunay" candidates close it (see
-// test_triangulation_candidates.cpp); the free ones leave holes where the fronts meet (9 boundary
-// edges, Euler characteristic -3 at this sampling; 0-16 boundary edges on the 18 samplings of
+// test_triangulation_candidates.cpp); the free ones leave holes where the fronts meet (6 boundary
+// edges, Euler characteristic -2 at this sampling; 0-13 boundary edges on the 18 samplings of
 // that file), so this test guards what holds for them: a manifold (no edge with three faces, no
 // vertex joining two fans, which subdivide.gp_loop refuses), glue steps taken, most edges interior.
 // Why holes remain: the greedy order by P alone lets the fronts arrive at the handle with
 // leftover edges spanning two or three steps; without the max_angle_deg bound the seed and many
-// later triangles were slivers along the rings (largest angle 165 deg) and 20-283 boundary edges
+// later triangles were slivers along the rings (largest angle 165 deg) and 25-274 boundary edges
 // remained on those samplings.
 TEST(Triangulation, TorusMixtureIsAManifoldWithGlueSteps) {
   TorusParams tp;
