@@ -142,17 +142,21 @@ std::vector<std::array<int, 3>> delaunay_front(const std::vector<Gaussian>& g, d
     // Coplanar means: one apex off the plane makes the triangulation 3D, as CGAL's own
     // constructor would, but with an id the priority recognises (never a candidate), so the
     // in-plane facets are the plane's Delaunay triangles.
-    const auto c = dt.finite_cells_begin();  // dimension 2: the "cells" are the triangles
-    const Point& p = c->vertex(0)->point();
-    const Kernel::Vector_3 nrm =
-        CGAL::cross_product(c->vertex(1)->point() - p, c->vertex(2)->point() - p);
-    Eigen::Vector3d lo = g[0].mu, hi = g[0].mu;
+    // The plane's normal from the first mean and two others spanning it with it.
+    const Eigen::Vector3d& p = g[0].mu;
+    Eigen::Vector3d lo = p, hi = p, u = Eigen::Vector3d::Zero(), nrm = Eigen::Vector3d::Zero();
     for (const Gaussian& x : g) {
       lo = lo.cwiseMin(x.mu);
       hi = hi.cwiseMax(x.mu);
+      if (u.isZero()) {
+        u = x.mu - p;
+      } else if (nrm.norm() <= 1e-9 * u.squaredNorm()) {
+        nrm = u.cross(x.mu - p);
+      }
     }
     const double len = std::max((hi - lo).norm(), 1e-300);
-    const auto apex = dt.insert(p + nrm * (10.0 * len / std::sqrt(nrm.squared_length())));
+    const Eigen::Vector3d q = p + nrm.normalized() * (10.0 * len);
+    const auto apex = dt.insert(Point(q.x(), q.y(), q.z()));
     apex->id() = g.size();
   }
   GpsPriority priority;

@@ -114,6 +114,31 @@ TEST(TriangulationCandidates, DelaunayCandidatesDoNotBridgeTheThinSheets) {
   EXPECT_EQ(topology(cm).over, 0);
 }
 
+// Coplanar means make CGAL's Delaunay triangulation 2D: an apex off the plane (never a candidate)
+// makes it 3D; the sheet is triangulated from its in-plane Delaunay triangles, the apex is not in
+// the output.
+TEST(TriangulationCandidates, DelaunayCandidatesTriangulateCoplanarMeans) {
+  const GaussianMixture both = thin_cuboid_sheets();
+  GaussianMixture m;
+  m.resize(both.size() / 2);
+  m.means = both.means.leftCols(m.size());
+  m.weights.setConstant(1.0f / static_cast<float>(m.size()));
+  for (Eigen::Index i = 0; i < m.size(); ++i)
+    m.set_covariance(i, both.covariance(i));
+  RunContext ctx(1);
+  TriangulationStats st;
+  const CovarianceMesh cm = triangulate_bhattacharyya(m, mode("delaunay"), ctx, &st);
+  EXPECT_EQ(st.seeds, 1);
+  EXPECT_EQ(cm.num_vertices(), m.size());
+  EXPECT_EQ(cm.num_faces(), 200);  // the 10 x 10 cells, two triangles each
+  const Topology t = topology(cm);
+  EXPECT_EQ(t.over, 0);
+  EXPECT_EQ(t.boundary, 40);
+  EXPECT_EQ(t.euler(), 1);
+  for (Eigen::Index v = 0; v < cm.num_vertices(); ++v)
+    EXPECT_EQ(cm.means(2, v), 0.0f);
+}
+
 TEST(TriangulationCandidates, DelaunayModeIsIdenticalAt1And2Threads) {
   Rng rng(5);
   PointCloud pc;
