@@ -14,24 +14,14 @@
 #include <unordered_map>
 #include <vector>
 
+#include "bhattacharyya_internal.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/kdtree.h"
 
 namespace scanbench::algorithms {
 
-namespace {
-
-constexpr const char* kStage = "triangulate.bhattacharyya";
-
-struct Gaussian {
-  Eigen::Vector3d mu;
-  Eigen::Matrix3d sigma;
-  double log_det = 0;
-  double lambda_max = 0;
-};
-
 // log BC of eq. 19 given both log-determinants.
-double log_bc(const Gaussian& a, const Gaussian& b) {
+double bhattacharyya::log_bc(const Gaussian& a, const Gaussian& b) {
   const Eigen::Matrix3d s = 0.5 * (a.sigma + b.sigma);
   const Eigen::LLT<Eigen::Matrix3d> llt(s);
   const Eigen::Vector3d d = a.mu - b.mu;
@@ -40,6 +30,23 @@ double log_bc(const Gaussian& a, const Gaussian& b) {
   const double log_det_s = 2.0 * (std::log(l[0]) + std::log(l[1]) + std::log(l[2]));
   return -0.5 * log_det_s + 0.25 * (a.log_det + b.log_det) - 0.125 * y.squaredNorm();
 }
+
+bool bhattacharyya::angles_within(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                                  const Eigen::Vector3d& c, double cos_max_angle) {
+  const Eigen::Vector3d* q[3] = {&a, &b, &c};
+  for (std::size_t m = 0; m < 3; ++m) {
+    const Eigen::Vector3d u = *q[(m + 1) % 3] - *q[m], w = *q[(m + 2) % 3] - *q[m];
+    if (!(u.dot(w) >= cos_max_angle * u.norm() * w.norm())) return false;
+  }
+  return true;
+}
+
+namespace {
+
+using bhattacharyya::Gaussian;
+using bhattacharyya::log_bc;
+
+constexpr const char* kStage = "triangulate.bhattacharyya";
 
 Gaussian make_gaussian(const Eigen::Vector3d& mu, const Eigen::Matrix3d& sigma, Eigen::Index i) {
   Gaussian g;
@@ -75,10 +82,11 @@ class Front {
  public:
   // `adj` holds only the pairs with BC above bc_min (eq. 19), so every candidate edge passes it.
   Front(const std::vector<Gaussian>& g, const std::vector<std::vector<Neighbor>>& adj,
-        double beta_min)
+        double beta_min, double cos_max_angle)
       : g_(g),
         adj_(adj),
         beta_min_(beta_min),
+        cos_max_angle_(cos_max_angle),
         used_(g.size(), 0),
         boundary_(g.size(), 0),
         dead_(g.size()),
@@ -278,6 +286,8 @@ class Front {
       if (has_ak) beta = std::min(beta, dihedral(nn, eak->second[0]));
       if (has_kb) beta = std::min(beta, dihedral(nn, ekb->second[0]));
       if (!(beta > beta_min_)) continue;
+      if (!bhattacharyya::angles_within(pa, pb, g_[static_cast<std::size_t>(k)].mu, cos_max_angle_))
+        continue;
       if (pinch) {
         // A glue face must face the same way as the faces it joins at k (one orientation), or
         // the gap could never be zipped closed.
@@ -305,6 +315,7 @@ class Front {
   const std::vector<Gaussian>& g_;
   const std::vector<std::vector<Neighbor>>& adj_;
   double beta_min_;
+  double cos_max_angle_;
   std::vector<std::array<int, 3>> faces_;
   std::vector<Eigen::Vector3d> normals_;
   std::unordered_map<std::uint64_t, std::array<int, 2>> edges_;
@@ -396,10 +407,10 @@ Eigen::Index unpinch(std::vector<std::array<int, 3>>& faces, std::size_t n) {
   }
 }
 
-// Components of the face graph; closed ones with negative signed volume are flipped outward.
-void orient_closed_components(std::vector<std::array<int, 3>>& faces,
-                              const std::unordered_map<std::uint64_t, std::array<int, 2>>& edges,
-                              const std::vector<Gaussian>& g) {
+// Components of the face graph; those with negative signed volume are flipped outward.
+void orient_components(std::vector<std::array<int, 3>>& faces,
+                       const std::unordered_map<std::uint64_t, std::array<int, 2>>& edges,
+                       const std::vector<Gaussian>& g) {
   const std::size_t nf = faces.size();
   std::vector<int> comp(nf, -1);
   int ncomp = 0;
@@ -425,24 +436,33 @@ void orient_closed_components(std::vector<std::array<int, 3>>& faces,
     }
     ++ncomp;
   }
-  std::vector<char> closed(static_cast<std::size_t>(ncomp), 1);
-  std::vector<double> volume(static_cast<std::size_t>(ncomp), 0.0);
+  // Signed volume of each component about the centroid of its faces' centroids: for a closed
+  // component the enclosed volume (any origin), for an open one (holes) the volume of the cone
+  // from that centroid, so a sphere with holes faces outward too. Every component gets one
+  // orientation from its geometry alone (CGAL's advancing front returns either).
+  const auto nc = static_cast<std::size_t>(ncomp);
+  std::vector<Eigen::Vector3d> centre(nc, Eigen::Vector3d::Zero());
+  std::vector<double> count(nc, 0.0);
   for (std::size_t f = 0; f < nf; ++f) {
     const auto& t = faces[f];
-    for (int e = 0; e < 3; ++e) {
-      if (edges.at(edge_key(t[static_cast<std::size_t>(e)],
-                            t[static_cast<std::size_t>((e + 1) % 3)]))[1] < 0)
-        closed[static_cast<std::size_t>(comp[f])] = 0;
-    }
-    volume[static_cast<std::size_t>(comp[f])] +=
-        g[static_cast<std::size_t>(t[0])].mu.dot(
-            g[static_cast<std::size_t>(t[1])].mu.cross(g[static_cast<std::size_t>(t[2])].mu)) /
-        6.0;
-  }
-  for (std::size_t f = 0; f < nf; ++f) {
     const auto c = static_cast<std::size_t>(comp[f]);
-    if (closed[c] && volume[c] < 0.0) std::swap(faces[f][1], faces[f][2]);
+    for (int v : t)
+      centre[c] += g[static_cast<std::size_t>(v)].mu / 3.0;
+    count[c] += 1.0;
   }
+  for (std::size_t c = 0; c < nc; ++c)
+    centre[c] /= count[c];
+  std::vector<double> volume(nc, 0.0);
+  for (std::size_t f = 0; f < nf; ++f) {
+    const auto& t = faces[f];
+    const auto c = static_cast<std::size_t>(comp[f]);
+    const Eigen::Vector3d a = g[static_cast<std::size_t>(t[0])].mu - centre[c];
+    const Eigen::Vector3d b = g[static_cast<std::size_t>(t[1])].mu - centre[c];
+    const Eigen::Vector3d d = g[static_cast<std::size_t>(t[2])].mu - centre[c];
+    volume[c] += a.dot(b.cross(d)) / 6.0;
+  }
+  for (std::size_t f = 0; f < nf; ++f)
+    if (volume[static_cast<std::size_t>(comp[f])] < 0.0) std::swap(faces[f][1], faces[f][2]);
 }
 
 }  // namespace
@@ -452,31 +472,20 @@ double bhattacharyya_coefficient(const Eigen::Vector3d& mu_i, const Eigen::Matri
   return std::exp(log_bc(make_gaussian(mu_i, sigma_i, 0), make_gaussian(mu_j, sigma_j, 1)));
 }
 
-CovarianceMesh triangulate_bhattacharyya(const GaussianMixture& mixture,
-                                         const BhattacharyyaParams& p, RunContext& ctx,
-                                         TriangulationStats* stats) {
-  // The declared ranges, checked here too for callers that bypass the parameter layer.
-  if (!(p.bc_min > 0.0 && p.bc_min <= 1.0))
-    throw ParamError(fmt::format("{}: bc_min = {:g} is outside (0, 1]", kStage, p.bc_min));
-  if (!(p.beta_min_deg >= 0.0 && p.beta_min_deg < 180.0))
-    throw ParamError(
-        fmt::format("{}: beta_min_deg = {:g} is outside [0, 180)", kStage, p.beta_min_deg));
-  mixture.validate(kStage);
-  const Eigen::Index n = mixture.size();
-  if (n < 3) {
-    throw InputError(
-        fmt::format("{}: the mixture has {} components (at least 3 needed)", kStage, n));
-  }
-  std::vector<Gaussian> g(static_cast<std::size_t>(n));
-  for (Eigen::Index i = 0; i < n; ++i)
-    g[static_cast<std::size_t>(i)] =
-        make_gaussian(mixture.means.col(i).cast<double>(), mixture.covariance(i).cast<double>(), i);
+namespace {
 
+// The "free" candidates: greedy front growing over every triangle of overlapping Gaussians (see
+// the header). Returns the faces; the counts go to the references.
+std::vector<std::array<int, 3>> free_front(const GaussianMixture& mixture,
+                                           const std::vector<Gaussian>& g,
+                                           const BhattacharyyaParams& p, RunContext& ctx,
+                                           Eigen::Index& pairs, Eigen::Index& seeds,
+                                           Eigen::Index& glued, Eigen::Index& pinched) {
+  const Eigen::Index n = mixture.size();
   // The BC graph. BC_ij > bc_min needs the Mahalanobis term d^T S^-1 d < 8 ln(1/bc_min) (the
   // determinant factor of eq. 19 is at most 1), and |d|^2 <= lambda_max(S) d^T S^-1 d <=
   // max(lambda_i, lambda_j) 8 ln(1/bc_min): the search from the wider Gaussian of a pair finds it.
   std::vector<std::vector<Neighbor>> adj(static_cast<std::size_t>(n));
-  Eigen::Index pairs = 0;
   {
     auto timer = ctx.phase("graph");
     const double reach2 = 8.0 * std::log(1.0 / p.bc_min);
@@ -524,8 +533,8 @@ CovarianceMesh triangulate_bhattacharyya(const GaussianMixture& mixture,
     });
   }
 
-  Front front(g, adj, p.beta_min_deg * std::numbers::pi / 180.0);
-  Eigen::Index seeds = 0;
+  const double cos_max_angle = std::cos(p.max_angle_deg * std::numbers::pi / 180.0);
+  Front front(g, adj, p.beta_min_deg * std::numbers::pi / 180.0, cos_max_angle);
   {
     auto timer = ctx.phase("front");
     // Seeds: per Gaussian i, its best triangle (i, j, k) of unused Gaussians by P_prob (eq. 20),
@@ -556,6 +565,10 @@ CovarianceMesh triangulate_bhattacharyya(const GaussianMixture& mixture,
               (g[static_cast<std::size_t>(j)].mu - g[static_cast<std::size_t>(i)].mu)
                   .cross(g[static_cast<std::size_t>(k)].mu - g[static_cast<std::size_t>(i)].mu);
           if (!(nrm.norm() > 0.0)) continue;
+          if (!bhattacharyya::angles_within(g[static_cast<std::size_t>(i)].mu,
+                                            g[static_cast<std::size_t>(j)].mu,
+                                            g[static_cast<std::size_t>(k)].mu, cos_max_angle))
+            continue;
           s = {pp, i, j, k};
         }
       }
@@ -584,6 +597,50 @@ CovarianceMesh triangulate_bhattacharyya(const GaussianMixture& mixture,
       front.grow(ctx);
     }
   }
+  glued = front.glued();
+  pinched = front.pinched();
+  return front.faces();
+}
+
+}  // namespace
+
+CovarianceMesh triangulate_bhattacharyya(const GaussianMixture& mixture,
+                                         const BhattacharyyaParams& p, RunContext& ctx,
+                                         TriangulationStats* stats) {
+  // The declared ranges, checked here too for callers that bypass the parameter layer.
+  if (!(p.bc_min > 0.0 && p.bc_min <= 1.0))
+    throw ParamError(fmt::format("{}: bc_min = {:g} is outside (0, 1]", kStage, p.bc_min));
+  if (!(p.beta_min_deg >= 0.0 && p.beta_min_deg < 180.0))
+    throw ParamError(
+        fmt::format("{}: beta_min_deg = {:g} is outside [0, 180)", kStage, p.beta_min_deg));
+  if (!(p.max_angle_deg > 60.0 && p.max_angle_deg <= 180.0))
+    throw ParamError(
+        fmt::format("{}: max_angle_deg = {:g} is outside (60, 180]", kStage, p.max_angle_deg));
+  if (p.candidates != "free" && p.candidates != "delaunay")
+    throw ParamError(fmt::format("{}: candidates = \"{}\" is neither \"free\" nor \"delaunay\"",
+                                 kStage, p.candidates));
+  mixture.validate(kStage);
+  const Eigen::Index n = mixture.size();
+  if (n < 3) {
+    throw InputError(
+        fmt::format("{}: the mixture has {} components (at least 3 needed)", kStage, n));
+  }
+  std::vector<Gaussian> g(static_cast<std::size_t>(n));
+  for (Eigen::Index i = 0; i < n; ++i)
+    g[static_cast<std::size_t>(i)] =
+        make_gaussian(mixture.means.col(i).cast<double>(), mixture.covariance(i).cast<double>(), i);
+
+  Eigen::Index pairs = 0, seeds = 0, glued = 0, pinched = 0;
+  std::vector<std::array<int, 3>> faces;
+  if (p.candidates == "delaunay") {
+    long components = 0;
+    faces = bhattacharyya::delaunay_front(g, p.bc_min, p.beta_min_deg * std::numbers::pi / 180.0,
+                                          std::cos(p.max_angle_deg * std::numbers::pi / 180.0), ctx,
+                                          &components);
+    seeds = faces.empty() ? 0 : components;
+  } else {
+    faces = free_front(mixture, g, p, ctx, pairs, seeds, glued, pinched);
+  }
   if (seeds == 0) {
     throw InputError(fmt::format(
         "{}: no valid seed triangle: no three Gaussians overlap pairwise with Bhattacharyya "
@@ -591,10 +648,15 @@ CovarianceMesh triangulate_bhattacharyya(const GaussianMixture& mixture,
         kStage, p.bc_min));
   }
 
-  std::vector<std::array<int, 3>> faces = front.faces();
   const Eigen::Index unpinched = unpinch(faces, static_cast<std::size_t>(n));
   const EdgeFaces final_edges = edge_faces(faces);
-  orient_closed_components(faces, final_edges, g);
+  orient_components(faces, final_edges, g);
+  if (p.candidates == "delaunay") {
+    // CGAL returns either orientation per component: the canonical order again after orienting.
+    for (auto& t : faces)
+      std::rotate(t.begin(), std::min_element(t.begin(), t.end()), t.end());
+    std::sort(faces.begin(), faces.end());
+  }
 
   // Compact: only Gaussians in a triangle, in index order.
   std::vector<int> remap(static_cast<std::size_t>(n), -1);
@@ -621,8 +683,8 @@ CovarianceMesh triangulate_bhattacharyya(const GaussianMixture& mixture,
     stats->pairs = pairs;
     stats->seeds = seeds;
     stats->unused = n - nv;
-    stats->glued = front.glued();
-    stats->pinched_vertices = front.pinched();
+    stats->glued = glued;
+    stats->pinched_vertices = pinched;
     stats->unpinched_vertices = unpinched;
     stats->boundary_edges = 0;
     for (const auto& [k, e] : final_edges)

@@ -134,7 +134,9 @@ const AlgorithmRegistry& registry() {
         "front growing (Cohen-Steiner and Da 2004) graded by P = BC_ij BC_jk BC_ik beta/pi (eq. "
         "19-22), every BC above bc_min, dihedral angle above beta_min_deg; seeded by the best "
         "BC triangle, further seeds for further components; manifold, holes where no valid "
-        "triangle exists. Needs no oriented normals. Chain it after mixture.hem.",
+        "triangle exists. Candidates: Delaunay facets of the means through CGAL 5.5's advancing "
+        "front with the GPS grade as its priority (default), or free (every overlapping "
+        "triangle). Needs no oriented normals. Chain it after mixture.hem.",
         triangulate_bhattacharyya_step,
         StageIo{DataKind::Mixture, DataKind::CovarianceMesh, DataKind::CovarianceMesh}));
     // Subdivision surfaces (GPS paper, Preiner et al. 2019) and their linear baselines.

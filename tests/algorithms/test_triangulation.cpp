@@ -17,9 +17,15 @@
 #include "scanbench/core/errors.h"
 #include "scanbench/core/procedural.h"
 #include "scanbench/core/rng.h"
+#include "triangulation_fixtures.h"
 
 namespace scanbench::algorithms {
 namespace {
+
+using test::surface_mixture;
+using test::thin_cuboid_sheets;
+using test::topology;
+using test::Topology;
 
 double gauss_pdf(const Eigen::Vector3d& x, const Eigen::Vector3d& mu, const Eigen::Matrix3d& s) {
   const Eigen::Vector3d d = x - mu;
@@ -72,56 +78,6 @@ TEST(Bhattacharyya, AGaussianWithItselfIsOneAndOthersLess) {
   }
 }
 
-// One Gaussian per vertex of `mesh`, flat in the tangent plane of the vertex normal (area-weighted
-// face normals): spread `s` along the surface, 0.05 s across it.
-GaussianMixture surface_mixture(const TriangleMesh& mesh, double s) {
-  Eigen::Matrix3Xd n = Eigen::Matrix3Xd::Zero(3, mesh.num_vertices());
-  for (Eigen::Index f = 0; f < mesh.num_faces(); ++f) {
-    const Eigen::Vector3d a = mesh.vertices.col(mesh.faces(0, f)).cast<double>();
-    const Eigen::Vector3d b = mesh.vertices.col(mesh.faces(1, f)).cast<double>();
-    const Eigen::Vector3d c = mesh.vertices.col(mesh.faces(2, f)).cast<double>();
-    const Eigen::Vector3d fn = (b - a).cross(c - a);
-    for (int k = 0; k < 3; ++k)
-      n.col(mesh.faces(k, f)) += fn;
-  }
-  GaussianMixture m;
-  m.resize(mesh.num_vertices());
-  m.means = mesh.vertices;
-  m.weights.setConstant(1.0f / static_cast<float>(mesh.num_vertices()));
-  for (Eigen::Index i = 0; i < m.size(); ++i) {
-    const Eigen::Vector3d u = n.col(i).normalized();
-    const Eigen::Matrix3d c = s * s * (Eigen::Matrix3d::Identity() - u * u.transpose()) +
-                              0.0025 * s * s * u * u.transpose();
-    m.set_covariance(i, c.cast<float>());
-  }
-  return m;
-}
-
-struct Topology {
-  Eigen::Index v = 0, e = 0, f = 0, boundary = 0, over = 0;
-  long euler() const { return static_cast<long>(v - e + f); }
-};
-
-Topology topology(const CovarianceMesh& m) {
-  std::map<std::pair<int, int>, int> edges;
-  for (Eigen::Index f = 0; f < m.num_faces(); ++f) {
-    const auto t = m.face(f);
-    for (int k = 0; k < 3; ++k) {
-      const int a = t[static_cast<std::size_t>(k)], b = t[static_cast<std::size_t>((k + 1) % 3)];
-      ++edges[{std::min(a, b), std::max(a, b)}];
-    }
-  }
-  Topology t;
-  t.v = m.num_vertices();
-  t.f = m.num_faces();
-  t.e = static_cast<Eigen::Index>(edges.size());
-  for (const auto& [k, c] : edges) {
-    t.boundary += c == 1;
-    t.over += c > 2;
-  }
-  return t;
-}
-
 TEST(Triangulation, SphereMixtureGivesAClosedOrientedManifoldOfEulerCharacteristic2) {
   SphereParams sp;
   sp.resolution = 6;
@@ -143,22 +99,16 @@ TEST(Triangulation, SphereMixtureGivesAClosedOrientedManifoldOfEulerCharacterist
   EXPECT_GT(mm.signed_volume(), 0.0);  // outward
 }
 
-// A torus (genus 1): the fronts meet around both of its circles and must be glued (Cohen-Steiner
-// and Da 2004). The goal is a closed manifold of Euler characteristic 0; today holes remain where
-// the fronts meet (36 boundary edges at this sampling), so the test guards what holds: a manifold
-// (no edge with three faces, no vertex joining two fans, which subdivide.gp_loop refuses), glue
-// steps taken, most edges interior. The Euler characteristic and hole count are recorded.
-// Why the holes remain (instrumented): the seed and many later triangles are slivers along the
-// rings (three consecutive means of one ring, BC 0.69 0.32 0.69, largest angle 165 deg), because
-// flat Gaussians whose normals turn 36 deg per minor step overlap less across the rings than two
-// steps along them; the slivers swallow ring vertices, and where the fronts meet the leftover
-// edges span two or three steps. Neither candidate rule tried closes it: Cohen-Steiner and Da's
-// connecting case in the ordinary queue, validated by an immediate ear at the glued vertex (an
-// edge whose connecting candidate fails waits at that vertex), gave 79 boundary edges here and
-// 46-351 on 18 other samplings (24x10 to 64x24 segments, 3 kernel sizes each), the present
-// stall-then-glue pass 20-283; Euler characteristic -4 to -75 on all of them. Cohen-Steiner and
-// Da avoid these slivers through Delaunay candidates and a bound on the angles along the front
-// edge, which GPS sec. 6.2 does not state.
+// A torus (genus 1) with the "free" candidates: the fronts meet around both of its circles and
+// must be glued (Cohen-Steiner and Da 2004). The default "delaunay" candidates close it (see
+// test_triangulation_candidates.cpp); the free ones leave holes where the fronts meet (6 boundary
+// edges, Euler characteristic -2 at this sampling; 0-13 boundary edges on the 18 samplings of
+// that file), so this test guards what holds for them: a manifold (no edge with three faces, no
+// vertex joining two fans, which subdivide.gp_loop refuses), glue steps taken, most edges interior.
+// Why holes remain: the greedy order by P alone lets the fronts arrive at the handle with
+// leftover edges spanning two or three steps; without the max_angle_deg bound the seed and many
+// later triangles were slivers along the rings (largest angle 165 deg) and 25-274 boundary edges
+// remained on those samplings.
 TEST(Triangulation, TorusMixtureIsAManifoldWithGlueSteps) {
   TorusParams tp;
   tp.major_segments = 24;
@@ -167,7 +117,9 @@ TEST(Triangulation, TorusMixtureIsAManifoldWithGlueSteps) {
   const GaussianMixture mix = surface_mixture(torus, 0.22);
   RunContext ctx(1);
   TriangulationStats st;
-  const CovarianceMesh cm = triangulate_bhattacharyya(mix, BhattacharyyaParams{}, ctx, &st);
+  BhattacharyyaParams free_candidates;
+  free_candidates.candidates = "free";
+  const CovarianceMesh cm = triangulate_bhattacharyya(mix, free_candidates, ctx, &st);
   const Topology t = topology(cm);
   EXPECT_EQ(t.over, 0);
   EXPECT_EQ(st.seeds, 1);
@@ -187,19 +139,7 @@ TEST(Triangulation, TorusMixtureIsAManifoldWithGlueSteps) {
 // GPS Fig. 8b: two parallel sheets closer to each other (0.05) than neighbouring means on a sheet
 // (0.1), each Gaussian flat along its sheet. A distance-based triangulation would bridge them.
 TEST(Triangulation, ThinCuboidSheetsAreNotBridged) {
-  const int g = 11;
-  GaussianMixture m;
-  m.resize(2 * g * g);
-  m.weights.setConstant(1.0f / static_cast<float>(m.size()));
-  const Eigen::Matrix3f c = Eigen::Vector3f(0.01f, 0.01f, 2.5e-5f).asDiagonal();
-  for (int s = 0; s < 2; ++s)
-    for (int i = 0; i < g; ++i)
-      for (int j = 0; j < g; ++j) {
-        const Eigen::Index k = (s * g + i) * g + j;
-        m.means.col(k) = Eigen::Vector3f(0.1f * static_cast<float>(i), 0.1f * static_cast<float>(j),
-                                         0.05f * static_cast<float>(s));
-        m.set_covariance(k, c);
-      }
+  const GaussianMixture m = thin_cuboid_sheets();
   RunContext ctx(1);
   TriangulationStats st;
   const CovarianceMesh cm = triangulate_bhattacharyya(m, BhattacharyyaParams{}, ctx, &st);
