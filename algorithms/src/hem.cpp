@@ -781,6 +781,81 @@ struct Child {
   double log_term;  // log(w_s L_is)
 };
 
+// The candidate children of one parent and, per candidate i, eq. 11's D_KL(i || s) and eq. 9's
+// log L_is = w_i |P| (log N(mu_i; mu_s, Sigma_s) - tr(Sigma_s^-1 Sigma_i) / 2).
+struct KlBatch {
+  std::vector<Index> ids;
+  std::vector<double> kl, log_l;
+  // Structure of arrays of the gathered candidates: mu_i - mu_s (3), Sigma_i's upper triangle
+  // (xx, xy, xz, yy, yz, zz), log |Sigma_i|, w_i |P|; padded to whole packets.
+  std::vector<double> f[11];
+};
+
+// Fills batch.kl and batch.log_l for batch.ids in double packets of the active ISA. Every lane
+// is one candidate evaluated by the same operations in the same order, so each value is the
+// same on every ISA and at any thread count (no sum runs across lanes).
+template <class PacketD>
+void kl_terms(const Components& comps, const Component& ps, double n_points, KlBatch& batch) {
+  namespace ei = Eigen::internal;
+  constexpr std::size_t kLanes = ei::unpacket_traits<PacketD>::size;
+  const std::size_t m = batch.ids.size();
+  const std::size_t padded = (m + kLanes - 1) / kLanes * kLanes;
+  for (auto& f : batch.f)
+    if (f.size() < padded) f.resize(padded);
+  batch.kl.resize(padded);
+  batch.log_l.resize(padded);
+  for (std::size_t t = 0; t < padded; ++t) {
+    if (t < m) {
+      const Component& ci = comps[static_cast<std::size_t>(batch.ids[t])];
+      batch.f[0][t] = ci.mu.x() - ps.mu.x();
+      batch.f[1][t] = ci.mu.y() - ps.mu.y();
+      batch.f[2][t] = ci.mu.z() - ps.mu.z();
+      batch.f[3][t] = ci.cov(0, 0);
+      batch.f[4][t] = ci.cov(0, 1);
+      batch.f[5][t] = ci.cov(0, 2);
+      batch.f[6][t] = ci.cov(1, 1);
+      batch.f[7][t] = ci.cov(1, 2);
+      batch.f[8][t] = ci.cov(2, 2);
+      batch.f[9][t] = ci.logdet;
+      batch.f[10][t] = ci.w * n_points;
+    } else {  // padding: finite values, results ignored
+      for (int e = 0; e < 11; ++e)
+        batch.f[e][t] = 0.0;
+    }
+  }
+  // Sigma_s is stored symmetric (set_conditioned, store_conditioned), and so is its inverse.
+  const Matrix3d inv = ps.cov.inverse();
+  const PacketD i00 = ei::pset1<PacketD>(inv(0, 0)), i01 = ei::pset1<PacketD>(inv(0, 1)),
+                i02 = ei::pset1<PacketD>(inv(0, 2)), i11 = ei::pset1<PacketD>(inv(1, 1)),
+                i12 = ei::pset1<PacketD>(inv(1, 2)), i22 = ei::pset1<PacketD>(inv(2, 2));
+  const PacketD two = ei::pset1<PacketD>(2.0), half = ei::pset1<PacketD>(0.5);
+  const PacketD three_minus_lds = ei::pset1<PacketD>(3.0 - ps.logdet);
+  const PacketD log_norm = ei::pset1<PacketD>(-0.5 * (3.0 * kLog2Pi + ps.logdet));
+  for (std::size_t t = 0; t < padded; t += kLanes) {
+    auto ld = [&](int e) { return ei::ploadu<PacketD>(batch.f[e].data() + t); };
+    const PacketD dx = ld(0), dy = ld(1), dz = ld(2);
+    // d^T Sigma_s^-1 d
+    const PacketD tx = ei::padd(ei::padd(ei::pmul(i00, dx), ei::pmul(i01, dy)), ei::pmul(i02, dz));
+    const PacketD ty = ei::padd(ei::padd(ei::pmul(i01, dx), ei::pmul(i11, dy)), ei::pmul(i12, dz));
+    const PacketD tz = ei::padd(ei::padd(ei::pmul(i02, dx), ei::pmul(i12, dy)), ei::pmul(i22, dz));
+    const PacketD maha = ei::padd(ei::padd(ei::pmul(dx, tx), ei::pmul(dy, ty)), ei::pmul(dz, tz));
+    // tr(Sigma_s^-1 Sigma_i) of two symmetric matrices: diagonal products + 2 x off-diagonal.
+    const PacketD diag =
+        ei::padd(ei::padd(ei::pmul(i00, ld(3)), ei::pmul(i11, ld(6))), ei::pmul(i22, ld(8)));
+    const PacketD off =
+        ei::padd(ei::padd(ei::pmul(i01, ld(4)), ei::pmul(i02, ld(5))), ei::pmul(i12, ld(7)));
+    const PacketD tr = ei::padd(diag, ei::pmul(two, off));
+    // eq. 11: D_KL = (d_M^2 + tr - 3 - log(|Sigma_i| / |Sigma_s|)) / 2
+    const PacketD kl =
+        ei::pmul(half, ei::psub(ei::padd(maha, tr), ei::padd(three_minus_lds, ld(9))));
+    // eq. 9: log L_is = w_i |P| (log g(mu_i; mu_s, Sigma_s) - tr / 2)
+    const PacketD log_g = ei::psub(log_norm, ei::pmul(half, maha));
+    const PacketD log_l = ei::pmul(ld(10), ei::psub(log_g, ei::pmul(half, tr)));
+    ei::pstoreu(batch.kl.data() + t, kl);
+    ei::pstoreu(batch.log_l.data() + t, log_l);
+  }
+}
+
 // One HEM level. Returns the next level's components.
 Components cluster_level(const Components& comps, const HemParams& p, std::uint64_t level_seed,
                          double n_points, double abs_floor) {
@@ -813,49 +888,49 @@ Components cluster_level(const Components& comps, const HemParams& p, std::uint6
   const Index nblocks = (np + kBlock - 1) / kBlock;
   std::vector<std::vector<Child>> block_sets(static_cast<std::size_t>(nblocks));
   std::vector<std::size_t> offsets(static_cast<std::size_t>(np) + 1, 0);
-  tbb::parallel_for(
-      tbb::blocked_range<Index>(0, nblocks, 1), [&](const tbb::blocked_range<Index>& r) {
-        Hits nb;
-        for (Index b = r.begin(); b < r.end(); ++b) {
-          auto& set = block_sets[static_cast<std::size_t>(b)];
-          for (Index k = b * kBlock; k < std::min(np, (b + 1) * kBlock); ++k) {
-            const Index s = parents[static_cast<std::size_t>(k)];
-            const Component& ps = comps[static_cast<std::size_t>(s)];
-            const Matrix3d inv = ps.cov.inverse();
-            const double ld_s = ps.logdet;
-            const double log_ws = std::log(ps.w);
-            // D_KL >= d_M^2 / 2, so every admissible child is within alpha * sigma_max(s); the
-            // float kd-tree gets a hair of slack, the exact test below decides.
-            const double radius =
-                p.alpha * std::sqrt(ps.lmax) * 1.001 + 1e-6 * ps.mu.cwiseAbs().maxCoeff();
-            tree.radius(ps.mu.cast<float>(), static_cast<float>(radius), nb);
-            std::sort(nb.begin(), nb.end(),
-                      [](const auto& a, const auto& c) { return a.first < c.first; });
-            offsets[static_cast<std::size_t>(k)] = set.size();
-            auto consider = [&](Index i) {
-              const Component& ci = comps[static_cast<std::size_t>(i)];
-              const Vector3d d = ci.mu - ps.mu;
-              const double maha = d.dot(inv * d);
-              const double tr = (inv * ci.cov).trace();
-              const double kl = 0.5 * (maha + tr - 3.0 - (ci.logdet - ld_s));
-              if (!(kl < kl_max) && i != s) return;  // eq. 11 (a parent always keeps itself)
-              const double log_g = -0.5 * (3.0 * kLog2Pi + ld_s + maha);
-              const double log_l = ci.w * n_points * (log_g - 0.5 * tr);  // eq. 9, exponent w_i |P|
-              set.push_back({i, log_ws + log_l});
-            };
-            bool self_done = false;
-            for (const auto& nbi : nb) {
-              const Index i = others[static_cast<std::size_t>(nbi.first)];
-              if (!self_done && s < i) {
-                consider(s);
-                self_done = true;
+  simd::with_packet([&](auto tag) {
+    using PacketD = typename simd::DoublePacket<typename decltype(tag)::type>::type;
+    tbb::parallel_for(
+        tbb::blocked_range<Index>(0, nblocks, 1), [&](const tbb::blocked_range<Index>& r) {
+          Hits nb;
+          KlBatch batch;
+          for (Index b = r.begin(); b < r.end(); ++b) {
+            auto& set = block_sets[static_cast<std::size_t>(b)];
+            for (Index k = b * kBlock; k < std::min(np, (b + 1) * kBlock); ++k) {
+              const Index s = parents[static_cast<std::size_t>(k)];
+              const Component& ps = comps[static_cast<std::size_t>(s)];
+              // D_KL >= d_M^2 / 2, so every admissible child is within alpha * sigma_max(s);
+              // the float kd-tree gets a hair of slack, the exact test below decides.
+              const double radius =
+                  p.alpha * std::sqrt(ps.lmax) * 1.001 + 1e-6 * ps.mu.cwiseAbs().maxCoeff();
+              tree.radius(ps.mu.cast<float>(), static_cast<float>(radius), nb);
+              std::sort(nb.begin(), nb.end(),
+                        [](const auto& a, const auto& c) { return a.first < c.first; });
+              offsets[static_cast<std::size_t>(k)] = set.size();
+              // Candidates in index order, the parent itself among them.
+              batch.ids.clear();
+              bool self_done = false;
+              for (const auto& nbi : nb) {
+                const Index i = others[static_cast<std::size_t>(nbi.first)];
+                if (!self_done && s < i) {
+                  batch.ids.push_back(s);
+                  self_done = true;
+                }
+                batch.ids.push_back(i);
               }
-              consider(i);
+              if (!self_done) batch.ids.push_back(s);
+              kl_terms<PacketD>(comps, ps, n_points, batch);
+              const double log_ws = std::log(ps.w);
+              for (std::size_t t = 0; t < batch.ids.size(); ++t) {
+                const Index i = batch.ids[t];
+                // eq. 11 (a parent always keeps itself)
+                if (!(batch.kl[t] < kl_max) && i != s) continue;
+                set.push_back({i, log_ws + batch.log_l[t]});
+              }
             }
-            if (!self_done) consider(s);
           }
-        }
-      });
+        });
+  });
   // Global offsets: block by block, in parent order.
   std::vector<std::size_t> block_base(static_cast<std::size_t>(nblocks) + 1, 0);
   for (Index b = 0; b < nblocks; ++b)
