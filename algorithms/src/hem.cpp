@@ -19,6 +19,7 @@
 #include <utility>
 
 #include "hem_internal.h"
+#include "neighbor_grid.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/kdtree.h"
 #include "scanbench/core/rng.h"
@@ -781,6 +782,81 @@ struct Child {
   double log_term;  // log(w_s L_is)
 };
 
+// The candidate children of one parent and, per candidate i, eq. 11's D_KL(i || s) and eq. 9's
+// log L_is = w_i |P| (log N(mu_i; mu_s, Sigma_s) - tr(Sigma_s^-1 Sigma_i) / 2).
+struct KlBatch {
+  std::vector<Index> ids;
+  std::vector<double> kl, log_l;
+  // Structure of arrays of the gathered candidates: mu_i - mu_s (3), Sigma_i's upper triangle
+  // (xx, xy, xz, yy, yz, zz), log |Sigma_i|, w_i |P|; padded to whole packets.
+  std::vector<double> f[11];
+};
+
+// Fills batch.kl and batch.log_l for batch.ids in double packets of the active ISA. Every lane
+// is one candidate evaluated by the same operations in the same order, so each value is the
+// same on every ISA and at any thread count (no sum runs across lanes).
+template <class PacketD>
+void kl_terms(const Components& comps, const Component& ps, double n_points, KlBatch& batch) {
+  namespace ei = Eigen::internal;
+  constexpr std::size_t kLanes = ei::unpacket_traits<PacketD>::size;
+  const std::size_t m = batch.ids.size();
+  const std::size_t padded = (m + kLanes - 1) / kLanes * kLanes;
+  for (auto& f : batch.f)
+    if (f.size() < padded) f.resize(padded);
+  batch.kl.resize(padded);
+  batch.log_l.resize(padded);
+  for (std::size_t t = 0; t < padded; ++t) {
+    if (t < m) {
+      const Component& ci = comps[static_cast<std::size_t>(batch.ids[t])];
+      batch.f[0][t] = ci.mu.x() - ps.mu.x();
+      batch.f[1][t] = ci.mu.y() - ps.mu.y();
+      batch.f[2][t] = ci.mu.z() - ps.mu.z();
+      batch.f[3][t] = ci.cov(0, 0);
+      batch.f[4][t] = ci.cov(0, 1);
+      batch.f[5][t] = ci.cov(0, 2);
+      batch.f[6][t] = ci.cov(1, 1);
+      batch.f[7][t] = ci.cov(1, 2);
+      batch.f[8][t] = ci.cov(2, 2);
+      batch.f[9][t] = ci.logdet;
+      batch.f[10][t] = ci.w * n_points;
+    } else {  // padding: finite values, results ignored
+      for (int e = 0; e < 11; ++e)
+        batch.f[e][t] = 0.0;
+    }
+  }
+  // Sigma_s is stored symmetric (set_conditioned, store_conditioned), and so is its inverse.
+  const Matrix3d inv = ps.cov.inverse();
+  const PacketD i00 = ei::pset1<PacketD>(inv(0, 0)), i01 = ei::pset1<PacketD>(inv(0, 1)),
+                i02 = ei::pset1<PacketD>(inv(0, 2)), i11 = ei::pset1<PacketD>(inv(1, 1)),
+                i12 = ei::pset1<PacketD>(inv(1, 2)), i22 = ei::pset1<PacketD>(inv(2, 2));
+  const PacketD two = ei::pset1<PacketD>(2.0), half = ei::pset1<PacketD>(0.5);
+  const PacketD three_minus_lds = ei::pset1<PacketD>(3.0 - ps.logdet);
+  const PacketD log_norm = ei::pset1<PacketD>(-0.5 * (3.0 * kLog2Pi + ps.logdet));
+  for (std::size_t t = 0; t < padded; t += kLanes) {
+    auto ld = [&](int e) { return ei::ploadu<PacketD>(batch.f[e].data() + t); };
+    const PacketD dx = ld(0), dy = ld(1), dz = ld(2);
+    // d^T Sigma_s^-1 d
+    const PacketD tx = ei::padd(ei::padd(ei::pmul(i00, dx), ei::pmul(i01, dy)), ei::pmul(i02, dz));
+    const PacketD ty = ei::padd(ei::padd(ei::pmul(i01, dx), ei::pmul(i11, dy)), ei::pmul(i12, dz));
+    const PacketD tz = ei::padd(ei::padd(ei::pmul(i02, dx), ei::pmul(i12, dy)), ei::pmul(i22, dz));
+    const PacketD maha = ei::padd(ei::padd(ei::pmul(dx, tx), ei::pmul(dy, ty)), ei::pmul(dz, tz));
+    // tr(Sigma_s^-1 Sigma_i) of two symmetric matrices: diagonal products + 2 x off-diagonal.
+    const PacketD diag =
+        ei::padd(ei::padd(ei::pmul(i00, ld(3)), ei::pmul(i11, ld(6))), ei::pmul(i22, ld(8)));
+    const PacketD off =
+        ei::padd(ei::padd(ei::pmul(i01, ld(4)), ei::pmul(i02, ld(5))), ei::pmul(i12, ld(7)));
+    const PacketD tr = ei::padd(diag, ei::pmul(two, off));
+    // eq. 11: D_KL = (d_M^2 + tr - 3 - log(|Sigma_i| / |Sigma_s|)) / 2
+    const PacketD kl =
+        ei::pmul(half, ei::psub(ei::padd(maha, tr), ei::padd(three_minus_lds, ld(9))));
+    // eq. 9: log L_is = w_i |P| (log g(mu_i; mu_s, Sigma_s) - tr / 2)
+    const PacketD log_g = ei::psub(log_norm, ei::pmul(half, maha));
+    const PacketD log_l = ei::pmul(ld(10), ei::psub(log_g, ei::pmul(half, tr)));
+    ei::pstoreu(batch.kl.data() + t, kl);
+    ei::pstoreu(batch.log_l.data() + t, log_l);
+  }
+}
+
 // One HEM level. Returns the next level's components.
 Components cluster_level(const Components& comps, const HemParams& p, std::uint64_t level_seed,
                          double n_points, double abs_floor) {
@@ -803,9 +879,41 @@ Components cluster_level(const Components& comps, const HemParams& p, std::uint6
   for (std::size_t k = 0; k < others.size(); ++k)
     centers.col(static_cast<Index>(k)) =
         comps[static_cast<std::size_t>(others[k])].mu.cast<float>();
-  const KdTree tree(centers);
   const double kl_max = 0.5 * p.alpha * p.alpha;
   const Index np = static_cast<Index>(parents.size());
+  // D_KL >= d_M^2 / 2, so every admissible child of parent s is within alpha * sigma_max(s) of
+  // mu_s; the float search gets a hair of slack, the exact test (eq. 11) decides.
+  std::vector<float> radius(static_cast<std::size_t>(np));
+  for (Index k = 0; k < np; ++k) {
+    const Component& ps = comps[static_cast<std::size_t>(parents[static_cast<std::size_t>(k)])];
+    radius[static_cast<std::size_t>(k)] = static_cast<float>(p.alpha * std::sqrt(ps.lmax) * 1.001 +
+                                                             1e-6 * ps.mu.cwiseAbs().maxCoeff());
+  }
+  // The candidates come from a uniform grid of the non-parents' means (cells of the 90th
+  // percentile of the search radii: at most 3 x 3 contiguous column ranges for 90% of the
+  // parents, no tree walk); a parent whose radius spans more than kMaxCells cells asks a kd-tree
+  // (built on first use). Either way the candidates
+  // within the radius are visited in index order, so the result does not depend on the search.
+  constexpr float kMaxCells = 4.0f;
+  float cell = 1.0f;
+  if (np > 0) {
+    std::vector<float> sorted_radius = radius;
+    const Index at = np * 9 / 10;
+    std::nth_element(sorted_radius.begin(), sorted_radius.begin() + at, sorted_radius.end());
+    cell = sorted_radius[static_cast<std::size_t>(at)];
+  }
+  // At most 2^20 cells per axis (the grid's keys stay far from overflow).
+  if (centers.cols() > 0)
+    cell = std::max(cell, (centers.rowwise().maxCoeff() - centers.rowwise().minCoeff()).maxCoeff() /
+                              static_cast<float>(1 << 20));
+  if (!(cell > 0.0f) || !std::isfinite(cell)) cell = 1.0f;
+  const detail::NeighborGrid grid(centers, cell);
+  std::once_flag tree_once;
+  std::optional<KdTree> tree_storage;
+  auto tree = [&]() -> const KdTree& {
+    std::call_once(tree_once, [&] { tree_storage.emplace(centers); });
+    return *tree_storage;
+  };
 
   // Children of parent k: block b = k / kBlock holds the sets of its parents back to back;
   // offsets[k] .. offsets[k + 1] index into it. Fixed blocks: thread-independent.
@@ -813,49 +921,63 @@ Components cluster_level(const Components& comps, const HemParams& p, std::uint6
   const Index nblocks = (np + kBlock - 1) / kBlock;
   std::vector<std::vector<Child>> block_sets(static_cast<std::size_t>(nblocks));
   std::vector<std::size_t> offsets(static_cast<std::size_t>(np) + 1, 0);
-  tbb::parallel_for(
-      tbb::blocked_range<Index>(0, nblocks, 1), [&](const tbb::blocked_range<Index>& r) {
-        Hits nb;
-        for (Index b = r.begin(); b < r.end(); ++b) {
-          auto& set = block_sets[static_cast<std::size_t>(b)];
-          for (Index k = b * kBlock; k < std::min(np, (b + 1) * kBlock); ++k) {
-            const Index s = parents[static_cast<std::size_t>(k)];
-            const Component& ps = comps[static_cast<std::size_t>(s)];
-            const Matrix3d inv = ps.cov.inverse();
-            const double ld_s = ps.logdet;
-            const double log_ws = std::log(ps.w);
-            // D_KL >= d_M^2 / 2, so every admissible child is within alpha * sigma_max(s); the
-            // float kd-tree gets a hair of slack, the exact test below decides.
-            const double radius =
-                p.alpha * std::sqrt(ps.lmax) * 1.001 + 1e-6 * ps.mu.cwiseAbs().maxCoeff();
-            tree.radius(ps.mu.cast<float>(), static_cast<float>(radius), nb);
-            std::sort(nb.begin(), nb.end(),
-                      [](const auto& a, const auto& c) { return a.first < c.first; });
-            offsets[static_cast<std::size_t>(k)] = set.size();
-            auto consider = [&](Index i) {
-              const Component& ci = comps[static_cast<std::size_t>(i)];
-              const Vector3d d = ci.mu - ps.mu;
-              const double maha = d.dot(inv * d);
-              const double tr = (inv * ci.cov).trace();
-              const double kl = 0.5 * (maha + tr - 3.0 - (ci.logdet - ld_s));
-              if (!(kl < kl_max) && i != s) return;  // eq. 11 (a parent always keeps itself)
-              const double log_g = -0.5 * (3.0 * kLog2Pi + ld_s + maha);
-              const double log_l = ci.w * n_points * (log_g - 0.5 * tr);  // eq. 9, exponent w_i |P|
-              set.push_back({i, log_ws + log_l});
-            };
-            bool self_done = false;
-            for (const auto& nbi : nb) {
-              const Index i = others[static_cast<std::size_t>(nbi.first)];
-              if (!self_done && s < i) {
-                consider(s);
-                self_done = true;
-              }
-              consider(i);
-            }
-            if (!self_done) consider(s);
-          }
-        }
-      });
+  simd::with_packet([&](auto tag) {
+    using PacketD = typename simd::DoublePacket<typename decltype(tag)::type>::type;
+    tbb::parallel_for(tbb::blocked_range<Index>(0, nblocks, 1),
+                      [&](const tbb::blocked_range<Index>& r) {
+                        Hits nb;
+                        std::vector<detail::GridRange> ranges;
+                        std::vector<Index> near;  // positions in `others`
+                        KlBatch batch;
+                        for (Index b = r.begin(); b < r.end(); ++b) {
+                          auto& set = block_sets[static_cast<std::size_t>(b)];
+                          for (Index k = b * kBlock; k < std::min(np, (b + 1) * kBlock); ++k) {
+                            const Index s = parents[static_cast<std::size_t>(k)];
+                            const Component& ps = comps[static_cast<std::size_t>(s)];
+                            const float rad = radius[static_cast<std::size_t>(k)];
+                            const Vector3f mu = ps.mu.cast<float>();
+                            near.clear();
+                            if (rad <= kMaxCells * cell) {
+                              grid.ranges_near(mu, rad, ranges);
+                              const float r2 = rad * rad;
+                              for (const detail::GridRange& gr : ranges)
+                                for (Index t = gr.begin; t < gr.end; ++t) {
+                                  const float dx = grid.x()[t] - mu.x(), dy = grid.y()[t] - mu.y(),
+                                              dz = grid.z()[t] - mu.z();
+                                  if (dx * dx + dy * dy + dz * dz <= r2)
+                                    near.push_back(grid.index(t));
+                                }
+                            } else {
+                              tree().radius(mu, rad, nb);
+                              for (const auto& hit : nb)
+                                near.push_back(hit.first);
+                            }
+                            std::sort(near.begin(), near.end());
+                            offsets[static_cast<std::size_t>(k)] = set.size();
+                            // Candidates in index order, the parent itself among them.
+                            batch.ids.clear();
+                            bool self_done = false;
+                            for (const Index at : near) {
+                              const Index i = others[static_cast<std::size_t>(at)];
+                              if (!self_done && s < i) {
+                                batch.ids.push_back(s);
+                                self_done = true;
+                              }
+                              batch.ids.push_back(i);
+                            }
+                            if (!self_done) batch.ids.push_back(s);
+                            kl_terms<PacketD>(comps, ps, n_points, batch);
+                            const double log_ws = std::log(ps.w);
+                            for (std::size_t t = 0; t < batch.ids.size(); ++t) {
+                              const Index i = batch.ids[t];
+                              // eq. 11 (a parent always keeps itself)
+                              if (!(batch.kl[t] < kl_max) && i != s) continue;
+                              set.push_back({i, log_ws + batch.log_l[t]});
+                            }
+                          }
+                        }
+                      });
+  });
   // Global offsets: block by block, in parent order.
   std::vector<std::size_t> block_base(static_cast<std::size_t>(nblocks) + 1, 0);
   for (Index b = 0; b < nblocks; ++b)

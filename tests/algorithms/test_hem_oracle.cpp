@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <vector>
@@ -203,6 +204,53 @@ TEST(HemOracle, LikelihoodExponentFollowsTheWeights) {
   const std::uint64_t seed = 1234;
   expect_same(hem_detail::cluster_level(level, p, seed, n_points, kAbsFloor),
               brute_force_level(level, p, seed, n_points));
+}
+
+}  // namespace
+}  // namespace scanbench::algorithms
+
+namespace scanbench::algorithms {
+namespace {
+
+// The children search of cluster_level reads a grid of the non-parents' means sized for the
+// common search radius alpha * sigma_max(s); a parent whose radius spans many cells asks a
+// kd-tree instead. A few parents stretched 30 times along their major axis (search balls about
+// 30 times the others'; alpha = 5 so that eq. 11 still admits children along that axis) take
+// that path: the level still matches the brute force, which has no search.
+TEST(HemOracle, WideParentsMatchTheBruteForce) {
+  const Eigen::Matrix3Xf pts = patch(400, 13);
+  HemParams p;
+  p.alpha = 5.0;
+  Components level = hem_detail::initial_mixture(pts, p, 0.2, kAbsFloor);
+  const std::uint64_t seed = 4321;
+  int wide = 0;
+  std::vector<std::size_t> wide_parents;
+  for (std::size_t i = 0; i < level.size() && wide < 3; ++i) {
+    if (!hem_detail::chosen_as_parent(seed, static_cast<Eigen::Index>(i), p.parent_probability))
+      continue;
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(level[i].cov);
+    const Eigen::Vector3d v = es.eigenvectors().col(2);
+    hem_detail::set_conditioned(
+        level[i], level[i].cov + 899.0 * es.eigenvalues()(2) * v * v.transpose(), kAbsFloor);
+    wide_parents.push_back(i);
+    ++wide;
+  }
+  ASSERT_EQ(wide, 3);
+  const double n_points = static_cast<double>(pts.cols());
+  const Components got = hem_detail::cluster_level(level, p, seed, n_points, kAbsFloor);
+  expect_same(got, brute_force_level(level, p, seed, n_points));
+  // The stretched parents took children (their weights grew 1.5-3 fold).
+  std::size_t parent_rank = 0;
+  int grown = 0;
+  for (std::size_t i = 0; i < level.size(); ++i) {
+    if (!hem_detail::chosen_as_parent(seed, static_cast<Eigen::Index>(i), p.parent_probability))
+      continue;
+    if (std::find(wide_parents.begin(), wide_parents.end(), i) != wide_parents.end() &&
+        got[parent_rank].w > 1.2 * level[i].w)
+      ++grown;
+    ++parent_rank;
+  }
+  EXPECT_EQ(grown, 3);
 }
 
 }  // namespace

@@ -12,6 +12,28 @@ namespace scanbench::simd {
 
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wignored-attributes"
+/// The double packet of the same width in bytes as a float packet (half its lanes): Packet2d for
+/// Packet4f, Packet4d for Packet8f, Packet8d for Packet16f. Kernels that need double precision
+/// (HEM's eq. 9-12, the distance field's index coordinates) run it on the active ISA.
+template <class PacketF>
+struct DoublePacket;
+template <>
+struct DoublePacket<Eigen::internal::Packet4f> {
+  using type = Eigen::internal::Packet2d;
+};
+#ifdef EIGEN_VECTORIZE_AVX
+template <>
+struct DoublePacket<Eigen::internal::Packet8f> {
+  using type = Eigen::internal::Packet4d;
+};
+#endif
+#ifdef EIGEN_VECTORIZE_AVX512
+template <>
+struct DoublePacket<Eigen::internal::Packet16f> {
+  using type = Eigen::internal::Packet8d;
+};
+#endif
+
 template <class P>
 struct PacketTag {
   using type = P;
