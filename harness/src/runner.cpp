@@ -16,6 +16,7 @@
 #include <regex>
 #include <set>
 #include <string>
+#include <string_view>
 #include <thread>
 #include <vector>
 
@@ -153,6 +154,25 @@ std::string last_lines(const fs::path& log, std::size_t max_chars = 300) {
   return text;
 }
 
+// The first line of the log holding `needle`, without its newline ("" when none or unreadable).
+// AddressSanitizer prints its verdict first and a process memory map of a thousand lines after it,
+// so the tail of the log does not show why a sanitized child stopped.
+std::string line_with(const fs::path& log, std::string_view needle) {
+  std::string text;
+  try {
+    text = read_file(log);
+  } catch (const Error&) {
+    return "";
+  }
+  const std::size_t at = text.find(needle);
+  if (at == std::string::npos) return "";
+  const std::size_t begin = text.rfind('\n', at);
+  const std::size_t end = text.find('\n', at);
+  return text.substr(begin == std::string::npos ? 0 : begin + 1,
+                     end == std::string::npos ? std::string::npos
+                                              : end - (begin == std::string::npos ? 0 : begin + 1));
+}
+
 Json base_record(const Job& job) {
   Json r = Json::object();
   r["id"] = job.id;
@@ -198,12 +218,13 @@ Json finish_record(const Child& c, int wstatus, const struct rusage& ru, const J
         alloc ? fmt::format(" after failing to allocate under the {} MB limit", job.memory_limit_mb)
               : "");
     if (!log_tail.empty()) error += ": " + log_tail;
-  } else if (!result.is_object() &&
-             log_tail.find("hard rss limit exhausted") != std::string::npos) {
+  } else if (const std::string rss =
+                 result.is_object() ? std::string() : line_with(c.log, "hard rss limit exhausted");
+             !rss.empty()) {
     // A sanitizer build's child over its memory limit (see spawn).
     status = "memory";
-    error = fmt::format("exceeded the {} MB limit on its resident set: {}", job.memory_limit_mb,
-                        log_tail);
+    error =
+        fmt::format("exceeded the {} MB limit on its resident set: {}", job.memory_limit_mb, rss);
   } else if (result.is_object() && result.contains("status")) {
     status = result.value("status", std::string("error"));
     error = result.value("error", std::string());

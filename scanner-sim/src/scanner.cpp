@@ -833,7 +833,13 @@ Scan ScannerEngine::run(RunContext& ctx) const {
         Rng rng(derive_seed(misalign_seed, static_cast<std::uint64_t>(view)));
         auto random_unit = [&rng] {
           while (true) {
-            const Eigen::Vector3d a(rng.normal(), rng.normal(), rng.normal());
+            // One draw per statement (argument evaluation order is unspecified, so a
+            // constructor with three draws gave GCC and clang builds different axes); z first
+            // keeps the scans of GCC builds as they were.
+            const double z = rng.normal();
+            const double y = rng.normal();
+            const double x = rng.normal();
+            const Eigen::Vector3d a(x, y, z);
             const double n = a.norm();
             if (n > 1e-6) return Eigen::Vector3d(a / n);
           }

@@ -88,9 +88,13 @@ GaussianMixture test_mixture(std::uint64_t seed) {
   m.normal_spreads.resize(k);
   for (int s = 0; s < k; ++s) {
     m.weights(s) = static_cast<float>(rng.uniform(0.05, 0.3));
-    m.means.col(s) = Eigen::Vector3f(static_cast<float>(rng.uniform(-0.05, 0.05)),
-                                     static_cast<float>(rng.uniform(-0.05, 0.05)),
-                                     static_cast<float>(rng.uniform(-0.01, 0.01)));
+    // One draw per statement: the order of a constructor's argument evaluations is unspecified
+    // (GCC goes right to left, clang left to right), and the data must not depend on the compiler.
+    // z first keeps the mixture this test was written against (GCC's order).
+    const float z = static_cast<float>(rng.uniform(-0.01, 0.01));
+    const float y = static_cast<float>(rng.uniform(-0.05, 0.05));
+    const float x = static_cast<float>(rng.uniform(-0.05, 0.05));
+    m.means.col(s) = Eigen::Vector3f(x, y, z);
     Eigen::Matrix3f c = Eigen::Matrix3f::Zero();
     c.diagonal() << static_cast<float>(rng.uniform(5e-4, 2e-3)),
         static_cast<float>(rng.uniform(5e-4, 2e-3)), static_cast<float>(rng.uniform(1e-5, 1e-4));

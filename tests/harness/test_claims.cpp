@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <vector>
 
 #include "cli_test_util.h"
 #include "scanbench/core/errors.h"
@@ -165,7 +166,11 @@ TEST(ClaimRules, ArgminOfASweepParameter) {
   EXPECT_EQ(judge_rule(c, recs).verdict, "failed");
 }
 
-Json claim_json(Json rules) {
+// The rules as a vector: a Json built from a one-element braced list ({rule}) is a copy of the
+// rule under clang but an array under GCC (nlohmann/json's single-element brace initialisation),
+// so the list is made an array explicitly.
+Json claim_json(const std::vector<Json>& rule_list) {
+  const Json rules(rule_list);
   return {{"scanbench_claim", 1},
           {"claim", "x is better than y"},
           {"source", "a paper, Fig. 1"},
@@ -213,8 +218,7 @@ TEST(ClaimFiles, ValidatedWithPathsAndQuickPatchApplied) {
   r = good_rule();
   r["value"] = 1.0;
   EXPECT_NE(error_of(claim_json({r})).find("exactly one of"), std::string::npos);
-  EXPECT_NE(error_of(claim_json(Json::array())).find("/rules: expected a non-empty list"),
-            std::string::npos);
+  EXPECT_NE(error_of(claim_json({})).find("/rules: expected a non-empty list"), std::string::npos);
   Json bad = claim_json({good_rule()});
   bad["experiment"]["variants"][0]["params"] = {{"k", -3}};
   EXPECT_NE(error_of(bad).find("c.json: /experiment: /variants/0/params"), std::string::npos)
