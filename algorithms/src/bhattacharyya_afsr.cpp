@@ -16,6 +16,7 @@
 #include <map>
 #include <memory>
 #include <numbers>
+#include <set>
 #include <utility>
 
 #include "bhattacharyya_internal.h"
@@ -144,13 +145,21 @@ void close_three_edge_fronts(std::vector<std::array<int, 3>>& faces) {
     next[e.first] = e.second;
     ++count[e.first];
   }
+  std::set<std::array<int, 3>> existing;  // vertex triples, sorted: a lone triangle's own boundary
+  for (auto t : faces) {                  // is a three-edge loop, and is not closed twice
+    std::sort(t.begin(), t.end());
+    existing.insert(t);
+  }
   std::vector<std::array<int, 3>> added;
   for (const auto& [a, b] : next) {
     if (count[a] != 1 || count[b] != 1 || next.count(b) == 0) continue;
     const int c = next[b];
     if (count[c] != 1 || next.count(c) == 0 || next[c] != a || c == a || c == b) continue;
     if (a != std::min({a, b, c})) continue;  // each loop once
-    added.push_back({a, c, b});              // reversed: its edges are the loop's opposites
+    std::array<int, 3> key{a, b, c};
+    std::sort(key.begin(), key.end());
+    if (existing.count(key) != 0) continue;
+    added.push_back({a, c, b});  // reversed: its edges are the loop's opposites
   }
   faces.insert(faces.end(), added.begin(), added.end());
 }

@@ -139,6 +139,24 @@ TEST(TriangulationCandidates, DelaunayCandidatesTriangulateCoplanarMeans) {
     EXPECT_EQ(cm.means(2, v), 0.0f);
 }
 
+// Three Gaussians make one triangle, whose own boundary is a three-edge loop: closing such loops
+// (they are holes elsewhere) must not add the same triangle a second time, reversed (every edge
+// would then have two faces with the same three vertices, which subdivide.gp_loop refuses).
+TEST(TriangulationCandidates, ALoneTriangleIsNotClosedTwice) {
+  GaussianMixture m;
+  m.resize(3);
+  m.weights.setConstant(1.0f / 3.0f);
+  m.means << 0.0f, 0.1f, 0.05f, 0.0f, 0.0f, 0.0866f, 0.0f, 0.0f, 0.0f;
+  for (Eigen::Index i = 0; i < 3; ++i)
+    m.set_covariance(i, Eigen::Vector3f(0.01f, 0.01f, 2.5e-5f).asDiagonal());
+  RunContext ctx(1);
+  const CovarianceMesh cm = triangulate_bhattacharyya(m, mode("delaunay"), ctx, nullptr);
+  EXPECT_EQ(cm.num_faces(), 1);
+  const Topology t = topology(cm);
+  EXPECT_EQ(t.boundary, 3);
+  EXPECT_EQ(t.over, 0);
+}
+
 TEST(TriangulationCandidates, DelaunayModeIsIdenticalAt1And2Threads) {
   Rng rng(5);
   PointCloud pc;
