@@ -154,8 +154,9 @@ TEST(Triangulation, ThinCuboidSheetsAreNotBridged) {
   EXPECT_EQ(topology(cm).over, 0);
 }
 
-TEST(Triangulation, HemMixtureOfASphereScanTriangulatesIdenticallyAt1And2Threads) {
-  // A realistic chain: points -> mixture.hem -> triangulate.bhattacharyya.
+TEST(Triangulation, FreeCandidatesOnAHemMixtureAreIdenticalAt1And2Threads) {
+  // A realistic chain: points -> mixture.hem -> triangulate.bhattacharyya with the unrestricted
+  // candidates (the default Delaunay ones: test_triangulation_candidates.cpp).
   Rng rng(5);
   PointCloud pc;
   pc.positions.resize(3, 6000);
@@ -170,7 +171,7 @@ TEST(Triangulation, HemMixtureOfASphereScanTriangulatesIdenticallyAt1And2Threads
   for (int threads : {1, 2}) {
     RunContext ctx(9, threads);
     StageData d = hem.fn(pc, hem.params.validate(Json::object(), "t"), ctx);
-    d = tri.fn(d, tri.params.validate(Json::object(), "t"), ctx);
+    d = tri.fn(d, tri.params.validate(Json{{"candidates", "free"}}, "t"), ctx);
     ASSERT_TRUE(d.covariance_mesh.has_value());
     faces[threads - 1] = d.covariance_mesh->face_vertices;
     const Topology t = topology(*d.covariance_mesh);
