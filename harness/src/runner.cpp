@@ -139,13 +139,17 @@ pid_t spawn(const fs::path& exe, const Child& c, double memory_limit_mb) {
   return pid;
 }
 
-std::string last_lines(const fs::path& log, std::size_t max_chars = 300) {
-  std::string text;
+// A child's log, whole ("" when it cannot be read: the child may have died before opening it).
+std::string read_log(const fs::path& log) {
   try {
-    text = read_file(log);
+    return read_file(log);
   } catch (const Error&) {
     return "";
   }
+}
+
+// The last `max_chars` of the log on one line.
+std::string last_lines(std::string text, std::size_t max_chars = 300) {
   while (!text.empty() && (text.back() == '\n' || text.back() == ' '))
     text.pop_back();
   if (text.size() > max_chars) text = "..." + text.substr(text.size() - max_chars);
@@ -154,23 +158,15 @@ std::string last_lines(const fs::path& log, std::size_t max_chars = 300) {
   return text;
 }
 
-// The first line of the log holding `needle`, without its newline ("" when none or unreadable).
+// The first line of the log holding `needle`, without its newline ("" when none).
 // AddressSanitizer prints its verdict first and a process memory map of a thousand lines after it,
 // so the tail of the log does not show why a sanitized child stopped.
-std::string line_with(const fs::path& log, std::string_view needle) {
-  std::string text;
-  try {
-    text = read_file(log);
-  } catch (const Error&) {
-    return "";
-  }
+std::string line_with(std::string_view text, std::string_view needle) {
   const std::size_t at = text.find(needle);
-  if (at == std::string::npos) return "";
-  const std::size_t begin = text.rfind('\n', at);
-  const std::size_t end = text.find('\n', at);
-  return text.substr(begin == std::string::npos ? 0 : begin + 1,
-                     end == std::string::npos ? std::string::npos
-                                              : end - (begin == std::string::npos ? 0 : begin + 1));
+  if (at == std::string_view::npos) return "";
+  const std::size_t nl = text.rfind('\n', at);
+  const std::size_t begin = nl == std::string_view::npos ? 0 : nl + 1;
+  return std::string(text.substr(begin, text.find('\n', at) - begin));
 }
 
 Json base_record(const Job& job) {
@@ -205,7 +201,8 @@ Json finish_record(const Child& c, int wstatus, const struct rusage& ru, const J
     }
   }
   std::string status, error;
-  const std::string log_tail = last_lines(c.log);
+  const std::string log_text = read_log(c.log);
+  const std::string log_tail = last_lines(log_text);
   if (c.timed_out) {
     status = "timeout";
     error = fmt::format("killed after the per-job timeout of {} s", job.timeout_s);
@@ -218,8 +215,9 @@ Json finish_record(const Child& c, int wstatus, const struct rusage& ru, const J
         alloc ? fmt::format(" after failing to allocate under the {} MB limit", job.memory_limit_mb)
               : "");
     if (!log_tail.empty()) error += ": " + log_tail;
-  } else if (const std::string rss =
-                 result.is_object() ? std::string() : line_with(c.log, "hard rss limit exhausted");
+  } else if (const std::string rss = result.is_object()
+                                         ? std::string()
+                                         : line_with(log_text, "hard rss limit exhausted");
              !rss.empty()) {
     // A sanitizer build's child over its memory limit (see spawn).
     status = "memory";

@@ -157,24 +157,12 @@ TEST(Triangulation, ThinCuboidSheetsAreNotBridged) {
 TEST(Triangulation, FreeCandidatesOnAHemMixtureAreIdenticalAt1And2Threads) {
   // A realistic chain: points -> mixture.hem -> triangulate.bhattacharyya with the unrestricted
   // candidates (the default Delaunay ones: test_triangulation_candidates.cpp).
-  Rng rng(5);
-  PointCloud pc;
-  pc.positions.resize(3, 6000);
-  for (Eigen::Index i = 0; i < pc.size(); ++i) {
-    Eigen::Vector3f d(static_cast<float>(rng.normal()), static_cast<float>(rng.normal()),
-                      static_cast<float>(rng.normal()));
-    pc.positions.col(i) = d.normalized();
-  }
-  const auto& hem = registry().at("mixture.hem");
-  const auto& tri = registry().at("triangulate.bhattacharyya");
+  const PointCloud pc = test::unit_sphere_points(6000, 5);
   std::vector<int> faces[2];
   for (int threads : {1, 2}) {
-    RunContext ctx(9, threads);
-    StageData d = hem.fn(pc, hem.params.validate(Json::object(), "t"), ctx);
-    d = tri.fn(d, tri.params.validate(Json{{"candidates", "free"}}, "t"), ctx);
-    ASSERT_TRUE(d.covariance_mesh.has_value());
-    faces[threads - 1] = d.covariance_mesh->face_vertices;
-    const Topology t = topology(*d.covariance_mesh);
+    const CovarianceMesh cm = test::hem_then_triangulate(pc, Json{{"candidates", "free"}}, threads);
+    faces[threads - 1] = cm.face_vertices;
+    const Topology t = topology(cm);
     EXPECT_EQ(t.over, 0);
     // Record what a clean sphere gives (a closed manifold is the goal; holes are reported).
     RecordProperty("boundary_edges", std::to_string(t.boundary));

@@ -158,24 +158,13 @@ TEST(TriangulationCandidates, ALoneTriangleIsNotClosedTwice) {
 }
 
 TEST(TriangulationCandidates, DelaunayModeIsIdenticalAt1And2Threads) {
-  Rng rng(5);
-  PointCloud pc;
-  pc.positions.resize(3, 6000);
-  for (Eigen::Index i = 0; i < pc.size(); ++i) {
-    Eigen::Vector3f d(static_cast<float>(rng.normal()), static_cast<float>(rng.normal()),
-                      static_cast<float>(rng.normal()));
-    pc.positions.col(i) = d.normalized();
-  }
-  const auto& hem = registry().at("mixture.hem");
-  const auto& tri = registry().at("triangulate.bhattacharyya");
+  const PointCloud pc = test::unit_sphere_points(6000, 5);
   std::vector<int> faces[2];
   for (int threads : {1, 2}) {
-    RunContext ctx(9, threads);
-    StageData d = hem.fn(pc, hem.params.validate(Json::object(), "t"), ctx);
-    d = tri.fn(d, tri.params.validate(Json{{"candidates", "delaunay"}}, "t"), ctx);
-    ASSERT_TRUE(d.covariance_mesh.has_value());
-    faces[threads - 1] = d.covariance_mesh->face_vertices;
-    EXPECT_EQ(topology(*d.covariance_mesh).over, 0);
+    const CovarianceMesh cm =
+        test::hem_then_triangulate(pc, Json{{"candidates", "delaunay"}}, threads);
+    faces[threads - 1] = cm.face_vertices;
+    EXPECT_EQ(topology(cm).over, 0);
   }
   EXPECT_FALSE(faces[0].empty());
   EXPECT_EQ(faces[0], faces[1]);

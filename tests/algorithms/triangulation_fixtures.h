@@ -2,11 +2,16 @@
 // Fixtures shared by the triangulate.bhattacharyya tests (test_triangulation.cpp,
 // test_triangulation_candidates.cpp): surface mixtures, the thin sheets of GPS Fig. 8b, topology.
 #include <Eigen/Geometry>
+#include <cstdint>
 #include <map>
 #include <utility>
 
+#include "scanbench/algorithms/registry.h"
 #include "scanbench/core/covariance_mesh.h"
 #include "scanbench/core/gaussian_mixture.h"
+#include "scanbench/core/point_cloud.h"
+#include "scanbench/core/rng.h"
+#include "scanbench/core/run_context.h"
 #include "scanbench/core/triangle_mesh.h"
 
 namespace scanbench::algorithms::test {
@@ -34,6 +39,33 @@ inline GaussianMixture surface_mixture(const TriangleMesh& mesh, double s) {
     m.set_covariance(i, c.cast<float>());
   }
   return m;
+}
+
+// `n` points on the unit sphere (normalised Gaussian triples). One draw per statement, z first:
+// the order of a constructor's argument evaluations is unspecified, and GCC's (right to left)
+// gave the data these tests were written against.
+inline PointCloud unit_sphere_points(Eigen::Index n, std::uint64_t seed) {
+  Rng rng(seed);
+  PointCloud pc;
+  pc.positions.resize(3, n);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const auto z = static_cast<float>(rng.normal());
+    const auto y = static_cast<float>(rng.normal());
+    const auto x = static_cast<float>(rng.normal());
+    pc.positions.col(i) = Eigen::Vector3f(x, y, z).normalized();
+  }
+  return pc;
+}
+
+// The chain points -> mixture.hem (defaults) -> triangulate.bhattacharyya (`params`) through the
+// registry, at `threads` threads.
+inline CovarianceMesh hem_then_triangulate(const PointCloud& pc, const Json& params, int threads) {
+  const auto& hem = registry().at("mixture.hem");
+  const auto& tri = registry().at("triangulate.bhattacharyya");
+  RunContext ctx(9, threads);
+  StageData d = hem.fn(pc, hem.params.validate(Json::object(), "t"), ctx);
+  d = tri.fn(d, tri.params.validate(params, "t"), ctx);
+  return d.covariance_mesh.value();
 }
 
 struct Topology {
