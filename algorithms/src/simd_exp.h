@@ -11,6 +11,9 @@
 // where Eigen returns a denormal. The floor of x log2(e) + 1/2 (in [-127.5, 128.5] after the
 // clamp) is the truncation to int32 corrected by one below zero: the same value as pfloor, whose
 // SSE2 emulation (no roundps before SSE4.1) was a third of this function's instructions.
+// Eigen 3.4's pexp for AVX-512 floats is not pexp_float but an older Cephes variant (one-step
+// ln 2 reduction, other clamp); this function stays pexp_float's arithmetic on every packet
+// width, so the avx512 path computes the same exp per lane as the sse2 and avx2 paths.
 #include <Eigen/Core>
 
 namespace scanbench::algorithms::detail {

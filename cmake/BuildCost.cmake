@@ -1,0 +1,51 @@
+# What a build costs (README "Build and test times"): the heavy third-party headers are parsed
+# once per target instead of once per file.
+#
+#   CMAKE_UNITY_BUILD=ON  (scripts/build.sh and scripts/test.sh set it; plain cmake leaves it off
+#                         for incremental rebuilds) each target's sources are compiled in batches
+#                         of UNITY_BUILD_BATCH_SIZE (8): Eigen, fmt, nlohmann-json, CLI11 and
+#                         GoogleTest are parsed, and their inline functions compiled, once per
+#                         batch. Sources with their own compile options or definitions stay out
+#                         of the batches (CMake's rule).
+#   SCANBENCH_PCH=ON      (default) scanbench_precompile(target ...) precompiles those headers
+#                         once per target that has more than one translation unit.
+#
+# Floating-point results do not depend on either: the build is ISO C++ (-std=c++20, so GCC
+# contracts no a*b+c into FMA, -ffp-contract=off in the sanitizer tree) without -ffast-math, so
+# inlining across the files of a batch cannot change a rounding.
+option(SCANBENCH_PCH "Precompile the heavy third-party headers once per target" ON)
+
+# Used by (nearly) every source of every module; all are reached through scanbench_core's
+# public link interface (Eigen, fmt, nlohmann-json).
+set(SCANBENCH_PCH_COMMON
+    <algorithm> <array> <cmath> <cstdint> <filesystem> <functional> <map> <memory> <optional>
+    <string> <string_view> <vector> <Eigen/Core> <fmt/format.h> <nlohmann/json.hpp>)
+
+if(CMAKE_CXX_COMPILER_ID MATCHES "Clang")
+  # A PCH without a timestamp, so that ccache can cache what includes it (ccache manual).
+  set(scanbench_pch_flags -Xclang -fno-pch-timestamp)
+endif()
+
+# scanbench_precompile(target [HEADERS h ...]): the common headers plus the target's own heavy
+# ones, precompiled for the target. A target of one translation unit gains nothing (the PCH is
+# one more parse), so it is skipped; so are unity targets that fit into one batch.
+function(scanbench_precompile target)
+  cmake_parse_arguments(P "" "" "HEADERS" ${ARGN})
+  if(NOT SCANBENCH_PCH)
+    return()
+  endif()
+  get_target_property(srcs ${target} SOURCES)
+  list(FILTER srcs INCLUDE REGEX "\\.(cpp|cc|cxx)$")
+  list(LENGTH srcs n)
+  set(units ${n})
+  if(CMAKE_UNITY_BUILD)
+    math(EXPR units "(${n} + 7) / 8")
+  endif()
+  if(units LESS 2)
+    return()
+  endif()
+  target_precompile_headers(${target} PRIVATE ${SCANBENCH_PCH_COMMON} ${P_HEADERS})
+  if(scanbench_pch_flags)
+    target_compile_options(${target} PRIVATE ${scanbench_pch_flags})
+  endif()
+endfunction()
