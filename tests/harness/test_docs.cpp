@@ -17,6 +17,7 @@
 #include <utility>
 #include <vector>
 
+namespace scanbench::docs_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -270,3 +271,4 @@ TEST(Docs, EveryEntryIsOnExactlyOnePage) {
 }
 
 }  // namespace
+}  // namespace scanbench::docs_test
