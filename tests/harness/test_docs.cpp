@@ -2,20 +2,21 @@
 // page of docs/algorithms/ and docs/metrics.md holds, between the markers below, one Markdown
 // table per registered entry, rendered from `scanbench list --json` by render_entry(). The test
 // fails naming the page and the entry when a table disagrees, and when a registered algorithm or
-// metric is on no page or on more than one. SCANBENCH_UPDATE_DOCS=1 rewrites the blocks instead.
+// metric is on no page or on more than one. SCANBENCH_UPDATE_DOCS=1 rewrites the blocks first.
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 
-#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
+
+#include "cli_test_util.h"
 
 namespace scanbench::docs_test {
 namespace {
@@ -69,17 +70,11 @@ std::string slurp(const fs::path& p) {
 
 /// stdout of `scanbench list --json` (test-only algorithms off, as a user sees the registry).
 Json list_json() {
-  const std::string cmd =
-      "env -u SCANBENCH_TEST_ALGORITHMS '" + std::string(SCANBENCH_BINARY) + "' list --json";
-  FILE* p = popen(cmd.c_str(), "r");
-  std::string out;
-  char buf[4096];
-  while (p && fgets(buf, sizeof(buf), p))
-    out += buf;
-  const int status = p ? pclose(p) : -1;
-  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
-    throw std::runtime_error("`" + cmd + "` failed");
-  return Json::parse(out);
+  const auto r = test::sh("env -u SCANBENCH_TEST_ALGORITHMS '" + test::sb() + "' list --json",
+                          /*merge_stderr=*/false);
+  if (r.code != 0)
+    throw std::runtime_error("scanbench list --json exited " + std::to_string(r.code));
+  return Json::parse(r.out);
 }
 
 /// A table cell: no line breaks, '|' escaped.
@@ -206,10 +201,14 @@ TEST(Docs, OptionsTablesMatchTheRegistry) {
       continue;
     }
     const std::string want = join_block(entries);
-    if (update) {
+    if (update) {  // rewrite, then check the page as written like any other
       text.replace(from, to - from, want);
       std::ofstream(path, std::ios::binary) << text;
-      continue;
+      text = slurp(path);
+      if (!find_block(text, from, to)) {
+        ADD_FAILURE() << "docs/" << page << ": the rewritten page lost its block";
+        continue;
+      }
     }
     const std::string have = text.substr(from, to - from);
     if (have == want) continue;
@@ -240,7 +239,6 @@ TEST(Docs, OptionsTablesMatchTheRegistry) {
     }
     if (!named) ADD_FAILURE() << "docs/" << page << ": the options block differs in layout";
   }
-  if (update) GTEST_SKIP() << "SCANBENCH_UPDATE_DOCS=1: rewrote the options blocks";
 }
 
 TEST(Docs, EveryEntryIsOnExactlyOnePage) {
