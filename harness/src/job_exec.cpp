@@ -1,20 +1,19 @@
 // The child side of a job: dataset -> (cached) scan -> algorithm chain (repeated for timing) ->
 // metrics -> outputs. Runs inside `scanbench job`; the parent turns the result into a record.
 #include <fmt/format.h>
-#include <sys/resource.h>
 #include <unistd.h>
 
 #include <algorithm>
-#include <chrono>
 #include <cstring>
 #include <map>
 #include <optional>
 
-#include "proc_memory.h"
 #include "scanbench/algorithms/registry.h"
 #include "scanbench/core/datasets.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/io.h"
+#include "scanbench/core/timing.h"
+#include "scanbench/harness/chain.h"
 #include "scanbench/harness/records.h"
 #include "scanbench/harness/runner.h"
 #include "scanbench/harness/test_algorithms.h"
@@ -22,27 +21,14 @@
 #include "scanbench/metrics/evaluate.h"
 #include "scanbench/metrics/ground_truth.h"
 #include "scanbench/metrics/heatmap.h"
-#include "scanbench/metrics/mesh_facts.h"
 #include "scanbench/metrics/surface.h"
 #include "scanbench/scanner/scanner.h"
 
 namespace scanbench::harness {
 
 namespace fs = std::filesystem;
-using Clock = std::chrono::steady_clock;
 
 namespace {
-
-double seconds_since(Clock::time_point t) {
-  return std::chrono::duration<double>(Clock::now() - t).count();
-}
-
-double cpu_seconds() {
-  struct rusage ru {};
-  getrusage(RUSAGE_SELF, &ru);
-  return static_cast<double>(ru.ru_utime.tv_sec + ru.ru_stime.tv_sec) +
-         1e-6 * static_cast<double>(ru.ru_utime.tv_usec + ru.ru_stime.tv_usec);
-}
 
 std::string mesh_hash(const TriangleMesh& m) {
   std::string bytes;
@@ -121,7 +107,7 @@ Json execute_job(const Job& job, const fs::path& out) {
   if (has_origin) scan_key["origin"] = res["dataset_origin"];
   const std::string scan_hash = content_hash(scan_key.dump());
   const fs::path ply = out / "scans" / (scan_hash + ".ply");
-  const auto t_scan = Clock::now();
+  const double t_scan = wall_seconds();
   const bool cached =
       from_ground_truth || (fs::exists(ply) && fs::exists(scanner::sidecar_path(ply)));
   if (!cached) {
@@ -144,7 +130,7 @@ Json execute_job(const Job& job, const fs::path& out) {
                               ply.string(), cloud.origin.x(), cloud.origin.y(), cloud.origin.z(),
                               origin.x(), origin.y(), origin.z()));
   }
-  timing["scan_s"] = seconds_since(t_scan);
+  timing["scan_s"] = wall_seconds() - t_scan;
   timing["scan_cached"] = cached;
   if (from_ground_truth) {
     sizes["input_mesh_vertices"] = mesh.num_vertices();
@@ -185,47 +171,19 @@ Json execute_job(const Job& job, const fs::path& out) {
     // (an external program is handed float32 local coordinates); the origin goes back on the
     // chain's result below, whatever each step did with it.
     cur.set_origin(Eigen::Vector3d::Zero());
-    std::map<std::string, double> rep_phases;
-    double rep_total = 0;
-    const double cpu0 = cpu_seconds();
-    for (const auto& step : job.chain) {
-      const std::string algo = step.at("algorithm").get<std::string>();
-      const std::string label = step.at("label").get<std::string>();
-      const auto& entry = algorithm_entry(algo);
-      ctx.clear_phases();
-      const bool mem = rep == 0 && reset_peak_rss();
-      const long rss0 = mem ? status_kb("VmRSS") : -1;
-      ctx.reset_program_peak_rss();
-      const auto t0 = Clock::now();
-      StageData next = entry.fn(cur, step.at("params"), ctx);
-      const double dt = seconds_since(t0);
-      const long hwm = mem ? status_kb("VmHWM") : -1;
-      if (rss0 >= 0 && hwm >= 0) {
-        step_peak[label] = static_cast<double>(hwm) / 1024.0;
-        const long program = ctx.program_peak_rss_kb();
-        step_work[label] =
-            static_cast<double>(std::max(hwm - rss0, 0L) + std::max(program, 0L)) / 1024.0;
-        if (program >= 0) step_program[label] = static_cast<double>(program) / 1024.0;
-      }
-      rep_total += dt;
-      rep_phases[label] += dt;
-      for (const auto& [name, s] : ctx.phase_seconds())
-        rep_phases[label + ":" + name] += s;
-      // The control covariance mesh of the chain (the last step whose primary output is one,
-      // e.g. triangulate.bhattacharyya before subdivide.gp_loop): the representation whose size
-      // the GPS paper's Fig. 13c counts (3 floats, 6 covariance floats per vertex, the faces).
-      if (rep == 0 && entry.fn.io.primary == DataKind::CovarianceMesh && next.covariance_mesh) {
-        const metrics::MeshFacts f = metrics::mesh_facts(*next.covariance_mesh);
-        sizes["covmesh_vertices"] = f.vertices;
-        sizes["covmesh_faces"] = f.faces;
-        sizes["covmesh_bytes"] = f.bytes;
-      }
-      // The step's result already carries every kind it does not produce (StageData::carry).
-      cur = std::move(next);
-    }
-    cpu.push_back(cpu_seconds() - cpu0);
-    total.push_back(rep_total);
-    for (const auto& [k, v] : rep_phases)
+    ChainRun run = run_chain(job.chain, std::move(cur), ctx, rep == 0);
+    for (const auto& [k, v] : run.step_peak_mb)
+      step_peak[k] = v;
+    for (const auto& [k, v] : run.step_work_mb)
+      step_work[k] = v;
+    for (const auto& [k, v] : run.step_program_mb)
+      step_program[k] = v;
+    for (const auto& [k, v] : run.covmesh_sizes.items())
+      sizes[k] = v;
+    cur = std::move(run.output);
+    cpu.push_back(run.cpu_s);
+    total.push_back(run.wall_s);
+    for (const auto& [k, v] : run.phases)
       phases[k].push_back(v);
     if (rep == 0) {
       final_out = std::move(cur);
@@ -266,7 +224,7 @@ Json execute_job(const Job& job, const fs::path& out) {
 
   // Metrics.
   ctx.clear_phases();
-  const auto t_metrics = Clock::now();
+  const double t_metrics = wall_seconds();
   const metrics::GroundTruth gt(mesh, ctx.stream_seed("ground_truth"));
   const PointCloud* scan = from_ground_truth ? nullptr : &cloud;
   Json m = primary == DataKind::CovarianceMesh
@@ -275,7 +233,7 @@ Json execute_job(const Job& job, const fs::path& out) {
            : scored_mesh
                ? metrics::evaluate_mesh(gt, *scored_mesh, scan, job.metrics, job.metric_params, ctx)
                : metrics::evaluate(gt, final_out.points, scan, job.metrics, job.metric_params, ctx);
-  timing["metrics_s"] = seconds_since(t_metrics);
+  timing["metrics_s"] = wall_seconds() - t_metrics;
   Json metric_phases = Json::object();
   for (const auto& [k, v] : ctx.phase_seconds())
     metric_phases[k] = v;

@@ -5,11 +5,10 @@
 // Particles Q(0) are a seeded subset of the input points P (or, when more particles than points
 // are requested, every point plus jittered copies). The first iteration is the L2 weighted mean
 // (eq. 2); every further iteration sets q_i <- F1(q_i, P) + mu F2(q_i, Q) (eq. 3) with
-//   F1(q) = sum_j p_j (alpha_j / v_j) / sum_j (alpha_j / v_j),  alpha_j = theta(|p_j - q|) / |p_j -
-//   q|
-//                                                                (eq. 4, 6; WLOP: eq. 25)
-//   F2(q) = sum_i' (q - q_i') beta_i' w_i' / sum_i' beta_i' w_i',  beta_i' = theta(r) / r  with
-//           r = |q - q_i'|, since eta(r) = -r gives |eta'(r)| = 1   (eq. 5, 6; WLOP weights w_i')
+//   F1(q) = sum_j p_j (alpha_j / v_j) / sum_j (alpha_j / v_j)            (eq. 4, 6; WLOP: eq. 25)
+//           with alpha_j = theta(|p_j - q|) / |p_j - q|
+//   F2(q) = sum_i' (q - q_i') beta_i' w_i' / sum_i' beta_i' w_i'   (eq. 5, 6; WLOP weights w_i')
+//           with beta_i' = theta(r) / r, r = |q - q_i'|, since eta(r) = -r gives |eta'(r)| = 1
 // WLOP: v_j = 1 + sum_{j' != j} theta(|p_j - p_j'|) once for the input, w_i' = 1 + sum_{i'' != i'}
 // theta(|q_i' - q_i''|) every iteration (Huang et al. 2009; section 7); LOP: v = w = 1.
 //
