@@ -9,7 +9,7 @@ set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 
 packages=(
-  build-essential cmake git pkg-config ccache clang-format
+  build-essential cmake git pkg-config ccache clang-format clang libclang-rt-14-dev
   libeigen3-dev libtbb-dev libembree-dev libopenvdb-dev libboost-iostreams-dev
   libopenimageio-dev openimageio-tools libopencv-core-dev fonts-dejavu-core
   nlohmann-json3-dev libfmt-dev libspdlog-dev libcli11-dev libnanoflann-dev libtinyobjloader-dev
