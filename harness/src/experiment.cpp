@@ -267,7 +267,8 @@ StepSpec parse_step(const Json& j, const Where& w) {
 
 VariantSpec parse_variant(const Json& j, const Where& w) {
   check_keys(j, w,
-             {"label", "algorithm", "params", "chain", "sweep", "timeout_s", "memory_limit_mb"});
+             {"label", "algorithm", "params", "chain", "sweep", "timeout_s", "memory_limit_mb",
+              "datasets"});
   VariantSpec v;
   if (j.contains("algorithm") == j.contains("chain")) {
     fail(w, "expected exactly one of \"algorithm\" (one step) and \"chain\" (a list of steps)");
@@ -300,6 +301,14 @@ VariantSpec parse_variant(const Json& j, const Where& w) {
   if (j.contains("timeout_s")) v.timeout_s = get_number(j["timeout_s"], w / "timeout_s", 0.1, 1e6);
   if (j.contains("memory_limit_mb")) {
     v.memory_limit_mb = get_number(j["memory_limit_mb"], w / "memory_limit_mb", 64, 1e7);
+  }
+  if (j.contains("datasets")) {
+    const Json& d = j["datasets"];
+    if (!d.is_array() || d.empty()) {
+      fail(w / "datasets", "expected a non-empty list of dataset labels, got " + describe(d));
+    }
+    for (std::size_t i = 0; i < d.size(); ++i)
+      v.datasets.push_back(get_string(d[i], w / "datasets" / i));
   }
   return v;
 }
@@ -479,9 +488,20 @@ Experiment parse_experiment(const Json& j, const std::string& where) {
   std::set<std::string> vlabels;
   for (std::size_t i = 0; i < vs.size(); ++i) {
     e.variants.push_back(parse_variant(vs[i], w / "variants" / i));
-    // Against every input a dataset gives it: a scan (points), the ground_truth mesh.
+    for (std::size_t k = 0; k < e.variants.back().datasets.size(); ++k) {
+      const std::string& label = e.variants.back().datasets[k];
+      if (!dlabels.count(label)) {
+        std::string known;
+        for (const auto& l : dlabels)
+          known += (known.empty() ? "" : ", ") + l;
+        fail(w / "variants" / i / "datasets" / k,
+             "no dataset labelled '" + label + "' (datasets: " + known + ")");
+      }
+    }
+    // Against every input a dataset it runs on gives it: a scan (points), the ground_truth mesh.
     std::set<unsigned> checked;
     for (const DatasetSpec& d : e.datasets) {
+      if (!e.variants.back().applies_to(d.label)) continue;
       for (const ScannerSpec& sc : d.scanners) {
         const DataKinds entry = entry_kinds(sc);
         if (!checked.insert(entry.bits).second) continue;
@@ -688,6 +708,7 @@ Plan expand(const Experiment& e) {
       const auto* preset = ground_truth ? nullptr : &scanner::presets().at(sc.preset);
       for (std::size_t vi = 0; vi < e.variants.size(); ++vi) {
         const VariantSpec& v = e.variants[vi];
+        if (!v.applies_to(d.label)) continue;
         std::vector<Json> points;
         for (const auto& gp : global_points) {
           for (const auto& vp : points_of(v.sweeps)) {

@@ -355,6 +355,61 @@ std::string link(const fs::path& dir, const std::string& rel, const std::string&
 
 }  // namespace
 
+namespace {
+
+// The first screen: per dataset, which variants ran and, for each headline quantity that has a
+// direction, the variant with the best median (the tables below mark the same cells).
+std::string winners_section(const std::vector<Json>& records,
+                            const std::vector<std::string>& metrics) {
+  std::vector<Table> tables;
+  for (const std::string& m : metrics) {
+    TableSpec spec;
+    spec.rows = "dataset+scanner";
+    spec.metric = m;
+    Table t = build_table(records, spec);
+    if (t.better != 0 && !t.row_labels.empty()) tables.push_back(std::move(t));
+  }
+  if (tables.empty()) return "";
+  std::string h =
+      "<h2>What was compared and what won</h2>\n<table id=\"winners\"><tr><th>dataset</th>"
+      "<th>compared</th>";
+  for (const Table& t : tables)
+    h += fmt::format("<th>{} ({})</th>", html_escape(t.metric), t.better > 0 ? "higher" : "lower");
+  h += "</tr>\n";
+  std::set<std::string> rows;
+  for (const Table& t : tables)
+    rows.insert(t.row_labels.begin(), t.row_labels.end());
+  for (const std::string& row : rows) {
+    std::set<std::string> compared;
+    std::string cells;
+    for (const Table& t : tables) {
+      const auto it = std::find(t.row_labels.begin(), t.row_labels.end(), row);
+      std::string best;
+      if (it != t.row_labels.end()) {
+        const auto& r = t.cells[static_cast<std::size_t>(it - t.row_labels.begin())];
+        for (std::size_t c = 0; c < r.size(); ++c) {
+          if (r[c].n > 0) compared.insert(t.col_labels[c]);
+          if (r[c].best) {
+            best += fmt::format("{}{} {}", best.empty() ? "" : ", ", html_escape(t.col_labels[c]),
+                                format_number(r[c].median));
+          }
+        }
+      }
+      cells += "<td style=\"text-align:left\">" + (best.empty() ? "-" : best) + "</td>";
+    }
+    std::string list;
+    for (const std::string& v : compared)
+      list += (list.empty() ? "" : ", ") + html_escape(v);
+    h += fmt::format(
+        "<tr><td style=\"text-align:left\">{}</td><td style=\"text-align:left\">{}"
+        "</td>{}</tr>\n",
+        html_escape(row), list, cells);
+  }
+  return h + "</table>\n";
+}
+
+}  // namespace
+
 fs::path write_report(const fs::path& dir, const fs::path& out_arg) {
   const std::vector<Json> records = load_records(dir);
   const fs::path out = out_arg.empty() ? dir / "index.html" : out_arg;
@@ -425,6 +480,7 @@ fs::path write_report(const fs::path& dir, const fs::path& out_arg) {
       "<p id=\"summary\">{} jobs: {}. Records: <a href=\"runs.jsonl\">runs.jsonl</a>, "
       "<a href=\"runs.csv\">runs.csv</a>, <a href=\"config.json\">config.json</a>.</p>\n",
       records.size(), html_escape(counts));
+  h += winners_section(records, metrics);
 
   // Nightly verdicts.
   if (fs::exists(dir / "compare.json")) {

@@ -3,6 +3,7 @@
 // reconstruction and CSW configs load.
 #include <gtest/gtest.h>
 
+#include <set>
 #include <string>
 
 #include "experiment_test_util.h"
@@ -50,6 +51,26 @@ TEST(Chains, ReconstructionAndCswChainsLoad) {
                "params": {"command": "cp {in} {out}"}})"}) {
     EXPECT_EQ(test::experiment_load_error(config_with(Json::parse(v))), "") << v;
   }
+}
+
+// A variant's "datasets" restricts it to those dataset labels: its jobs exist only there, and a
+// label that names no dataset fails at load with the JSON path.
+TEST(Chains, VariantDatasetsRestrictTheJobs) {
+  Json c = config_with(Json::parse(R"({"label": "a", "algorithm": "resample.wlop"})"));
+  c["datasets"] = Json::parse(R"([{"name": "sphere"}, {"name": "torus"}])");
+  c["variants"].push_back(
+      Json::parse(R"({"label": "b", "algorithm": "resample.lop", "datasets": ["torus"]})"));
+  const Plan plan = expand(parse_experiment(c, "cfg.json"));
+  std::multiset<std::string> keys;
+  for (const Job& j : plan.jobs)
+    keys.insert(j.dataset_label + "/" + j.variant);
+  EXPECT_EQ(keys, (std::multiset<std::string>{"sphere/a", "torus/a", "torus/b"}));
+  c["variants"][1]["datasets"] = Json::array({"torus", "cube"});
+  const std::string e = test::experiment_load_error(c);
+  EXPECT_NE(e.find("cfg.json: /variants/1/datasets/1"), std::string::npos) << e;
+  EXPECT_NE(e.find("no dataset labelled 'cube'"), std::string::npos) << e;
+  c["variants"][1]["datasets"] = Json::array();
+  EXPECT_NE(test::experiment_load_error(c).find("/variants/1/datasets"), std::string::npos);
 }
 
 }  // namespace

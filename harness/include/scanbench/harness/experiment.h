@@ -16,6 +16,7 @@
 // or a chain step (its algorithm name or its "label"). values: a JSON array, or a range
 // {"from": a, "to": b, "step": s} (b included when reached within 1e-9 relative), or
 // {"from": a, "to": b, "count": n} (n evenly spaced values, ends included).
+#include <algorithm>
 #include <cstdint>
 #include <filesystem>
 #include <string>
@@ -66,6 +67,12 @@ struct VariantSpec {
   std::vector<Sweep> sweeps;   ///< union of Cartesian products; empty = one point
   double timeout_s = 0;        ///< > 0: overrides the experiment's per-job timeout
   double memory_limit_mb = 0;  ///< > 0: overrides the experiment's per-job memory limit
+  /// Labels of the datasets this variant runs on ("datasets": [...] in the config); empty = all.
+  std::vector<std::string> datasets;
+  bool applies_to(const std::string& dataset_label) const {
+    return datasets.empty() ||
+           std::find(datasets.begin(), datasets.end(), dataset_label) != datasets.end();
+  }
 };
 
 struct Experiment {
