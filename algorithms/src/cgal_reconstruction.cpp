@@ -96,8 +96,12 @@ StageData cgal_scale_space(const StageData& in, const CgalScaleSpaceParams& p, R
   const std::vector<Point> points = input_points(in, stage);
   const double diag = in.points.bbox().diagonal();
   using Reconstruction = CGAL::Scale_space_surface_reconstruction_3<Kernel>;
-  using Pca = CGAL::Scale_space_reconstruction_3::Weighted_PCA_smoother<Kernel>;
-  using Jet = CGAL::Scale_space_reconstruction_3::Jet_smoother<Kernel>;
+  // Sequential smoothers: the mesher below orders by heap address (alpha shape with
+  // force_manifold, advancing front), and worker threads allocating before it change the heap,
+  // so with CGAL's default (Parallel_tag) a run's bytes could depend on --threads.
+  using Pca = CGAL::Scale_space_reconstruction_3::Weighted_PCA_smoother<
+      Kernel, CGAL::Default_diagonalize_traits<Kernel::FT, 3>, CGAL::Sequential_tag>;
+  using Jet = CGAL::Scale_space_reconstruction_3::Jet_smoother<Kernel, CGAL::Sequential_tag>;
   using Alpha = CGAL::Scale_space_reconstruction_3::Alpha_shape_mesher<Kernel>;
   using Front = CGAL::Scale_space_reconstruction_3::Advancing_front_mesher<Kernel>;
   Reconstruction r(points.begin(), points.end());

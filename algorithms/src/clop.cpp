@@ -92,7 +92,8 @@ GaussianMixture spatially_sorted(const GaussianMixture& m, double cell) {
 
 class PreparedMixture {
  public:
-  PreparedMixture(const GaussianMixture& mixture, double h)
+  // h: the attraction's kernel width; h_initial: the first iteration's (eq. 24).
+  PreparedMixture(const GaussianMixture& mixture, double h, double h_initial)
       : sorted_(spatially_sorted(mixture, h)),
         cell_(static_cast<float>(h / 4.0)),
         index_(sorted_, kClopFitSigmas[0] * kClopFitSigmas[0] * h * h,
@@ -101,7 +102,7 @@ class PreparedMixture {
     const Index k = m.size();
     for (int j = 0; j < 3; ++j)
       s2_[j] = static_cast<float>(kClopFitSigmas[j] * kClopFitSigmas[j] * h * h);
-    s2_[3] = static_cast<float>(h * h / 32.0);
+    s2_[3] = static_cast<float>(h_initial * h_initial / 32.0);
     pre_.resize(static_cast<std::size_t>(k));
     tbb::parallel_for(tbb::blocked_range<Index>(0, k, 256), [&](const auto& r) {
       for (Index s = r.begin(); s != r.end(); ++s) {
@@ -110,7 +111,8 @@ class PreparedMixture {
         for (int d = 0; d < 3; ++d)
           p.f[d] = m.means(d, s);
         for (int j = 0; j < 4; ++j) {
-          const double var = j < 3 ? kClopFitSigmas[j] * kClopFitSigmas[j] * h * h : h * h / 32.0;
+          const double var =
+              j < 3 ? kClopFitSigmas[j] * kClopFitSigmas[j] * h * h : h_initial * h_initial / 32.0;
           const Eigen::Matrix3d lambda = cov + var * Eigen::Matrix3d::Identity();
           const Eigen::Matrix3d inv = lambda.inverse();
           const double det = lambda.determinant();
@@ -385,7 +387,8 @@ void clop_project(const GaussianMixture& m, Eigen::Matrix3Xf& q, const ClopParam
   std::optional<PreparedMixture> pm;
   {
     auto timer = ctx.phase("init");
-    pm.emplace(m, h_abs);
+    // The authors' demo runs its first iteration at 2 h (see clop.h).
+    pm.emplace(m, h_abs, p.first_iteration == "authors" ? 2.0 * h_abs : h_abs);
   }
   Eigen::Matrix3Xf next(3, n);
   {
@@ -410,7 +413,8 @@ void clop_project(const GaussianMixture& m, Eigen::Matrix3Xf& q, const ClopParam
         auto timer = ctx.phase("repulsion");
         detail::NeighborGrid grid(q, kernels::grid_cell(cutoff));
         // w_i' within the cutoff: the whole repulsion kernel is cut (section 8).
-        if (p.weighted) grid.set_weights(kernels::density_weights(grid, q, h, cutoff));
+        if (p.repulsion_weights == "wlop")
+          grid.set_weights(kernels::density_weights(grid, q, h, cutoff));
         rep = kernels::repulsions(q, grid, h, cutoff);
       }
       next += mu * rep;

@@ -310,7 +310,7 @@ PointCloud csw(const StageData& data, const CswParams& p, RunContext& ctx) {
   if (p.resample) {
     ClopParams cp;
     static_cast<ClopProjectionSettings&>(cp) = p;
-    cp.weighted = p.weighted;
+    cp.repulsion_weights = p.weighted ? "wlop" : "none";
     const Index m = kernels::particle_count(p.particles, in.size(), stage);
     {
       auto timer = ctx.phase("init");

@@ -95,7 +95,7 @@ void Problem::set_h(float h) {
 
 namespace {
 
-template <class Packet>
+template <class Packet, bool kPointToPoint>
 Step em_step_impl(const Problem& problem, const Eigen::Matrix3Xf& x, const Eigen::Matrix3Xf& xb,
                   double s2, double omega, double mu, RunContext* ctx) {
   const Eigen::Matrix3Xf& v = problem.v();
@@ -151,7 +151,8 @@ Step em_step_impl(const Problem& problem, const Eigen::Matrix3Xf& x, const Eigen
   s.repulsion.resize(3, m);
   // Per particle for eq. 11: sum_n p_mn, and sum_n p_mn (b_n . (v_n - x_m'))^2 with the new x_m'.
   std::vector<double> np_m(static_cast<std::size_t>(m)), res_m(static_cast<std::size_t>(m));
-  // Per particle: g = sum_n p b_n (b_n . (v_n - x_m)) and the upper triangle of sum_n p b_n b_n^T.
+  // Per particle: g = sum_n p b_n (b_n . (v_n - x_m)) and the upper triangle of sum_n p b_n b_n^T;
+  // point to point (kPointToPoint): sum_n p |v_n - x_m|^2 and sum_n p (v_n - x_m) instead.
   Eigen::Matrix<double, 9, Eigen::Dynamic> moments(9, m);
   const Packet theta_k = ei::pset1<Packet>(-kernels::kThetaFactor / (h * h));
   const Packet floor2 = ei::pset1<Packet>(kernels::kClampRatio * kernels::kClampRatio * h * h);
@@ -180,6 +181,14 @@ Step em_step_impl(const Problem& problem, const Eigen::Matrix3Xf& x, const Eigen
               Gy = ei::padd(Gy, ei::pmul(qt, by));
               Gz = ei::padd(Gz, ei::pmul(qt, bz));
               P = ei::padd(P, p);
+              if constexpr (kPointToPoint) {
+                // The padding's r2 is not finite: masked, not multiplied by p = 0.
+                S1 = ei::padd(S1, ei::pand(ei::pmul(p, r2), inside));
+                gx = ei::padd(gx, ei::pmul(p, dx));
+                gy = ei::padd(gy, ei::pmul(p, dy));
+                gz = ei::padd(gz, ei::pmul(p, dz));
+                return;
+              }
               S1 = ei::padd(S1, ei::pmul(pt, tt));
               gx = ei::padd(gx, ei::pmul(pt, bx));
               gy = ei::padd(gy, ei::pmul(pt, by));
@@ -199,7 +208,8 @@ Step em_step_impl(const Problem& problem, const Eigen::Matrix3Xf& x, const Eigen
                                   q_sum)
                 : Eigen::Vector3f::Zero();
         // Kept for eq. 11 once the repulsion (so x_m') is known:
-        // sum_n p (t - b.D)^2 = S1 - 2 D.g + D^T A D, D = x_m' - x_m.
+        // sum_n p (t - b.D)^2 = S1 - 2 D.g + D^T A D, D = x_m' - x_m (point to point:
+        // sum_n p |d_n - D|^2 = S1 - 2 D.g + P |D|^2 with A = P I, d_n = v_n - x_m).
         np_m[static_cast<std::size_t>(i)] = ei::predux(P);
         res_m[static_cast<std::size_t>(i)] = ei::predux(S1);
         moments.col(i) << ei::predux(gx), ei::predux(gy), ei::predux(gz), ei::predux(Axx),
@@ -250,6 +260,8 @@ Step em_step_impl(const Problem& problem, const Eigen::Matrix3Xf& x, const Eigen
     const Eigen::Vector3d g(mo[0], mo[1], mo[2]);
     Eigen::Matrix3d a;
     a << mo[3], mo[4], mo[5], mo[4], mo[6], mo[7], mo[5], mo[7], mo[8];
+    if constexpr (kPointToPoint)
+      a = np_m[static_cast<std::size_t>(i)] * Eigen::Matrix3d::Identity();
     const double res = res_m[static_cast<std::size_t>(i)] - 2.0 * dm.dot(g) + dm.dot(a * dm);
     res_sum += std::max(res, 0.0);
     np_sum += np_m[static_cast<std::size_t>(i)];
@@ -264,9 +276,12 @@ Step em_step_impl(const Problem& problem, const Eigen::Matrix3Xf& x, const Eigen
 }  // namespace
 
 Step em_step(const Problem& problem, const Eigen::Matrix3Xf& x, const Eigen::Matrix3Xf& xb,
-             double s2, double omega, double mu, RunContext* ctx) {
+             double s2, double omega, double mu, RunContext* ctx, S2Residual residual) {
   return simd::with_packet([&](auto tag) {
-    return em_step_impl<typename decltype(tag)::type>(problem, x, xb, s2, omega, mu, ctx);
+    using Packet = typename decltype(tag)::type;
+    return residual == S2Residual::Point
+               ? em_step_impl<Packet, true>(problem, x, xb, s2, omega, mu, ctx)
+               : em_step_impl<Packet, false>(problem, x, xb, s2, omega, mu, ctx);
   });
 }
 
@@ -322,9 +337,11 @@ PointCloud gpf(const PointCloud& input, const GpfParams& p, RunContext& ctx) {
   }
   double s2 = p.s2_init;
   const bool fixed_s2 = p.s2_update == "fixed";
+  const auto residual =
+      p.s2_update == "point" ? gpf_detail::S2Residual::Point : gpf_detail::S2Residual::Plane;
   for (int it = 0; it < p.iterations; ++it) {
     ctx.check_cancelled(kGpfStage);
-    gpf_detail::Step step = gpf_detail::em_step(*problem, x, xb, s2, p.omega, p.mu, &ctx);
+    gpf_detail::Step step = gpf_detail::em_step(*problem, x, xb, s2, p.omega, p.mu, &ctx, residual);
     x = std::move(step.x);
     if (!fixed_s2) s2 = step.s2;
     if (step.max_move <= p.tolerance) break;
@@ -336,7 +353,8 @@ PointCloud gpf(const PointCloud& input, const GpfParams& p, RunContext& ctx) {
     }
     for (int it = 0; it < p.gap_iterations; ++it) {
       ctx.check_cancelled(kGpfStage);
-      gpf_detail::Step step = gpf_detail::em_step(*problem, x, xb, s2, p.omega, p.mu, &ctx);
+      gpf_detail::Step step =
+          gpf_detail::em_step(*problem, x, xb, s2, p.omega, p.mu, &ctx, residual);
       x = std::move(step.x);
       if (!fixed_s2) s2 = step.s2;
     }

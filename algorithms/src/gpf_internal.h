@@ -50,7 +50,8 @@ struct Step {
   Eigen::VectorXf denominator;       ///< per input: sum_m' exp(-|v_n - x_m'|^2/2 s2) + outlier term
   Eigen::VectorXf particle_weights;  ///< w_m per particle
   double outlier_term = 0.0;         ///< (2 pi s2)^(3/2) omega M / ((1 - omega) N)
-  double s2 = 0.0;        ///< eq. 11 with x^{k+1} (floored at kMinS2); s2 unchanged if N_p = 0
+  double s2 =
+      0.0;  ///< eq. 11 (or its point reading) with x^{k+1}, floored at kMinS2; s2 if N_p = 0
   double np = 0.0;        ///< N_p = sum_mn p_mn
   double max_move = 0.0;  ///< max_m |x^{k+1}_m - x_m|
 };
@@ -58,9 +59,14 @@ struct Step {
 /// Floor of s2 (working units: fraction of the squared diagonal).
 inline constexpr double kMinS2 = 1e-12;
 
+/// The residual of the s2 update: Plane = eq. 11 as printed, ((v_n - x_m') . b_n)^2; Point =
+/// |v_n - x_m'|^2, the M-step of the isotropic Gaussian mixture whose E-step eq. 3 is (CPD's).
+enum class S2Residual { Plane, Point };
+
 /// One E-step (eq. 3) and M-step (eq. 10, 11) from particles x with normals xb (unit) and s2.
 /// `total_particles` is M of eq. 3 (x.cols()). Phases "e_step" and "m_step" go to ctx if given.
 Step em_step(const Problem& problem, const Eigen::Matrix3Xf& x, const Eigen::Matrix3Xf& xb,
-             double s2, double omega, double mu, RunContext* ctx = nullptr);
+             double s2, double omega, double mu, RunContext* ctx = nullptr,
+             S2Residual residual = S2Residual::Plane);
 
 }  // namespace scanbench::algorithms::gpf_detail

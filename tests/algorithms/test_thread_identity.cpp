@@ -2,15 +2,20 @@
 // registry, so new entries are covered) and every registered metric give bit-identical results at
 // 1, 2 and 7 worker threads (7: more threads than cores and than most work splits, an odd count
 // that exposes per-thread partial sums). Outputs are compared as raw bytes: every matrix of every
-// kind an algorithm returns, and each metric record as JSON text (doubles printed round-trip).
+// kind an algorithm returns (CGAL's peers included; the one whose ties depend on heap addresses
+// through the binary, one process per run), and each metric record as JSON text (doubles
+// printed round-trip).
 #include <gtest/gtest.h>
 
 #include <cstring>
+#include <filesystem>
 #include <map>
 #include <string>
 
+#include "../harness/cli_test_util.h"
 #include "registry_fixtures.h"
 #include "scanbench/algorithms/registry.h"
+#include "scanbench/core/io.h"
 #include "scanbench/core/procedural.h"
 #include "scanbench/metrics/evaluate.h"
 #include "scanbench/metrics/ground_truth.h"
@@ -105,14 +110,27 @@ StageData every_kind() {
   return algorithms::fixtures::every_kind(small_scan(1).cloud, test_sphere());
 }
 
-// CGAL's advancing-front meshing (Cohen-Steiner and Da 2004; CGAL 5.5, also the scale-space
-// reconstruction's default mesher) breaks ties between candidate facets by handle address, so a
-// second call in the same process (another heap history) can pick other facets and, with them,
-// other referenced vertices. Their runs here must succeed and give a mesh; their bytes are not
-// compared. A fresh `scanbench algo peer.cgal_advancing_front` process (each harness job is one)
-// gave identical bytes at --threads 1, 2 and 7 on a `moderate` sphere scan.
+// CGAL's advancing-front meshing (Cohen-Steiner and Da 2004; CGAL 5.5) breaks ties between
+// candidate facets by handle address, and the scale-space reconstruction's alpha-shape mesher
+// (force_manifold) iterates maps keyed by vertex and union-find handles: a second call in the
+// same process (another heap history) can give another mesh. These entries are compared as the
+// bytes of `scanbench algo` outputs, each run in a fresh process at 1, 2 and 7 threads.
 bool address_ordered(const std::string& name) {
   return name == "peer.cgal_advancing_front" || name == "peer.cgal_scale_space";
+}
+
+/// The output file of `scanbench algo name` on `input` at `threads` threads, as bytes.
+std::string algo_bytes(const std::string& name, const Json& params,
+                       const std::filesystem::path& input, const std::filesystem::path& dir,
+                       int threads) {
+  const std::filesystem::path out = dir / ("out" + std::to_string(threads) + ".ply");
+  std::string cmd = test::sb() + " algo " + name + " -i " + input.string() + " -o " + out.string() +
+                    " --seed 5 --threads " + std::to_string(threads);
+  for (const auto& [k, v] : params.items())
+    cmd += " --set '" + k + "=" + (v.is_string() ? v.get<std::string>() : v.dump()) + "'";
+  const test::Result r = test::sh(cmd);
+  EXPECT_EQ(r.code, 0) << cmd << "\n" << r.out;
+  return test::slurp(out);
 }
 
 TEST(ThreadIdentity, EveryAlgorithmAt1_2_7Threads) {
@@ -141,6 +159,19 @@ TEST(ThreadIdentity, EveryAlgorithmAt1_2_7Threads) {
       } else {
         expect_same_bits(ref, b, t);
       }
+    }
+    if (address_ordered(e.name)) {
+      // Points in, as the harness would pass them: one fresh process per thread count.
+      ASSERT_TRUE(e.fn.io.consumes.has(DataKind::Points));
+      const std::filesystem::path dir = test::make_temp_dir("thread-identity");
+      write_point_cloud(all.points, dir / "in.ply");
+      const Json set = algorithms::fixtures::required_params(e.name);
+      const std::string one = algo_bytes(e.name, set, dir / "in.ply", dir, 1);
+      ASSERT_GT(one.size(), 100u);
+      for (int t : {2, 7})
+        EXPECT_TRUE(algo_bytes(e.name, set, dir / "in.ply", dir, t) == one)
+            << "output file differs between 1 and " << t << " threads";
+      std::filesystem::remove_all(dir);
     }
     ++n;
   }

@@ -1,7 +1,8 @@
 // triangulate.bhattacharyya (GPS paper sec. 6.2): eq. 19 against a Monte-Carlo integral of eq. 18,
 // its range and identities; mixtures on a sphere and a torus triangulate to closed manifolds of
-// Euler characteristic 2 and 0; the thin cuboid sheets of Fig. 8b are not bridged; the same result
-// at 1 and 2 threads; bad input.
+// Euler characteristic 2 and 0; the thin cuboid sheets of Fig. 8b are not bridged; the seed and
+// the front's order (eq. 20-22 with beta / pi) on a hand-checked mixture; the same result at 1 and
+// 2 threads; bad input.
 #include <gtest/gtest.h>
 
 #include <Eigen/Eigenvalues>
@@ -170,6 +171,71 @@ TEST(Triangulation, FreeCandidatesOnAHemMixtureAreIdenticalAt1And2Threads) {
     EXPECT_LT(static_cast<double>(t.boundary), 0.05 * static_cast<double>(t.e));
   }
   EXPECT_EQ(faces[0], faces[1]);
+}
+
+// The greedy order of sec. 6.2 on a hand-checked mixture of five equal isotropic Gaussians
+// (Sigma = 0.05 I, so BC_ij = exp(-|mu_i - mu_j|^2 / 0.4), eq. 19): an equilateral triangle A B C
+// of side 1 (each BC e^-2.5 = 0.0821), K1 in its plane 0.9105 beyond edge AB (BC to A and B
+// 0.0674) and K2 0.9 beyond edge BC, lifted out of the plane by 30 degrees (BC to B and C 0.0707).
+//  - Seed, eq. 20 (largest BC_ij BC_jk BC_ik): ABC 5.53e-4 against B C K2 4.10e-4 and A B K1
+//    3.72e-4 (every other triple has a pair under bc_min = 0.01).
+//  - Front, eq. 20-22 (P = BC BC BC beta / pi): across AB, K1 is flat (beta = pi): P = 3.72e-4;
+//    across BC, K2 meets the seed at beta = 150 deg: P = 4.10e-4 x 5/6 = 3.41e-4. So K1 comes
+//    first, although by the BCs alone K2 would (4.10e-4), and so would a flatness weight
+//    (1 - cos beta)/2 in place of beta/pi (3.82e-4 against 3.72e-4).
+// The Gaussians are stored in the order K2, B, K1, A, C, so that index order decides nothing.
+TEST(Triangulation, SeedIsArgmaxOfEq20AndTheFrontTakesTheLargestPOfEq22) {
+  const double s2 = 0.05;
+  const Eigen::Vector3d a(0, 0, 0), b(1, 0, 0), c(0.5, std::sqrt(3.0) / 2, 0);
+  const Eigen::Vector3d k1 =
+      0.5 * (a + b) - std::sqrt(0.81 + 4 * s2 * std::log(1.1)) * Eigen::Vector3d::UnitY();
+  const Eigen::Vector3d out = (0.5 * (b + c) - (a + b + c) / 3).normalized();
+  const double phi = M_PI / 6;
+  const Eigen::Vector3d k2 =
+      0.5 * (b + c) + 0.9 * (std::cos(phi) * out + std::sin(phi) * Eigen::Vector3d::UnitZ());
+  const std::vector<Eigen::Vector3d> mu = {k2, b, k1, a, c};
+  enum { K2, B, K1, A, C };
+  GaussianMixture m;
+  m.resize(5);
+  for (Eigen::Index i = 0; i < 5; ++i) {
+    m.weights[i] = 0.2f;
+    m.means.col(i) = mu[static_cast<std::size_t>(i)].cast<float>();
+    m.set_covariance(i, static_cast<float>(s2) * Eigen::Matrix3f::Identity());
+  }
+  const Eigen::Matrix3d sigma = s2 * Eigen::Matrix3d::Identity();
+  auto bc = [&](int i, int j) {
+    return bhattacharyya_coefficient(mu[static_cast<std::size_t>(i)], sigma,
+                                     mu[static_cast<std::size_t>(j)], sigma);
+  };
+  // The hand-checked values above.
+  EXPECT_NEAR(bc(A, B), std::exp(-2.5), 1e-12);
+  const double seed = bc(A, B) * bc(B, C) * bc(A, C);
+  const double by_bc_k1 = bc(A, B) * bc(A, K1) * bc(B, K1);
+  const double by_bc_k2 = bc(B, C) * bc(B, K2) * bc(C, K2);
+  EXPECT_GT(seed, by_bc_k2);
+  EXPECT_GT(by_bc_k2, by_bc_k1);  // by the BCs alone, K2 would come first
+  const double p_k1 = by_bc_k1 * 1.0, p_k2 = by_bc_k2 * (5 * M_PI / 6) / M_PI;  // beta / pi
+  EXPECT_GT(p_k1, p_k2);                                                        // eq. 22: K1 first
+  EXPECT_LT(by_bc_k1, by_bc_k2 * (1 - std::cos(5 * M_PI / 6)) / 2);  // flatness: K2 first
+  EXPECT_LT(bc(A, K2), 0.01);
+  EXPECT_LT(bc(C, K1), 0.01);
+
+  BhattacharyyaParams p;
+  p.candidates = "free";  // the greedy front of sec. 6.2 (faces in the order they were added)
+  RunContext ctx(1);
+  TriangulationStats stats;
+  const CovarianceMesh cm = triangulate_bhattacharyya(m, p, ctx, &stats);
+  ASSERT_EQ(cm.means.cols(), 5);
+  ASSERT_EQ(cm.num_faces(), 3);
+  EXPECT_EQ(stats.seeds, 1);
+  // Output vertices are the used Gaussians in index order: all five, so the indices stand.
+  auto face = [&](Eigen::Index f) {
+    std::set<int> v(cm.face(f).begin(), cm.face(f).end());
+    return v;
+  };
+  EXPECT_EQ(face(0), (std::set<int>{A, B, C})) << "seed: argmax of eq. 20";
+  EXPECT_EQ(face(1), (std::set<int>{A, B, K1})) << "second face: the largest P of eq. 22";
+  EXPECT_EQ(face(2), (std::set<int>{B, C, K2}));
 }
 
 // GPS Appendix A: with sigma0 > 0 the level-0 Gaussians are isotropic sigma0^2 I (sigma0 a

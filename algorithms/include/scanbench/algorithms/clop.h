@@ -7,16 +7,19 @@
 //  - Q(0): `particles` points of P (a share in (0, 1] or an integral count > 1, which may exceed
 //    |P|: upsampling, copies jittered by 0.01 h as in resample.lop), a seeded subset (stream
 //    "particles").
-//  - iteration 1: the continuous L2 initial iteration (eq. 23-24): Lambda = Sigma_s + (h^2/32) I,
-//    omega_s = w_s g(mu_s | q, Lambda), q' = sum_s omega_s (q + (h^2/32) Lambda^-1 (mu_s - q)) /
-//    sum_s omega_s.
+//  - iteration 1: the continuous L2 initial iteration (eq. 23-24): Lambda = Sigma_s + (h1^2/32) I,
+//    omega_s = w_s g(mu_s | q, Lambda), q' = sum_s omega_s (q + (h1^2/32) Lambda^-1 (mu_s - q)) /
+//    sum_s omega_s, with h1 = h (`first_iteration` = paper, eq. 24) or h1 = 2 h
+//    (`first_iteration` = authors: the authors' CLOP demo, Preiner 2014, doubles the kernel in
+//    its first iteration; not in the paper).
 //  - iterations 2..`iterations`: fixed-point steps q' = F1(q) + mu F2(q) with the continuous
 //  attraction
 //    (eq. 19-22) F1 = q + sum_sk sigma_k^2 h^2 Lambda_sk^-1 (mu_s - q) omega_sk / sum_sk omega_sk,
 //    Lambda_sk = Sigma_s + sigma_k^2 h^2 I, omega_sk = w_s w_k sigma_k^3 |Lambda_sk|^-1/2
 //    exp(-(mu_s - q)^T Lambda_sk^-1 (mu_s - q) / 2), where alpha(r) = theta(r)/r is replaced by
-//    the three-Gaussian fit (w_k, sigma_k) below (eq. 16, Fig. 5b), and the WLOP repulsion F2
-//    (eq. 5, eta(r) = -r, particle density weights w_i' when `weighted`) cut at
+//    the three-Gaussian fit (w_k, sigma_k) below (eq. 16, Fig. 5b), and the repulsion F2
+//    (eq. 5, eta(r) = -r; `repulsion_weights` = none as eq. 5 and the authors' demo, or wlop:
+//    WLOP's particle density weights w_i', Huang et al. 2009) cut at
 //    repulsion_cutoff * h (section 8: h/2; the density weights w_i' are summed within the same
 //    cutoff, the whole repulsion kernel being cut) and, when `interleave`, recomputed only in every
 //    second iteration (the previous F2 vector is reused; the last iteration always recomputes).
@@ -31,16 +34,19 @@
 //  - The repulsion is a particle-particle sum over the project's neighbour grid
 //    (algorithms/src/neighbor_grid.h), the same kernels as resample.wlop.
 // Where this differs from the paper (README, "CLOP family: deviations from the paper"):
-//  - eq. 5 of the paper has no particle weights; with `weighted` on, CLOP's repulsion carries
-//    WLOP's w_i' (Huang et al. 2009), so that weighted CLOP and WLOP share one F2.
+//  - none by default. `repulsion_weights` = wlop gives CLOP's repulsion WLOP's w_i' (Huang et
+//    al. 2009; eq. 5 of the paper has none), so that CLOP and WLOP share one F2. The HEM flag
+//    `weighted` (eq. 26, the initial Gaussians' weights) does not touch the repulsion.
 //  - the initial kernel radius of eq. 12 follows the mean distance to init_neighbors (4) nearest
 //    neighbours, where Algorithm 1 line 2 uses the nearest one (init_neighbors = 1 restores it).
-//  - the first iteration uses h; the authors' code doubles h there (not in the paper).
+//  - `first_iteration` = authors doubles h in the first iteration as the authors' demo does (not
+//    in the paper's eq. 24; the default, paper, uses h).
 // Phase timers: "init" (particle selection, mixture preparation), "hem", "attraction" (eq. 24
 // and every F1), "repulsion" (density weights and F2). Results depend only on the input, the
 // parameters and ctx.seed(), never on the thread count.
 #include <Eigen/Core>
 #include <array>
+#include <string>
 
 #include "scanbench/algorithms/hem.h"
 #include "scanbench/algorithms/registry.h"
@@ -82,10 +88,17 @@ void declare_clop_projection_params(ParamDeclarer<T>& d) {
          "recompute the repulsion only every second iteration and in the last (section 8)");
 }
 
-/// Declares the CLOP parameters: the projection's and HEM's.
+/// Declares the CLOP parameters: the projection's, the two choices between the paper and the
+/// authors' demo, and HEM's.
 template <class T>
 void declare_clop_params(ParamDeclarer<T>& d) {
   declare_clop_projection_params(d);
+  d.choice("first_iteration", &T::first_iteration, {"paper", "authors"},
+           "kernel of the continuous L2 first iteration: paper = h (eq. 24), authors = 2 h (the "
+           "authors' CLOP demo, Preiner 2014; not in the paper)");
+  d.choice("repulsion_weights", &T::repulsion_weights, {"none", "wlop"},
+           "particle weights in the repulsion F2: none (eq. 5, and the authors' demo) or wlop "
+           "(WLOP's density weights w_i', Huang et al. 2009, as resample.wlop)");
   declare_hem_params(d);
 }
 
@@ -100,7 +113,10 @@ struct ClopProjectionSettings {
 };
 
 /// The CLOP settings with their defaults (ClopParams derives from it).
-struct ClopSettings : HemSettings, ClopProjectionSettings {};
+struct ClopSettings : HemSettings, ClopProjectionSettings {
+  std::string first_iteration = "paper";   ///< "paper" (eq. 24 at h) or "authors" (2 h)
+  std::string repulsion_weights = "none";  ///< "none" (eq. 5) or "wlop" (w_i' in F2)
+};
 
 struct ClopParams : ClopSettings {
   static void declare(ParamDeclarer<ClopParams>& d) { declare_clop_params(d); }
@@ -108,7 +124,8 @@ struct ClopParams : ClopSettings {
 
 /// CLOP projection of particles onto an existing mixture (no HEM): the eq. 24 initial iteration
 /// followed by p.iterations - 1 steps of F1 + mu F2. `particles` are projected in place; h_abs is
-/// absolute. Only h, mu, iterations, repulsion_cutoff, interleave, weighted of p are used.
+/// absolute. Only h, mu, iterations, repulsion_cutoff, interleave, first_iteration and
+/// repulsion_weights of p are used.
 /// Throws InputError on an empty mixture.
 void clop_project(const GaussianMixture& m, Eigen::Matrix3Xf& particles, const ClopParams& p,
                   double h_abs, RunContext& ctx);

@@ -24,7 +24,10 @@
 //    would make w depend on m, not on m': a typo; it is WLOP's particle density (Huang et al.
 //    2009), as the text says ("density weights ... as suggested by Huang et al.").
 //  - s2 (eq. 11): s2 <- sum_mn p_mn ((v_n - x_m^{k+1}) . b_n)^2 / (3 sum_mn p_mn), with the
-//    E-step's p_mn and the new positions (point-to-plane residuals).
+//    E-step's p_mn and the new positions (point-to-plane residuals). `s2_update` = point takes
+//    |v_n - x_m^{k+1}|^2 instead: the M-step of the isotropic mixture whose E-step eq. 3 is
+//    (point to point, as in CPD, which the paper's sigma^2 = 0.004 follows); `fixed` keeps
+//    s2_init. Default: eq. 11 as printed.
 //
 // Kernel convention and neighbourhoods (section 4.3 and 4.4, "local implementation"): GPF's
 // theta(r) = exp(-r^2 / (h_GPF/2)^2) = exp(-4 r^2 / h_GPF^2). scanbench's kernel is
@@ -56,7 +59,7 @@
 //  - Float safety: s2 is floored at 1e-12 (diagonal^2); an input whose posterior denominator
 //    underflows below 1e-30 (farther than about 13 sigma from every particle, so that its
 //    posteriors are 0 to float precision anyway) contributes nothing.
-//  - s2 collapse (a finding, measured on our scans; tests/algorithms/test_gpf_claims.cpp). With
+//  - s2 collapse (a finding, measured on our scans; docs/findings.md, and the claims suite). With
 //    eq. 11 as written, s2 falls within one or two iterations from s2_init to the residual
 //    variance inside the data ball divided by 3 (e.g. 0.004 -> 7e-5 -> 2e-5 diag^2 on a cube
 //    with 3% noise), far below the squared sample spacing. The E-step (point-to-point, eq. 3)
@@ -94,7 +97,7 @@ struct GpfParams {
   double s2_init = 0.004;
   /// Convergence tolerance on the largest particle move, fraction of the bbox diagonal.
   double tolerance = 1e-5;
-  /// "eq11" (Algorithm 1) or "fixed" (s2 stays s2_init; see the header).
+  /// "eq11" (Algorithm 1), "point" (point-to-point M-step) or "fixed" (s2 stays s2_init).
   std::string s2_update = "eq11";
   /// Gap filling (Fig. 21): extra iterations with the neighbourhoods widened by gap_scale.
   int gap_iterations = 0;
@@ -118,10 +121,12 @@ struct GpfParams {
            "initial sigma^2 as a fraction of the squared bbox diagonal (paper: 0.004, absolute)");
     d.real("tolerance", &GpfParams::tolerance, Range::at_least(0.0), "diag",
            "stop when no particle moved farther than this in an iteration (0: run all)");
-    d.choice("s2_update", &GpfParams::s2_update, {"eq11", "fixed"},
-             "eq11: s2 from eq. 11 every iteration (Algorithm 1); fixed: s2 stays s2_init (the "
-             "regime the paper describes in sec. 4.4, 'the update variations of s2 are not "
-             "large'; a comparison, not the paper's algorithm)");
+    d.choice("s2_update", &GpfParams::s2_update, {"eq11", "point", "fixed"},
+             "eq11: s2 from eq. 11 every iteration (Algorithm 1, point-to-plane residuals); "
+             "point: s2 = sum p_mn |v_n - x_m|^2 / (3 sum p_mn), the M-step that matches eq. 3's "
+             "point-to-point E-step (CPD's); fixed: s2 stays s2_init (the regime the paper "
+             "describes in sec. 4.4, 'the update variations of s2 are not large'); the last two "
+             "are readings, not the paper's printed algorithm");
     d.integer("gap_iterations", &GpfParams::gap_iterations, Range::closed(0, 1000), "",
               "gap filling (Fig. 21): extra iterations with neighbourhoods scaled by gap_scale");
     d.real("gap_scale", &GpfParams::gap_scale, Range::closed(1.0, 10.0), "",
