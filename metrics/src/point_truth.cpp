@@ -4,6 +4,8 @@
 #include <fmt/format.h>
 #include <tbb/parallel_for.h>
 
+#include <Eigen/LU>
+
 #include <filesystem>
 #include <fstream>
 #include <sstream>

@@ -38,20 +38,6 @@ struct Rig {
   double diag = 0;
 };
 
-std::vector<Eigen::Vector3d> parse_offsets(const std::string& text) {
-  std::vector<Eigen::Vector3d> out;
-  std::stringstream all(text);
-  std::string item;
-  while (std::getline(all, item, ';')) {
-    std::replace(item.begin(), item.end(), ',', ' ');
-    std::istringstream in(item);
-    Eigen::Vector3d v;
-    in >> v.x() >> v.y() >> v.z();
-    out.push_back(v);
-  }
-  return out;  // validate() checked the text
-}
-
 Rig make_rig(const TriangleMesh& mesh, const ScannerParams& p) {
   Rig rig;
   const BoundingBox box = bounding_box(mesh.vertices);
@@ -61,7 +47,7 @@ Rig make_rig(const TriangleMesh& mesh, const ScannerParams& p) {
   const double pi = std::acos(-1.0);
   std::vector<Eigen::Vector3d> offsets;
   if (!p.poses.empty()) {
-    for (const Eigen::Vector3d& o : parse_offsets(p.poses))
+    for (const Eigen::Vector3d& o : parse_poses(p.poses, "scanner"))
       offsets.push_back(o * rig.diag);
   } else {
     const double e = p.ring_elevation_deg * pi / 180.0;

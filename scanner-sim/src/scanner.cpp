@@ -101,9 +101,8 @@ void ScannerParams::declare(ParamDeclarer<ScannerParams>& d) {
          "photo: time limit of each COLMAP step");
 }
 
-namespace {
+namespace detail {
 
-/// Parses "x y z; x y z" (commas allowed between numbers) into diag-unit offsets.
 std::vector<Eigen::Vector3d> parse_poses(const std::string& text, const std::string& where) {
   std::vector<Eigen::Vector3d> out;
   std::stringstream all(text);
@@ -126,6 +125,12 @@ std::vector<Eigen::Vector3d> parse_poses(const std::string& text, const std::str
   }
   return out;
 }
+
+}  // namespace detail
+
+namespace {
+
+using detail::parse_poses;
 
 Json vec_json(const Eigen::Vector3f& v) {
   return Json::array(
