@@ -170,7 +170,8 @@ Json evaluate_point_truth(const PointCloud& truth, const PointCloud& output,
                             ": not applicable: needs a ground-truth mesh (the ground "
                             "truth is a point cloud)");
       auto t = ctx.phase("metric." + e->name);
-      for (auto& [key, value] : e->fn.run_point_truth(in, params, ctx).items()) {
+      Json result = e->fn.run_point_truth(in, params, ctx);
+      for (auto& [key, value] : result.items()) {
         if (key == "histograms") {
           for (auto& [hk, hv] : value.items())
             histograms[hk] = hv;

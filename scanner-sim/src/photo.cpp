@@ -73,7 +73,11 @@ Rig make_rig(const TriangleMesh& mesh, const ScannerParams& p) {
   if (p.fov_deg > 0) {
     f = 0.5 * w / std::tan(0.5 * p.fov_deg * pi / 180.0);
   } else {
-    const double half = std::asin(std::min(0.999, 0.5 * rig.diag / dist));
+    // The bounding sphere about the bbox centre (largest vertex distance), so the object fills
+    // the shorter side of the image.
+    const double radius = static_cast<double>(
+        (mesh.vertices.colwise() - rig.centre.cast<float>()).colwise().norm().maxCoeff());
+    const double half = std::asin(std::min(0.999, radius / dist));
     f = 0.5 * std::min(w, h) / std::tan(half);
   }
   rig.fx = rig.fy = f;

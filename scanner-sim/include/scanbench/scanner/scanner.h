@@ -52,11 +52,12 @@
 // renders `views` grey images of `image_width` x `image_height` pixels with Embree (pinhole
 // cameras at range_min + diag/2 from the bbox centre, on a ring at `ring_elevation_deg` above the
 // horizontal plane, evenly spaced in azimuth, or at the explicit `poses`; all looking at the
-// centre with world z up; full horizontal field of view fov_deg, 0 = fit the bounding sphere into
-// the shorter side). The albedo is a procedural solid texture (value noise of three octaves,
-// feature size `texture_scale` diag, at the surface point: any mesh gets features SIFT can find,
-// consistent across views), shaded Lambertian under a light at the camera (albedo * (0.25 + 0.75
-// |cos|)), 2 x 2 samples per pixel, background black; then an optional Gaussian blur
+// centre with world z up; full horizontal field of view fov_deg, 0 = fit the sphere about the bbox
+// centre through the farthest vertex into the shorter side). The albedo is a procedural solid
+// texture (value noise of three octaves, feature size `texture_scale` diag, at the surface point:
+// any mesh gets features SIFT can find, consistent across views), shaded Lambertian under a light
+// at the camera (albedo * (0.25 + 0.75 |cos|)), 2 x 2 samples per pixel, background black; then an
+// optional Gaussian blur
 // (`image_blur_px`) and Gaussian grey noise (`image_noise`, stream "scan.photo_noise" per view).
 // The images go to COLMAP (the real program, on the CPU, `colmap_threads` threads):
 // feature_extractor (one PINHOLE camera with the known intrinsics), exhaustive_matcher, and
