@@ -341,7 +341,10 @@ void run_colmap(const Rig& rig, const ScannerParams& p, const fs::path& ws, RunC
                (ws / "images").string(), "--ImageReader.camera_model", "PINHOLE",
                "--ImageReader.single_camera", "1", "--ImageReader.camera_params",
                fmt::format("{:.17g},{:.17g},{:.17g},{:.17g}", rig.fx, rig.fy, rig.cx, rig.cy),
-               "--SiftExtraction.use_gpu", "0", "--SiftExtraction.num_threads", threads},
+               // One extraction thread: COLMAP 3.8 numbers the images in the order their
+               // features are written, which varies with more threads, and point_triangulator
+               // needs the known model's ids to be the database's (it aborts otherwise).
+               "--SiftExtraction.use_gpu", "0", "--SiftExtraction.num_threads", "1"},
               ws, p, ctx, timings);
   colmap_step("exhaustive_matcher",
               {"--random_seed", seed, "--database_path", db, "--SiftMatching.use_gpu", "0",
