@@ -29,6 +29,7 @@ int run_cli(int argc, char** argv) {
   // One explicit list of subcommands.
   add_list_command(cli);
   add_scan_command(cli);
+  add_import_command(cli);
   add_algo_command(cli);
   add_bench_command(cli);
   add_eval_command(cli);

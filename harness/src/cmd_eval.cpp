@@ -1,4 +1,5 @@
-// scanbench eval --mesh GT | --dataset NAME  --points OUT.ply | --output-mesh MESH
+// scanbench eval --mesh GT | --dataset NAME | --gt-points FILE [--gt-transform M] [--gt-crop C]
+//                --points OUT.ply | --output-mesh MESH
 //                [--scan SCAN.ply] [--metrics a,b] [--set metric.key=value ...]
 //                [--heatmap DIR] [--vdb DIR] [--seed N] [--threads N] -o metrics.json
 // Evaluates one output against a ground truth with the registered metrics (metrics/evaluate.h)
@@ -24,6 +25,7 @@
 #include "scanbench/metrics/heatmap.h"
 #include "scanbench/metrics/mesh_volume.h"
 #include "scanbench/metrics/p2plane.h"
+#include "scanbench/metrics/point_truth.h"
 #include "scanbench/metrics/registry.h"
 #include "scanbench/metrics/surface_sampling.h"
 
@@ -49,6 +51,34 @@ void apply_metric_set(Json& params, const std::string& s) {
   params[lhs.substr(0, dot)][lhs.substr(dot + 1)] = value;
 }
 
+// --gt-points: a point-cloud ground truth (metrics/point_truth.h): aligned by the transform,
+// both clouds cropped to the box; only the point-capable metrics run.
+Json eval_point_truth(const std::string& gt_file, const std::string& transform,
+                      const std::string& crop, const std::string& points,
+                      const std::vector<std::string>& names, const Json& metric_params,
+                      RunContext& ctx) {
+  PointCloud truth = read_point_cloud(gt_file);
+  PointCloud out = metrics::transformed(read_point_cloud(points), Eigen::Matrix4d::Identity());
+  truth = metrics::transformed(
+      truth, transform.empty() ? Eigen::Matrix4d::Identity()
+                               : metrics::parse_transform(transform, "eval --gt-transform"));
+  if (!crop.empty()) {
+    const BoundingBox box = metrics::parse_crop(crop, "eval --gt-crop");
+    truth = metrics::cropped(truth, box);
+    out = metrics::cropped(out, box);
+  }
+  Json record = metrics::evaluate_point_truth(truth, out, names, metric_params, ctx);
+  Json inputs = Json::object();
+  inputs["ground_truth_points"] = gt_file;
+  inputs["gt_transform"] = transform.empty() ? Json(nullptr) : Json(transform);
+  inputs["gt_crop"] = crop.empty() ? Json(nullptr) : Json(crop);
+  inputs["output"] = points;
+  inputs["output_kind"] = "points";
+  inputs["seed"] = ctx.seed();
+  record["inputs"] = inputs;
+  return record;
+}
+
 std::string fmt_value(const Json& v) {
   if (v.is_number_float()) return fmt::format("{:.6g}", v.get<double>());
   return v.dump();
@@ -59,6 +89,7 @@ std::string fmt_value(const Json& v) {
 void add_eval_command(Cli& cli) {
   struct Opts {
     std::string mesh, dataset, points, output_mesh, scan, heatmap, vdb, output;
+    std::string gt_points, gt_transform, gt_crop;
     std::vector<std::string> metrics, sets, dataset_sets;
     std::uint64_t seed = 0;
     int threads = 0;
@@ -73,8 +104,23 @@ void add_eval_command(Cli& cli) {
   auto* mf = sub->add_option("--mesh", opts->mesh, "Ground-truth mesh file (.off .ply .obj .stl)");
   auto* ds = sub->add_option("--dataset", opts->dataset,
                              "Ground-truth dataset name (scanbench list datasets)");
+  auto* gp = sub->add_option(
+      "--gt-points", opts->gt_points,
+      "Ground-truth point cloud (.ply, .xyz, .pwn; normals used when present) instead of a mesh: "
+      "only accuracy.chamfer (precision/recall/F-score at tau, Tanks and Temples) and "
+      "accuracy.p2plane run, the others are reported not applicable");
+  sub->add_option("--gt-transform", opts->gt_transform,
+                  "4x4 alignment of the ground-truth points: a file of 16 numbers (row-major, "
+                  "e.g. Tanks and Temples' _trans.txt) or the numbers themselves")
+      ->needs(gp);
+  sub->add_option("--gt-crop", opts->gt_crop,
+                  "Crop box xmin,ymin,zmin,xmax,ymax,zmax (aligned frame) applied to the "
+                  "ground truth and the output")
+      ->needs(gp);
   mf->excludes(ds);
   ds->excludes(mf);
+  gp->excludes(mf);
+  gp->excludes(ds);
   sub->add_option("--dataset-set", opts->dataset_sets,
                   "Dataset parameter key=value (repeatable), e.g. for procedural shapes");
   auto* pf = sub->add_option("--points", opts->points, "Output point cloud (.ply)");
@@ -107,8 +153,25 @@ void add_eval_command(Cli& cli) {
   sub->add_option("-o,--output", opts->output, "Metrics JSON file")->required();
   sub->callback([&cli, opts] {
     cli.action = [opts] {
+      if (!opts->gt_points.empty()) {
+        if (opts->points.empty()) throw ParamError("eval: --gt-points needs --points FILE");
+        Json metric_params = Json::object();
+        for (const auto& s : opts->sets)
+          apply_metric_set(metric_params, s);
+        RunContext ctx(opts->seed, opts->threads);
+        const Json record = eval_point_truth(opts->gt_points, opts->gt_transform, opts->gt_crop,
+                                             opts->points, opts->metrics, metric_params, ctx);
+        const fs::path out_json(opts->output);
+        if (out_json.has_parent_path()) fs::create_directories(out_json.parent_path());
+        write_file_atomic(out_json, record.dump(2) + "\n");
+        fmt::print("eval: {} points vs {} ground-truth points -> {}\n",
+                   record["output_points"].get<std::int64_t>(),
+                   record["gt_points"].get<std::int64_t>(), opts->output);
+        return 0;
+      }
       if (opts->dataset.empty() == opts->mesh.empty())
-        throw ParamError("eval: give exactly one of --mesh FILE or --dataset NAME");
+        throw ParamError(
+            "eval: give exactly one of --mesh FILE, --dataset NAME or --gt-points FILE");
       if (opts->points.empty() == opts->output_mesh.empty())
         throw ParamError("eval: give exactly one of --points FILE or --output-mesh FILE");
       const auto t0 = std::chrono::steady_clock::now();

@@ -23,6 +23,9 @@ void add_list_command(Cli& cli);
 /// `scanbench scan`: virtual scan of a mesh (scanner-sim).
 void add_scan_command(Cli& cli);
 
+/// `scanbench import colmap DIR`: another tool's reconstruction as a scan PLY (core/colmap.h).
+void add_import_command(Cli& cli);
+
 /// `scanbench algo NAME`: one registered algorithm on a point cloud (algorithms module).
 void add_algo_command(Cli& cli);
 

@@ -120,6 +120,14 @@ Json execute_job(const Job& job, const fs::path& out) {
     const fs::path tmp = out / "scans" / fmt::format(".{}.{}.ply", scan_hash, private_tag());
     scanner::write_scan(s, tmp);
     fs::rename(scanner::sidecar_path(tmp), scanner::sidecar_path(ply));
+    // A photogrammetric scan's COLMAP workspace (write_scan: <ply>.colmap/) goes along.
+    if (fs::path ws_tmp = fs::path(tmp) += ".colmap"; fs::exists(ws_tmp)) {
+      const fs::path ws = fs::path(ply) += ".colmap";
+      std::error_code ec;
+      fs::remove_all(ws, ec);
+      fs::rename(ws_tmp, ws, ec);
+      if (ec) fs::remove_all(ws_tmp, ec);  // another job's rename won: the bytes are the same
+    }
     fs::rename(tmp, ply);
   }
   // Every job reads the scan back from the cache, so a cached and a fresh scan give the same

@@ -20,8 +20,11 @@ Eigen::VectorXf point_to_plane_errors(const Eigen::Matrix3Xf& q,
 Json p2plane_metric(const MetricInput& in, const P2PlaneParams& p) {
   if (in.output.empty()) throw InputError("accuracy.p2plane: output has no points");
   const auto closest = closest_points_of(in);
-  const Eigen::VectorXf abs_e = point_to_plane_errors(in.output.positions, closest).cwiseAbs();
-  const double diag = in.truth.diagonal();
+  return p2plane_scores(point_to_plane_errors(in.output.positions, closest).cwiseAbs(),
+                        in.truth.diagonal(), p);
+}
+
+Json p2plane_scores(const Eigen::VectorXf& abs_e, double diag, const P2PlaneParams& p) {
   const double n = static_cast<double>(abs_e.size());
   std::vector<float> sorted(abs_e.data(), abs_e.data() + abs_e.size());
   std::sort(sorted.begin(), sorted.end());

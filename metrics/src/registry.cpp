@@ -7,6 +7,7 @@
 #include "scanbench/metrics/normal_angle.h"
 #include "scanbench/metrics/outlier_residue.h"
 #include "scanbench/metrics/p2plane.h"
+#include "scanbench/metrics/point_truth.h"
 #include "scanbench/metrics/regularity.h"
 #include "scanbench/metrics/sharp_edges.h"
 #include "scanbench/metrics/surface.h"
@@ -47,6 +48,7 @@ void Metric::describe(Json& j) const {
   for (const auto& mk : keys)
     k[mk.key] = better_name(mk.better);
   j["keys"] = k;
+  j["point_truth"] = static_cast<bool>(run_point_truth);
 }
 
 namespace {
@@ -91,6 +93,12 @@ MetricRegistry::Entry make_metric(std::string name, std::string doc, Scores scor
   return e;
 }
 
+// A metric that also runs on a point-cloud ground truth (point_truth.h).
+template <class F>
+MetricRegistry::Entry point_capable(MetricRegistry::Entry e, F f) {
+  e.fn.run_point_truth = f;
+  return e;
+}
 Keys chamfer_keys() {
   return Keys{}
       .length("accuracy", kLower)
@@ -124,7 +132,8 @@ const std::vector<MetricKey>& record_keys() {
   static const std::vector<MetricKey> k = {{"output_points", kNone},
                                            {"gt_diagonal", kNone},
                                            {"gt_closed", kNone},
-                                           {"output_mesh_samples", kNone}};
+                                           {"output_mesh_samples", kNone},
+                                           {"gt_points", kNone}};
   return k;
 }
 
@@ -141,26 +150,31 @@ const MetricRegistry& registry() {
     MetricRegistry reg("metric");
     const Needs closest{true, false};
     // One explicit list; every entry has a create-by-name test (tests/metrics).
-    reg.add(make_metric<P2PlaneParams>(
-        "accuracy.p2plane",
-        "point-to-plane error |<q - p, N_p>| to the exact closest ground-truth point p and its "
-        "face normal (CLOP paper 10.2): p2plane_mean/rms/max/p50/p90/p99 (+ _rel = fraction of "
-        "the GT diagonal), histogram",
-        Scores::Points,
-        Keys{}
-            .length("p2plane_mean", kLower)
-            .length("p2plane_rms", kLower)
-            .length("p2plane_max", kLower)
-            .length("p2plane_p50", kLower)
-            .length("p2plane_p90", kLower)
-            .length("p2plane_p99", kLower),
-        closest, p2plane_metric));
-    reg.add(make_metric<ChamferParams>(
-        "accuracy.chamfer",
-        "accuracy (mean output->mesh), completeness (mean seeded surface samples->output), "
-        "chamfer = sum of the two means, hausdorff = max of both, precision/recall/fscore at tau "
-        "(Tanks and Temples); lengths also as _rel",
-        Scores::Points, chamfer_keys(), closest, chamfer_metric));
+    reg.add(point_capable(
+        make_metric<P2PlaneParams>(
+            "accuracy.p2plane",
+            "point-to-plane error |<q - p, N_p>| to the exact closest ground-truth point p and its "
+            "face normal (CLOP paper 10.2): p2plane_mean/rms/max/p50/p90/p99 (+ _rel = fraction of "
+            "the GT diagonal), histogram",
+            Scores::Points,
+            Keys{}
+                .length("p2plane_mean", kLower)
+                .length("p2plane_rms", kLower)
+                .length("p2plane_max", kLower)
+                .length("p2plane_p50", kLower)
+                .length("p2plane_p90", kLower)
+                .length("p2plane_p99", kLower),
+            closest, p2plane_metric),
+        point_truth_p2plane));
+    reg.add(point_capable(
+        make_metric<ChamferParams>(
+            "accuracy.chamfer",
+            "accuracy (mean output->mesh), completeness (mean seeded surface samples->output), "
+            "chamfer = sum of the two means, hausdorff = max of both, precision/recall/fscore at "
+            "tau "
+            "(Tanks and Temples); lengths also as _rel",
+            Scores::Points, chamfer_keys(), closest, chamfer_metric),
+        point_truth_chamfer));
     // The mean spacing depends on the point count: informational. Its spread (variance, and the
     // scale-free CV) measures regularity: lower is better.
     reg.add(make_metric<RegularityParams>(

@@ -56,8 +56,8 @@ const ScannerRegistry& presets() {
   static const ScannerRegistry r = [] {
     ScannerRegistry reg("scanner preset");
     // One explicit list; values live in configs/scanners/<name>.json.
-    for (const char* name :
-         {"clean", "moderate", "scut_low", "scut_medium", "scut_high", "outliers_heavy"}) {
+    for (const char* name : {"clean", "moderate", "scut_low", "scut_medium", "scut_high",
+                             "outliers_heavy", "photo_default", "photo_noisy", "photo_dense"}) {
       const auto file = config_root() / "scanners" / (std::string(name) + ".json");
       auto [doc, values] = parse_preset(file);
       std::vector<ParamInfo> infos = schema_of<ScannerParams>().params();

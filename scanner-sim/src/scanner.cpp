@@ -21,6 +21,7 @@
 #include <optional>
 #include <sstream>
 
+#include "photo.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/io.h"
 #include "scanbench/core/simd.h"
@@ -76,11 +77,32 @@ void ScannerParams::declare(ParamDeclarer<ScannerParams>& d) {
          "probability that an output point is a uniform outlier in the enlarged bbox");
   d.real("outlier_box_scale", &P::outlier_box_scale, Range::closed(1, 10), "",
          "outliers are uniform in the bbox grown by this factor about its centre (Berger: 1.1)");
+  d.text("kind", &P::kind,
+         "range (the range scanner), photo (rendered images through COLMAP's sparse "
+         "triangulation) or photo_dense (COLMAP's patch_match_stereo: needs a CUDA build)");
+  d.integer("image_width", &P::image_width, Range::closed(16, 8192), "px",
+            "photo: width of each rendered image");
+  d.integer("image_height", &P::image_height, Range::closed(16, 8192), "px",
+            "photo: height of each rendered image");
+  d.real("ring_elevation_deg", &P::ring_elevation_deg, Range::closed(-89, 89), "deg",
+         "photo: cameras on a ring this far above the horizontal plane (unless poses are given)");
+  d.real("texture_scale", &P::texture_scale, Range::open_min(0, 1), "diag",
+         "photo: feature size of the procedural solid texture");
+  d.real("image_noise", &P::image_noise, Range::closed(0, 1), "",
+         "photo: standard deviation of Gaussian grey noise (grey levels in [0, 1])");
+  d.real("image_blur_px", &P::image_blur_px, Range::closed(0, 20), "px",
+         "photo: standard deviation of a Gaussian blur of each image (0 = none)");
+  d.real("outlier_threshold", &P::outlier_threshold, Range::open_min(0, 10), "diag",
+         "photo: a point farther than this from the mesh is flagged outlier");
+  d.integer("colmap_threads", &P::colmap_threads, Range::closed(1, 256), "",
+            "photo: COLMAP's threads (SIFT extraction, matching, triangulation); fixed so the "
+            "result does not depend on the run's thread count");
+  d.real("colmap_timeout_s", &P::colmap_timeout_s, Range::open_min(0, 86400), "s",
+         "photo: time limit of each COLMAP step");
 }
 
-namespace {
+namespace detail {
 
-/// Parses "x y z; x y z" (commas allowed between numbers) into diag-unit offsets.
 std::vector<Eigen::Vector3d> parse_poses(const std::string& text, const std::string& where) {
   std::vector<Eigen::Vector3d> out;
   std::stringstream all(text);
@@ -103,6 +125,12 @@ std::vector<Eigen::Vector3d> parse_poses(const std::string& text, const std::str
   }
   return out;
 }
+
+}  // namespace detail
+
+namespace {
+
+using detail::parse_poses;
 
 Json vec_json(const Eigen::Vector3f& v) {
   return Json::array(
@@ -150,6 +178,10 @@ void validate(const ScannerParams& p, const std::string& where) {
   if (!(p.range_max > p.range_min)) {
     throw ParamError(fmt::format("{}.range_max: expected more than range_min = {}, got {}", where,
                                  p.range_min, p.range_max));
+  }
+  if (p.kind != "range" && p.kind != "photo" && p.kind != "photo_dense") {
+    throw ParamError(
+        fmt::format("{}.kind: expected range, photo or photo_dense, got '{}'", where, p.kind));
   }
   if (!p.poses.empty()) {
     const auto poses = parse_poses(p.poses, where);
@@ -961,6 +993,15 @@ Scan ScannerEngine::run(RunContext& ctx) const {
 }  // namespace detail
 
 Scan scan(const TriangleMesh& mesh, const ScannerParams& p, RunContext& ctx) {
+  if (p.kind != "range") {
+    validate(p, "scanner");
+    Scan s = detail::photo_scan(mesh, p, ctx);
+    s.cloud.origin = mesh.origin;
+    if (!mesh.origin.isZero(0.0)) {
+      s.record["origin"] = {mesh.origin.x(), mesh.origin.y(), mesh.origin.z()};
+    }
+    return s;
+  }
   const detail::ScannerEngine engine(mesh, p);
   // The scan happens in the mesh's local frame (core stage_data.h, "Local origin"): a mesh far
   // from the world origin scans exactly as the same mesh at the origin, and the cloud gets its
@@ -987,6 +1028,16 @@ void write_scan(const Scan& s, const std::filesystem::path& ply) {
   out << s.record.dump(2) << "\n";
   out.flush();
   if (!out) throw IoError(fmt::format("{}: write failed", side.string()));
+  if (s.workspace) {
+    std::filesystem::path ws = ply;
+    ws += ".colmap";
+    std::error_code ec;
+    std::filesystem::remove_all(ws, ec);
+    std::filesystem::copy(s.workspace->path(), ws, std::filesystem::copy_options::recursive, ec);
+    if (ec)
+      throw IoError(
+          fmt::format("{}: cannot copy the COLMAP workspace: {}", ws.string(), ec.message()));
+  }
 }
 
 }  // namespace scanbench::scanner

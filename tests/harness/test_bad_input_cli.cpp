@@ -2,7 +2,8 @@
 // every file of tests/data/malformed (reader-level damage: truncation, NaN/inf, huge counts, bad
 // indices...) and of tests/data/bad_input (every reader and the experiment config: wrong types,
 // unknown keys, NaN, out-of-range values, duplicate labels and keys, non-SPD covariances,
-// degenerate and non-manifold meshes, empty/one-point/identical clouds, coordinates near 1e7).
+// degenerate and non-manifold meshes, empty/one-point/identical clouds, coordinates near 1e7;
+// COLMAP models and dense workspaces as folders colmap_*: truncated, huge counts, dangling ids).
 //
 // Each file either fails with exit 2 and exactly one line on stderr naming the file and the field
 // (tests/data/bad_input/EXPECTED.tsv gives the field for each), or gives the documented result
@@ -56,6 +57,7 @@ class BadInputCli : public ::testing::Test {
     const std::string in = "'" + file.string() + "'";
     const std::string out = "'" + (dir_ / "out.ply").string() + "'";
     auto starts = [&](const char* p) { return name.rfind(p, 0) == 0; };
+    if (starts("colmap_")) return "import colmap " + in + " -o " + out;
     if (starts("config_")) return "run " + in + " -q -o '" + (dir_ / "results").string() + "'";
     if (starts("mesh_")) return "algo subdivide.loop -i " + in + " -o " + out;
     if (starts("covmesh_")) return "algo subdivide.gp_loop -i " + in + " -o " + out;

@@ -25,6 +25,9 @@ struct P2PlaneParams {
 Eigen::VectorXf point_to_plane_errors(const Eigen::Matrix3Xf& q,
                                       const std::vector<ClosestPoint>& closest);
 
+/// The scores above from |E| (non-empty) and the ground-truth diagonal; shared by the mesh and
+/// the point-cloud ground truth (point_truth.h).
+Json p2plane_scores(const Eigen::VectorXf& abs_e, double diag, const P2PlaneParams& p);
 /// Metric "accuracy.p2plane". Throws InputError for an empty output.
 Json p2plane_metric(const MetricInput& in, const P2PlaneParams& p);
 

@@ -44,8 +44,9 @@
 
 namespace scanbench::metrics {
 
-class GroundTruth;    // metrics/ground_truth.h: the mesh with its distance oracles
-struct ClosestPoint;  // metrics/ground_truth.h
+class GroundTruth;       // metrics/ground_truth.h: the mesh with its distance oracles
+struct PointTruthInput;  // metrics/point_truth.h: a point-cloud ground truth
+struct ClosestPoint;     // metrics/ground_truth.h
 
 struct MetricInput {
   const GroundTruth& truth;
@@ -93,6 +94,10 @@ struct Metric {
   bool needs_closest = false;        ///< uses in.closest (shared exact closest points)
   bool needs_output_oracle = false;  ///< uses in.output_oracle (mesh outputs)
   std::function<Json(const MetricInput& in, const Json& params, RunContext& ctx)> run;
+  /// The metric on a point-cloud ground truth (point_truth.h); empty when it needs a mesh (then
+  /// it is "not applicable" there).
+  std::function<Json(const PointTruthInput& in, const Json& params, RunContext& ctx)>
+      run_point_truth;
 
   Json operator()(const MetricInput& in, const Json& params, RunContext& ctx) const {
     return run(in, params, ctx);
@@ -110,7 +115,7 @@ using MetricRegistry = Registry<Metric>;
 const MetricRegistry& registry();
 
 /// Keys evaluate() adds to every record besides the metrics' own (output_points, gt_diagonal,
-/// gt_closed, output_mesh_samples), all Better::None.
+/// gt_closed, output_mesh_samples; gt_points for a point-cloud ground truth), all Better::None.
 const std::vector<MetricKey>& record_keys();
 
 /// The declared direction of a record metric key (any registered metric's or record_keys()), or

@@ -19,7 +19,8 @@ struct ScannerPreset {
 using ScannerRegistry = Registry<ScannerPreset>;
 
 /// Every scanner preset, in one explicit list: clean, moderate, scut_low, scut_medium, scut_high,
-/// outliers_heavy. Throws (IoError / ParamError) when a preset file is missing or invalid.
+/// outliers_heavy, and the photogrammetric photo_default, photo_noisy, photo_dense (scanner.h).
+/// Throws (IoError / ParamError) when a preset file is missing or invalid.
 const ScannerRegistry& presets();
 
 /// The complete, validated parameters in a preset file (see the format above).

@@ -47,13 +47,38 @@
 //
 // Output order is fixed: by view, then pixel (row-major), then the pixel's point before its
 // uniform outliers.
+//
+// The photogrammetric scanner (kind = "photo", presets photo_*; photo.cpp). Instead of ranges it
+// renders `views` grey images of `image_width` x `image_height` pixels with Embree (pinhole
+// cameras at range_min + diag/2 from the bbox centre, on a ring at `ring_elevation_deg` above the
+// horizontal plane, evenly spaced in azimuth, or at the explicit `poses`; all looking at the
+// centre with world z up; full horizontal field of view fov_deg, 0 = fit the sphere about the bbox
+// centre through the farthest vertex into the shorter side). The albedo is a procedural solid
+// texture (value noise of three octaves, feature size `texture_scale` diag, at the surface point:
+// any mesh gets features SIFT can find, consistent across views), shaded Lambertian under a light
+// at the camera (albedo * (0.25 + 0.75 |cos|)), 2 x 2 samples per pixel, background black; then an
+// optional Gaussian blur
+// (`image_blur_px`) and Gaussian grey noise (`image_noise`, stream "scan.photo_noise" per view).
+// The images go to COLMAP (the real program, on the CPU, `colmap_threads` threads):
+// feature_extractor (one PINHOLE camera with the known intrinsics), exhaustive_matcher, and
+// point_triangulator on a text model holding the known poses (intrinsics and poses kept fixed).
+// The output is the sparse model as a scan: positions, scan_id (first view seeing the point),
+// sensors at the camera centres, "reprojection_error" (px), "track_length", "surface_distance"
+// (unsigned distance to the mesh, mesh units) and "outlier" (surface_distance above
+// `outlier_threshold` diag). The COLMAP workspace (images/, database.db, known/, sparse/) is kept
+// in Scan::workspace and written beside the scan as <ply>.colmap/. COLMAP's random seed is derived
+// from the run seed; results are deterministic for one COLMAP version and colmap_threads (the
+// thread count of the run context plays no part). kind = "photo_dense" asks for COLMAP's
+// patch_match_stereo, which needs CUDA: refused in one line when `colmap help` says "without CUDA".
 #include <cstdint>
 #include <filesystem>
+#include <memory>
 #include <string>
 
 #include "scanbench/core/params.h"
 #include "scanbench/core/point_cloud.h"
 #include "scanbench/core/run_context.h"
+#include "scanbench/core/run_program.h"
 #include "scanbench/core/triangle_mesh.h"
 
 namespace scanbench::scanner {
@@ -86,6 +111,17 @@ struct ScannerParams {
   double misalign_shift = 0.0;
   double outlier_fraction = 0.0;
   double outlier_box_scale = 1.1;
+  // The photogrammetric scanner (kind "photo"; see above). Ignored by the range scanner.
+  std::string kind = "range";
+  int image_width = 640;
+  int image_height = 480;
+  double ring_elevation_deg = 20.0;
+  double texture_scale = 0.02;
+  double image_noise = 0.0;
+  double image_blur_px = 0.0;
+  double outlier_threshold = 0.01;
+  int colmap_threads = 2;
+  double colmap_timeout_s = 1800.0;
 
   static void declare(ParamDeclarer<ScannerParams>& d);
 };
@@ -109,6 +145,9 @@ struct Scan {
   /// rotation is row-major 3x3, p_registered = rotation * p + translation (identity for scans
   /// that are not misaligned). Lengths in the mesh's units.
   Json record;
+  /// The photogrammetric scanner's COLMAP workspace (a temporary folder, removed with the last
+  /// copy of the Scan); empty for the range scanner. write_scan copies it to <ply>.colmap/.
+  std::shared_ptr<programs::TempDir> workspace;
 };
 
 /// Scans `mesh`. Throws InputError for an empty mesh, non-finite vertices, bad face indices or a
@@ -119,7 +158,8 @@ struct Scan {
 Scan scan(const TriangleMesh& mesh, const ScannerParams& p, RunContext& ctx);
 
 /// Writes the cloud as binary PLY (core write_point_cloud; deterministic bytes) and the record as
-/// `<ply>.json` (e.g. out.ply.json). Throws IoError naming the file.
+/// `<ply>.json` (e.g. out.ply.json); a photogrammetric scan's workspace goes to `<ply>.colmap/`
+/// (replacing an older one). Throws IoError naming the file.
 void write_scan(const Scan& s, const std::filesystem::path& ply);
 
 /// The sidecar path of a scan PLY: "<ply>.json".

@@ -1,9 +1,9 @@
-#include "scanbench/metrics/closest_point.h"
+#include "scanbench/core/closest_point.h"
 
 #include <Eigen/Geometry>
 #include <algorithm>
 
-namespace scanbench::metrics {
+namespace scanbench {
 
 PreparedTriangle::PreparedTriangle(const Eigen::Vector3d& a_in, const Eigen::Vector3d& b_in,
                                    const Eigen::Vector3d& c_in)
@@ -77,4 +77,4 @@ Eigen::Vector3d closest_point_on_triangle(const Eigen::Vector3d& p, const Eigen:
   return PreparedTriangle(a, b, c).closest_point(p);
 }
 
-}  // namespace scanbench::metrics
+}  // namespace scanbench

@@ -1,4 +1,4 @@
-#include "run_program.h"
+#include "scanbench/core/run_program.h"
 
 #include <fcntl.h>
 #include <fmt/format.h>
@@ -20,7 +20,7 @@
 
 extern char** environ;
 
-namespace scanbench::algorithms::detail {
+namespace scanbench::programs {
 
 namespace fs = std::filesystem;
 
@@ -174,4 +174,4 @@ void require_output(const fs::path& path, const fs::path& workdir, std::string_v
   }
 }
 
-}  // namespace scanbench::algorithms::detail
+}  // namespace scanbench::programs
