@@ -6,6 +6,9 @@
 //                           [--min-rel R] [--format md|csv|json]
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <cmath>
+
 #include "commands.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/paths.h"

@@ -71,7 +71,13 @@ Db::Db(const fs::path& file, bool create) : file_(file) {
   try {
     // The first read fails on a file that is not a database (SQLITE_NOTADB): refused before any
     // write, so such a file is never touched.
-    const int version = static_cast<int>(Stmt(*this, "PRAGMA user_version").step_int());
+    int version = 0;
+    try {
+      version = static_cast<int>(Stmt(*this, "PRAGMA user_version").step_int());
+    } catch (const IoError&) {
+      throw IoError(fmt::format("{}: not a readable SQLite database ({}); left untouched",
+                                file.string(), sqlite3_errmsg(db_)));
+    }
     if (version > kHistorySchema) {
       throw IoError(fmt::format(
           "{}: history schema version {} is newer than this scanbench's ({}); use a newer "
@@ -218,7 +224,7 @@ namespace {
 /// One line of `git -C <project root> ARGS` (empty when git or the commit is unavailable).
 /// `rev` is checked to be a hash so that nothing from a record reaches a shell unquoted.
 std::string git_line(const std::string& args, const std::string& rev) {
-  if (!std::regex_match(rev, std::regex("[0-9a-fA-F]{4,40}"))) return {};
+  if (rev != "HEAD" && !std::regex_match(rev, std::regex("[0-9a-fA-F]{4,40}"))) return {};
   const std::string cmd =
       fmt::format("git -C '{}' {} {} 2>/dev/null", project_root().string(), args, rev);
   FILE* p = popen(cmd.c_str(), "r");
@@ -303,7 +309,6 @@ RunRow run_row(const fs::path& dir, const std::vector<Json>& records, const Json
 std::int64_t insert_run(Db& db, const fs::path& dir, const RunRow& row,
                         const std::string& machine) {
   const Json& c = row.context;
-  auto opt = [](const std::string& s) { return s; };
   Stmt s(
       db,
       "INSERT INTO runs(identity, folder, experiment, commit_id, commit_date, branch, dirty, "
@@ -314,13 +319,13 @@ std::int64_t insert_run(Db& db, const fs::path& dir, const RunRow& row,
   row.commit_date.empty() ? s.bind_null(5) : s.bind(5, row.commit_date);
   row.branch.empty() ? s.bind_null(6) : s.bind(6, row.branch);
   s.bind(7, std::int64_t{row.dirty});
-  s.bind(8, opt(c.value("host", std::string())));
+  s.bind(8, c.value("host", std::string()));
   s.bind(9, machine.empty() ? machine_identity(c) : machine);
-  s.bind(10, opt(c.value("cpu", std::string())));
+  s.bind(10, c.value("cpu", std::string()));
   s.bind(11, static_cast<std::int64_t>(c.value("hardware_threads", 0)));
-  s.bind(12, opt(c.value("isa", std::string())));
-  s.bind(13, opt(c.value("compiler", std::string())));
-  s.bind(14, opt(c.value("build", std::string())));
+  s.bind(12, c.value("isa", std::string()));
+  s.bind(13, c.value("compiler", std::string()));
+  s.bind(14, c.value("build", std::string()));
   s.bind(15, row.config_hash).bind(16, row.config_name);
   s.bind(17, row.started).bind(18, row.ended).bind(19, utc_now());
   s.run();
@@ -335,21 +340,25 @@ std::string label_of(const Json& r, const char* field) {
 /// Every quantity of a record with its samples: metric keys, time.*, peak_rss_mb, sizes.*.
 std::vector<std::pair<std::string, std::vector<double>>> record_quantities(const Json& r) {
   std::vector<std::pair<std::string, std::vector<double>>> out;
-  for (const auto& [k, v] : r.value("metrics", Json::object()).items())
+  // Named locals: a temporary in a range-for initialiser dies before the loop (C++20).
+  const Json metrics = r.value("metrics", Json::object());
+  for (const auto& [k, v] : metrics.items())
     if (v.is_number()) out.push_back({k, {v.get<double>()}});
   for (const std::string q : {"time.total", "time.cpu"}) {
     auto s = record_samples(r, q);
     if (!s.empty()) out.push_back({q, std::move(s)});
   }
   const Json timing = r.value("timing", Json::object());
-  for (const auto& [phase, v] : timing.value("phases", Json::object()).items()) {
+  const Json phases = timing.value("phases", Json::object());
+  for (const auto& [phase, v] : phases.items()) {
     auto s = record_samples(r, "time." + phase);
     if (!s.empty()) out.push_back({"time." + phase, std::move(s)});
   }
   if (r.contains("peak_rss_mb") && r["peak_rss_mb"].is_number()) {
     out.push_back({"peak_rss_mb", {r["peak_rss_mb"].get<double>()}});
   }
-  for (const auto& [k, v] : r.value("sizes", Json::object()).items())
+  const Json sizes = r.value("sizes", Json::object());
+  for (const auto& [k, v] : sizes.items())
     if (v.is_number()) out.push_back({"sizes." + k, {v.get<double>()}});
   return out;
 }
@@ -643,8 +652,8 @@ TimingHistoryResult history_timing_verdicts(const fs::path& db_file,
     if (r.value("status", std::string()) != "ok") continue;
     const std::string key = r.value("key", std::string());
     std::vector<std::string> quantities{"time.total"};
-    for (const auto& [phase, s] :
-         r.value("timing", Json::object()).value("phases", Json::object()).items())
+    const Json phases = r.value("timing", Json::object()).value("phases", Json::object());
+    for (const auto& [phase, s] : phases.items())
       quantities.push_back("time." + phase);
     for (const auto& q : quantities) {
       const std::vector<double> now = record_samples(r, q);

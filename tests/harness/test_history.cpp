@@ -129,7 +129,7 @@ std::string date_of(int i) {
 std::vector<std::string> query(const fs::path& db, const std::string& sql) {
   sqlite3* h = nullptr;
   std::vector<std::string> out;
-  if (sqlite3_open_v2(db.c_str(), &h, SQLITE_OPEN_READONLY, nullptr) != SQLITE_OK) {
+  if (sqlite3_open_v2(db.c_str(), &h, SQLITE_OPEN_READWRITE, nullptr) != SQLITE_OK) {
     sqlite3_close(h);
     return {"open failed"};
   }
@@ -284,8 +284,9 @@ TEST(HistoryDb, NewerSchemaAndCorruptFileAreRefusedUntouched) {
     sqlite3_close(h);
   }
   const std::string newer = slurp(db);
-  for (const std::string cmd : {" history add " + (dir / "r1").string(),
-                                std::string(" history show"), " report " + (dir / "r1").string()}) {
+  for (const std::string& cmd :
+       {" history add " + (dir / "r1").string(), std::string(" history show"),
+        " report " + (dir / "r1").string()}) {
     const auto r = sh(sb() + cmd + " --db " + db.string());
     EXPECT_EQ(r.code, 2) << cmd << ": " << r.out;
     EXPECT_NE(r.out.find("h.sqlite: history schema version 99 is newer"), std::string::npos)
@@ -300,7 +301,7 @@ TEST(HistoryDb, NewerSchemaAndCorruptFileAreRefusedUntouched) {
   for (int i = 0; i < 8192; ++i)
     garbage += static_cast<char>(rng() & 0xff);
   write(bad, garbage);
-  for (const std::string cmd :
+  for (const std::string& cmd :
        {" history add " + (dir / "r1").string(), std::string(" history changes")}) {
     const auto r = sh(sb() + cmd + " --db " + bad.string());
     EXPECT_EQ(r.code, 2) << r.out;
@@ -433,6 +434,70 @@ TEST(HistoryTiming, JudgedOnlyAgainstTheSameMachine) {
       harness::history_timing_verdicts(db, records_of("testhost", {1.5, 1.5, 1.5}), "", "", floor);
   for (const auto& v : shorter.verdicts)
     EXPECT_EQ(v.verdict, "n/a") << v.note;
+  fs::remove_all(dir);
+}
+
+/// A throwaway git repository whose scripts/build.sh "builds" a scanbench that writes one record
+/// with p2plane_mean_rel = the value.txt of the commit it was built from (a file `broken` makes
+/// the build fail). Returns the commit hashes, oldest first.
+std::vector<std::string> make_bisect_repo(const fs::path& repo,
+                                          const std::vector<std::string>& values, int broken_at) {
+  fs::create_directories(repo / "scripts");
+  fs::create_directories(repo / "configs");
+  write(repo / "scripts" / "build.sh", R"SH(#!/usr/bin/env bash
+set -euo pipefail
+here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+[[ -e "$here/broken" ]] && { echo "compile error" >&2; exit 1; }
+v="$(cat "$here/value.txt")"
+mkdir -p "$SCANBENCH_BUILD_DIR/harness"
+cat > "$SCANBENCH_BUILD_DIR/harness/scanbench" <<EOS
+#!/usr/bin/env bash
+# run CONFIG -o OUT -q --filter RE
+mkdir -p "\$4"
+echo '{"id":"j1","key":"sphere|moderate|wlop||seed=1","status":"ok","metrics":{"p2plane_mean_rel":$v}}' > "\$4/runs.jsonl"
+EOS
+chmod +x "$SCANBENCH_BUILD_DIR/harness/scanbench"
+)SH");
+  write(repo / "configs" / "nightly.json", "{}\n");
+  const std::string git = "git -C " + repo.string() + " ";
+  EXPECT_EQ(
+      sh(git + "init -q && " + git + "config user.email t@t && " + git + "config user.name t").code,
+      0);
+  std::vector<std::string> commits;
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    write(repo / "value.txt", values[i] + "\n");
+    if (static_cast<int>(i) == broken_at) {
+      write(repo / "broken", "");
+    } else {
+      fs::remove(repo / "broken");
+    }
+    EXPECT_EQ(sh(git + "add -A && " + git + "commit -q --allow-empty -m c" + std::to_string(i)).code, 0);
+    auto head = sh(git + "rev-parse HEAD", false).out;
+    commits.push_back(head.substr(0, head.find('\n')));
+  }
+  return commits;
+}
+
+TEST(HistoryBisect, NamesThePlantedRegression) {
+  const fs::path dir = make_temp_dir("hist-bisect");
+  const auto c =
+      make_bisect_repo(dir / "repo", {"1.0", "1.0", "1.01", "1.0", "2.0", "2.0", "2.1", "2.0"}, -1);
+  const auto r = sh(sb() + " history bisect --metric p2plane_mean_rel --job " +
+                    "'sphere|moderate|wlop||seed=1' --repo " + (dir / "repo").string() +
+                    " --scratch " + (dir / "scratch").string() + " " + c[0] + " " + c[7]);
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("first bad commit: " + c[4]), std::string::npos) << r.out;
+  EXPECT_FALSE(fs::exists(dir / "scratch" / "worktree"));  // removed at the end
+  // A commit that does not build stops the search cleanly, naming the range left.
+  const auto b = make_bisect_repo(dir / "repo2", {"1.0", "1.0", "1.0", "2.0", "2.0", "2.0"}, 2);
+  const auto s = sh(sb() + " history bisect --metric p2plane_mean_rel --job " +
+                    "'sphere|moderate|wlop||seed=1' --repo " + (dir / "repo2").string() +
+                    " --scratch " + (dir / "scratch2").string() + " " + b[0] + " " + b[5]);
+  EXPECT_EQ(s.code, 1) << s.out;
+  EXPECT_NE(
+      s.out.find(b[2] + " does not build; the first bad commit lies in " + b[0] + ".." + b[3]),
+      std::string::npos)
+      << s.out;
   fs::remove_all(dir);
 }
 
