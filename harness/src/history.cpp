@@ -269,11 +269,15 @@ RunRow run_row(const fs::path& dir, const std::vector<Json>& records, const Json
     const Json c = r.value("context", Json::object());
     if (row.context.empty() && c.is_object()) row.context = c;
     const std::string date = c.is_object() ? c.value("date", std::string()) : "";
-    ident += r.value("id", std::string()) + "@" + date + ";";
+    // Dates have one-second resolution: the measured times tell apart two quick runs of the
+    // same jobs started in the same second.
+    const Json timing = r.value("timing", Json::object());
+    ident += r.value("id", std::string()) + "@" + date + "/" +
+             timing.value("job_wall_s", Json()).dump() + timing.value("total_s", Json()).dump() +
+             ";";
     const double t = parse_utc(date);
     if (std::isnan(t)) continue;
     start = std::min(start, t);
-    const Json timing = r.value("timing", Json::object());
     end = std::max(end, t + timing.value("job_wall_s", 0.0));
   }
   if (records.empty() && claims.is_object()) {

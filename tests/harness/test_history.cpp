@@ -207,6 +207,62 @@ TEST(HistoryDb, SameRunTwiceAddsNothing) {
   fs::remove_all(dir);
 }
 
+TEST(HistoryDb, RealRunAddsItselfAndClaimsFolderAddsVerdicts) {
+  const fs::path dir = make_temp_dir("hist-run");
+  const fs::path db = dir / "h.sqlite";
+  write(dir / "tiny.json", R"({
+    "scanbench_experiment": 1, "name": "tiny", "seed": 3, "repeats": 2, "save_outputs": false,
+    "datasets": [{"name": "sphere"}],
+    "scanners": [{"preset": "clean", "params": {"views": 2, "resolution": 32}}],
+    "variants": [{"label": "sub2", "algorithm": "test.subsample", "params": {"stride": 2}}],
+    "metrics": ["accuracy.p2plane"]
+  })");
+  const auto r = sh(sb() + " run " + (dir / "tiny.json").string() + " -q -o " +
+                    (dir / "out").string() + " --db " + db.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("history: added run"), std::string::npos) << r.out;
+  EXPECT_EQ(one(db, "SELECT COUNT(*) FROM jobs WHERE status = 'ok'"), "1");
+  EXPECT_EQ(one(db, "SELECT config_name FROM runs"), "tiny");
+  EXPECT_EQ(one(db, "SELECT COUNT(*) FROM samples WHERE quantity = 'time.total'"), "2");
+  const auto rec = read_jsonl(dir / "out" / "runs.jsonl").front();
+  const double stored =
+      std::stod(one(db, "SELECT value FROM samples WHERE quantity = 'p2plane_mean_rel'"));
+  EXPECT_NEAR(stored, rec["metrics"]["p2plane_mean_rel"].get<double>(), 1e-12 * stored);
+
+  // nightly --db: adds itself; with no history on this machine the timings are not judged
+  // (accuracy and status still are, against the baseline).
+  const std::string nightly = sb() + " nightly --no-claims -q --config " +
+                              (dir / "tiny.json").string() + " --baseline " +
+                              (dir / "base").string() + " --db " + db.string();
+  const auto n1 = sh(nightly + " -o " + (dir / "n1").string() + " --update-baseline");
+  ASSERT_EQ(n1.code, 0) << n1.out;
+  const auto n2 = sh(nightly + " -o " + (dir / "n2").string());
+  ASSERT_EQ(n2.code, 0) << n2.out;
+  EXPECT_EQ(one(db, "SELECT COUNT(*) FROM runs"), "3");
+  const Json cmp = Json::parse(slurp(dir / "n2" / "compare.json"));
+  EXPECT_NE(cmp["notes"].dump().find("timings not judged: 2 earlier runs on machine"),
+            std::string::npos)
+      << cmp["notes"];
+  int accuracy = 0;
+  for (const auto& v : cmp["comparisons"]) {
+    EXPECT_NE(v["kind"], "time") << v.dump();
+    accuracy += v["kind"] == "accuracy";
+  }
+  EXPECT_GT(accuracy, 0);
+  EXPECT_NE(slurp(dir / "n2" / "index.html").find("<h2>History</h2>"), std::string::npos);
+  // A claims-only folder (scanbench claims -o DIR): a run without jobs, the verdicts.
+  fs::create_directories(dir / "claims");
+  write(dir / "claims" / "claims.json", R"({"scanbench_claims": 1, "context": {"commit":
+    "abc000000001", "date": "2026-11-02T00:00:00Z", "host": "h"}, "claims": [
+    {"id": "a", "verdict": "held", "reason": ""}, {"id": "b", "verdict": "failed",
+     "reason": "x > y does not hold"}]})");
+  const auto c = sh(sb() + " history add " + (dir / "claims").string() + " --db " + db.string());
+  ASSERT_EQ(c.code, 0) << c.out;
+  EXPECT_EQ(one(db, "SELECT group_concat(claim || '=' || verdict) FROM claims"), "a=held,b=failed");
+  EXPECT_EQ(one(db, "SELECT COUNT(*) FROM runs"), "4");
+  fs::remove_all(dir);
+}
+
 TEST(HistoryDb, SigkillMidImportKeepsThePreviousState) {
   const fs::path dir = make_temp_dir("hist-kill");
   const fs::path db = dir / "h.sqlite";
@@ -369,8 +425,11 @@ TEST(HistoryCli, ShowAndChangesFindThePlantedSteps) {
   fs::remove_all(dir);
 }
 
+// SCANBENCH_HISTORY_EXAMPLE=DIR keeps the example history and its report in DIR (docs/history.md).
 TEST(HistoryCli, ReportHistorySectionRendersInChromium) {
-  const fs::path dir = make_temp_dir("hist-report");
+  const char* keep = std::getenv("SCANBENCH_HISTORY_EXAMPLE");
+  const fs::path dir = keep ? fs::path(keep) : make_temp_dir("hist-report");
+  if (keep) fs::create_directories(dir);
   const fs::path db = make_example_history(dir);
   const fs::path run = dir / "run11";
   const auto r = sh(sb() + " report " + run.string() + " --db " + db.string());
@@ -396,7 +455,7 @@ TEST(HistoryCli, ReportHistorySectionRendersInChromium) {
   EXPECT_NE(dom.out.find("<polyline", section), std::string::npos);
   EXPECT_NE(dom.out.find("change point: " + commit_of(6) + ".." + commit_of(7)), std::string::npos);
   fs::remove_all(profile);
-  fs::remove_all(dir);
+  if (!keep) fs::remove_all(dir);
 }
 
 TEST(HistoryTiming, JudgedOnlyAgainstTheSameMachine) {
@@ -475,7 +534,8 @@ chmod +x "$SCANBENCH_BUILD_DIR/harness/scanbench"
     } else {
       fs::remove(repo / "broken");
     }
-    EXPECT_EQ(sh(git + "add -A && " + git + "commit -q --allow-empty -m c" + std::to_string(i)).code, 0);
+    EXPECT_EQ(
+        sh(git + "add -A && " + git + "commit -q --allow-empty -m c" + std::to_string(i)).code, 0);
     auto head = sh(git + "rev-parse HEAD", false).out;
     commits.push_back(head.substr(0, head.find('\n')));
   }

@@ -11,8 +11,9 @@
 //        time.total / time.cpu / time.<step>:<phase> (one per repeat), peak_rss_mb, sizes.<key>;
 //        direction -1 lower is better, +1 higher, 0 informational (compare.h quantity_direction)
 //   claims(run_id, claim, verdict, reason)           the claims verdicts of DIR/claims.json
-// A run's identity is a hash of its commit and of every job's id and start date (or of the
-// claims summary's date for a claims-only folder): importing the same folder twice adds nothing.
+// A run's identity is a hash of its commit and of every job's id, start date and measured times
+// (or of the claims summary's date for a claims-only folder): importing the same folder twice
+// adds nothing.
 //
 // Safety: WAL journal, a busy timeout of 60 s, one IMMEDIATE transaction per import (a process
 // killed mid-import leaves the previous state). A file that is not a SQLite database, or whose
