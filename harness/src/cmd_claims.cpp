@@ -134,7 +134,7 @@ void add_claims_command(Cli& cli) {
                 "Write this run's verdicts to the baseline file instead of comparing");
   sub->add_option("--claims", a->claims_dir, "Folder of claim files (default configs/claims)");
   sub->add_flag("--resume", a->o.resume, "Keep the records already in the results folder");
-  add_db_option(sub, a->db);
+  add_db_option(sub, a->db, "Add the claims folder (its verdicts) to this database");
   sub->callback([&cli, a] {
     cli.action = [a] {
       ClaimsOptions o = a->o;

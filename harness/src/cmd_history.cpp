@@ -34,7 +34,7 @@ fs::path db_path(const std::string& db) {
 }
 
 void add_query_options(CLI::App* sub, QueryArgs& a) {
-  add_db_option(sub, a.db);
+  add_db_option(sub, a.db, "Database to read (default results/history.sqlite)");
   sub->add_option("--metric", a.filter.metric,
                   "Quantity: a metric key, time.total, time.<step>:<phase>, peak_rss_mb, "
                   "sizes.<key> (default: every metric key and time.total)");
@@ -190,10 +190,8 @@ void add_bisect_command(Cli& cli, CLI::App* hist) {
 
 }  // namespace
 
-void add_db_option(CLI::App* sub, std::string& db) {
-  sub->add_option("--db", db,
-                  "Results history database (SQLite; docs/history.md; default "
-                  "results/history.sqlite)");
+void add_db_option(CLI::App* sub, std::string& db, const std::string& what) {
+  sub->add_option("--db", db, what + " (SQLite results history, docs/history.md)");
 }
 
 void add_history_command(Cli& cli) {
@@ -211,7 +209,9 @@ void add_history_command(Cli& cli) {
       "add", "Import a finished results folder (idempotent: a run already there changes nothing)");
   sub->add_option("dir", add->dir, "Results folder (runs.jsonl or jobs/, and/or claims.json)")
       ->required();
-  add_db_option(sub, add->db);
+  add_db_option(sub, add->db,
+                "Database to add to, made when missing (default "
+                "results/history.sqlite)");
   sub->add_option("--machine", add->machine,
                   "Machine name for timing history (default host / CPU / threads / ISA)");
   sub->callback([&cli, add] {

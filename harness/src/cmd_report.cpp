@@ -17,7 +17,7 @@ void add_report_command(Cli& cli) {
       "heatmaps, links to scans and outputs");
   sub->add_option("dir", a->dir, "Results folder")->required();
   sub->add_option("-o,--out", a->out, "HTML file (default DIR/index.html)");
-  add_db_option(sub, a->db);
+  add_db_option(sub, a->db, "Add a History section: plots over the commits of this database");
   sub->callback([&cli, a] {
     cli.action = [a] {
       fmt::print("{}\n", write_report(a->dir, a->out, a->db).string());

@@ -51,7 +51,7 @@ void add_run_options(CLI::App* sub, RunArgs& a) {
                   "Only jobs whose key (dataset|scanner|variant|point|seed) "
                   "matches this regex");
   sub->add_flag("-q,--quiet", a.quiet, "No progress output");
-  add_db_option(sub, a.db);
+  add_db_option(sub, a.db, "Add the finished results folder to this database");
 }
 
 /// Adds the finished results folder to the history database when --db is given.
