@@ -13,6 +13,7 @@ find_package(tinyobjloader REQUIRED CONFIG)
 find_package(OpenImageIO REQUIRED CONFIG)
 find_package(CGAL REQUIRED CONFIG)
 find_package(Threads REQUIRED)
+find_package(SQLite3 REQUIRED)  # CMake's FindSQLite3: the results history (harness)
 
 list(APPEND CMAKE_MODULE_PATH /usr/lib/x86_64-linux-gnu/cmake/OpenVDB)
 find_package(OpenVDB REQUIRED)

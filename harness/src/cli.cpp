@@ -43,6 +43,7 @@ int run_cli(int argc, char** argv) {
   add_merge_command(cli);
   add_slurm_task_command(cli);
   add_claims_command(cli);
+  add_history_command(cli);
 
   try {
     cli.app.parse(argc, argv);

@@ -17,6 +17,7 @@
 #include "scanbench/core/paths.h"
 #include "scanbench/harness/claims.h"
 #include "scanbench/harness/experiment.h"
+#include "scanbench/harness/history.h"
 #include "scanbench/harness/records.h"
 #include "scanbench/harness/report.h"
 #include "scanbench/harness/runner.h"
@@ -112,7 +113,7 @@ Json run_claims(const ClaimsOptions& o) {
 void add_claims_command(Cli& cli) {
   struct Args {
     ClaimsOptions o;
-    std::string out, baseline, claims_dir;
+    std::string out, baseline, claims_dir, db;
     bool update_baseline = false;
   };
   auto a = std::make_shared<Args>();
@@ -133,6 +134,7 @@ void add_claims_command(Cli& cli) {
                 "Write this run's verdicts to the baseline file instead of comparing");
   sub->add_option("--claims", a->claims_dir, "Folder of claim files (default configs/claims)");
   sub->add_flag("--resume", a->o.resume, "Keep the records already in the results folder");
+  add_db_option(sub, a->db, "Add the claims folder (its verdicts) to this database");
   sub->callback([&cli, a] {
     cli.action = [a] {
       ClaimsOptions o = a->o;
@@ -147,6 +149,11 @@ void add_claims_command(Cli& cli) {
       fmt::print("\n{}\n", claims_markdown(s));
       fmt::print("claims: {}/claims.json, {}/claims.md, {}/index.html ({:.0f} s)\n", o.out.string(),
                  o.out.string(), o.out.string(), s["wall_s"].get<double>());
+      if (!a->db.empty()) {
+        const HistoryAddResult h = history_add(a->db, o.out);
+        fmt::print("history: {} claims run {} in {}\n", h.added ? "added" : "already had",
+                   h.identity, a->db);
+      }
       if (a->update_baseline) {
         Json b = s;
         b.erase("regressions");

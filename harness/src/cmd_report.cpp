@@ -1,4 +1,4 @@
-// scanbench report DIR [-o FILE]
+// scanbench report DIR [-o FILE] [--db FILE]
 #include <fmt/format.h>
 
 #include "commands.h"
@@ -8,7 +8,7 @@ namespace scanbench::harness {
 
 void add_report_command(Cli& cli) {
   struct Args {
-    std::string dir, out;
+    std::string dir, out, db;
   };
   auto a = std::make_shared<Args>();
   CLI::App* sub = cli.app.add_subcommand(
@@ -17,9 +17,10 @@ void add_report_command(Cli& cli) {
       "heatmaps, links to scans and outputs");
   sub->add_option("dir", a->dir, "Results folder")->required();
   sub->add_option("-o,--out", a->out, "HTML file (default DIR/index.html)");
+  add_db_option(sub, a->db, "Add a History section: plots over the commits of this database");
   sub->callback([&cli, a] {
     cli.action = [a] {
-      fmt::print("{}\n", write_report(a->dir, a->out).string());
+      fmt::print("{}\n", write_report(a->dir, a->out, a->db).string());
       return 0;
     };
   });

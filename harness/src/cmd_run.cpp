@@ -14,6 +14,7 @@
 #include "scanbench/harness/claims.h"
 #include "scanbench/harness/compare.h"
 #include "scanbench/harness/experiment.h"
+#include "scanbench/harness/history.h"
 #include "scanbench/harness/records.h"
 #include "scanbench/harness/report.h"
 #include "scanbench/harness/runner.h"
@@ -34,6 +35,7 @@ struct RunArgs {
   bool retry_failed = false;
   std::string filter;
   bool quiet = false;
+  std::string db;  ///< history database (history.h): the finished folder is added when set
   // --executor slurm (run only)
   std::string executor = "local";
   SlurmOptions slurm;
@@ -49,6 +51,16 @@ void add_run_options(CLI::App* sub, RunArgs& a) {
                   "Only jobs whose key (dataset|scanner|variant|point|seed) "
                   "matches this regex");
   sub->add_flag("-q,--quiet", a.quiet, "No progress output");
+  add_db_option(sub, a.db, "Add the finished results folder to this database");
+}
+
+/// Adds the finished results folder to the history database when --db is given.
+HistoryAddResult add_to_history(const std::string& db, const fs::path& out) {
+  if (db.empty()) return {};
+  const HistoryAddResult r = history_add(db, out);
+  fmt::print("history: {} run {} ({} jobs) in {}\n", r.added ? "added" : "already had", r.identity,
+             r.jobs, db);
+  return r;
 }
 
 void add_slurm_options(CLI::App* sub, RunArgs& a) {
@@ -176,7 +188,8 @@ void add_run_command(Cli& cli) {
     }
     cli.action = [a, misuse] {
       if (!misuse.empty()) throw ParamError(misuse);
-      do_run(*a, config_root() / "default.json", "");
+      const fs::path out = do_run(*a, config_root() / "default.json", "");
+      if (a->executor == "local") add_to_history(a->db, out);
       return 0;
     };
   });
@@ -244,6 +257,7 @@ void add_nightly_command(Cli& cli) {
           c["folder"] = "claims/" + c.value("folder", std::string());
         write_file_atomic(out / "claims.json", cs.dump(1) + "\n");
       }
+      const HistoryAddResult added = add_to_history(a->run.db, out);
       if (a->update_baseline) {
         // Only the merged records (without histograms) and the config: small enough to commit.
         fs::create_directories(baseline);
@@ -256,7 +270,7 @@ void add_nightly_command(Cli& cli) {
         }
         write_file_atomic(baseline / "runs.jsonl", jsonl);
         fmt::print("baseline updated: {}\n", baseline.string());
-        write_report(out);
+        write_report(out, {}, a->run.db);
         return 0;
       }
       if (!fs::exists(baseline / "runs.jsonl")) {
@@ -264,12 +278,17 @@ void add_nightly_command(Cli& cli) {
                                   baseline.string()));
       }
       const Json cfg = read_json_file(out / "config.json");
-      const CompareOptions opts = CompareOptions::from_json(
+      CompareOptions opts = CompareOptions::from_json(
           cfg["config"].value("compare", Json::object()), "config.json: /compare");
-      const CompareResult res = compare_records(load_records(baseline), load_records(out), opts);
+      // With a history database timings are judged against this machine's history only.
+      if (!a->run.db.empty()) opts.timing = false;
+      CompareResult res = compare_records(load_records(baseline), load_records(out), opts);
+      if (!a->run.db.empty()) {
+        judge_timings_by_history(res, a->run.db, load_records(out), added.identity);
+      }
       write_file_atomic(out / "compare.json", res.to_json().dump(1) + "\n");
       write_file_atomic(out / "compare.md", res.table());
-      const fs::path page = write_report(out);
+      const fs::path page = write_report(out, {}, a->run.db);
       fmt::print("\n{}\nreport: {}\n", res.table(), page.string());
       if (!claim_regressed.empty()) {
         std::string ids;

@@ -49,6 +49,12 @@ void add_status_command(Cli& cli);
 void add_merge_command(Cli& cli);
 void add_slurm_task_command(Cli& cli);
 
+/// `scanbench history` (cmd_history.cpp, history.h): the results database.
+void add_history_command(Cli& cli);
+/// `--db FILE`: the history database (history.h); on `history`, run, nightly, claims, report.
+/// `what` says what the command does with it.
+void add_db_option(CLI::App* sub, std::string& db, const std::string& what);
+
 /// `scanbench claims` (cmd_claims.cpp, claims.h): the papers' claims with verdicts.
 void add_claims_command(Cli& cli);
 struct ClaimsOptions {

@@ -5,11 +5,15 @@
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
 #include <map>
 #include <set>
 
 #include "scanbench/core/errors.h"
+#include "scanbench/core/paths.h"
+#include "scanbench/core/timing.h"
 #include "scanbench/harness/claims.h"
+#include "scanbench/harness/history.h"
 #include "scanbench/harness/records.h"
 #include "scanbench/harness/table.h"
 
@@ -257,6 +261,90 @@ std::string stacked_bars(const std::string& title, const std::vector<std::string
   return svg + "</svg>";
 }
 
+/// One series over commits (history.h HistoryPlot): every sample grey, the median per commit as
+/// a line, the baseline's commit green, each change point a dashed red line before the first
+/// commit after the step.
+std::string history_svg(const HistoryPlot& p) {
+  double ylo = INFINITY, yhi = -INFINITY;
+  for (const auto& s : p.samples)
+    for (double y : s)
+      if (std::isfinite(y)) ylo = std::min(ylo, y), yhi = std::max(yhi, y);
+  if (!std::isfinite(ylo) || p.commits.size() < 2) return "";
+  std::string svg = svg_open(p.title);
+  Axes a{};
+  svg += draw_axes(a, 0, static_cast<double>(p.commits.size() - 1), ylo, yhi,
+                   fmt::format("commit {} .. {}", p.commits.front(), p.commits.back()), p.ylabel);
+  if (p.baseline >= 0) {
+    const double x = a.px(static_cast<double>(p.baseline));
+    svg += fmt::format(
+        "<line class=\"baseline\" x1=\"{0:.1f}\" x2=\"{0:.1f}\" y1=\"{1}\" y2=\"{2}\" "
+        "stroke=\"#2ca02c\" stroke-width=\"2\"/>",
+        x, kT, kH - kB);
+  }
+  for (std::size_t c : p.changes) {
+    const double x = a.px(static_cast<double>(c) - 0.5);
+    svg += fmt::format(
+        "<line class=\"change\" x1=\"{0:.1f}\" x2=\"{0:.1f}\" y1=\"{1}\" y2=\"{2}\" "
+        "stroke=\"#d62728\" stroke-dasharray=\"4 3\"><title>change point: {3}..{4}</title></line>",
+        x, kT, kH - kB, html_escape(p.commits[c - 1]), html_escape(p.commits[c]));
+  }
+  std::string path;
+  for (std::size_t i = 0; i < p.commits.size(); ++i) {
+    const double x = a.px(static_cast<double>(i));
+    for (double y : p.samples[i])
+      if (std::isfinite(y)) {
+        svg += fmt::format("<circle cx=\"{:.1f}\" cy=\"{:.1f}\" r=\"1.5\" fill=\"#aaa\"/>", x,
+                           a.py(y));
+      }
+    const double m = median(p.samples[i]);
+    if (!std::isfinite(m)) continue;
+    path += fmt::format("{}{:.1f},{:.1f}", path.empty() ? "" : " ", x, a.py(m));
+    svg += fmt::format(
+        "<circle cx=\"{:.1f}\" cy=\"{:.1f}\" r=\"2.5\" fill=\"{}\"><title>{}: {}</title></circle>",
+        x, a.py(m), color(0), html_escape(p.commits[i]), html_escape(format_number(m)));
+  }
+  svg += fmt::format("<polyline points=\"{}\" fill=\"none\" stroke=\"{}\" stroke-width=\"1.5\"/>",
+                     path, color(0));
+  const char* keys[][2] = {
+      {"median", "#1f77b4"}, {"change point", "#d62728"}, {"baseline", "#2ca02c"}};
+  for (int i = 0; i < 3; ++i) {
+    const int y = kT + 8 + i * 15;
+    svg += fmt::format(
+        "<rect x=\"{}\" y=\"{}\" width=\"10\" height=\"10\" fill=\"{}\"/>"
+        "<text x=\"{}\" y=\"{}\">{}</text>",
+        kW - kR + 8, y - 8, keys[i][1], kW - kR + 22, y + 1, keys[i][0]);
+  }
+  return svg + "</svg>";
+}
+
+/// The History section (history.h): plots over the commits of the database, the commit of
+/// results/baseline/ marked.
+std::string history_section(const fs::path& db, const std::vector<Json>& records,
+                            const std::vector<std::string>& metrics) {
+  std::string baseline;
+  std::ifstream in(project_root() / "results" / "baseline" / "runs.jsonl");
+  std::string line;
+  if (std::getline(in, line)) {
+    const Json r = Json::parse(line, nullptr, false);
+    if (r.is_object()) baseline = r.value("context", Json::object()).value("commit", std::string());
+  }
+  std::string html;
+  int shown = 0;
+  for (const auto& p : history_plots(db, records, metrics, baseline)) {
+    const std::string svg = history_svg(p);
+    if (!svg.empty() && shown++ < 120) html += svg + "\n";
+  }
+  std::string out = fmt::format(
+      "<h2>History</h2>\n<p>From <code>{}</code>: per dataset and variant (its first job) the "
+      "headline metrics over the commits of every machine and time.total over this machine's; "
+      "grey: every sample, line: median per commit, dashed red: change points (`scanbench history "
+      "changes`), green: the baseline's commit{}.{}</p>\n",
+      html_escape(db.string()), baseline.empty() ? "" : " " + html_escape(baseline),
+      shown > 120 ? fmt::format(" The first 120 of {} plots are shown.", shown) : "");
+  if (shown == 0) return out + "<p>No quantity has two commits in the database yet.</p>\n";
+  return out + "<div class=\"plots\" id=\"history\">\n" + html + "</div>\n";
+}
+
 bool is_ok(const Json& r) {
   return r.value("status", std::string()) == "ok";
 }
@@ -410,7 +498,7 @@ std::string winners_section(const std::vector<Json>& records,
 
 }  // namespace
 
-fs::path write_report(const fs::path& dir, const fs::path& out_arg) {
+fs::path write_report(const fs::path& dir, const fs::path& out_arg, const fs::path& history_db) {
   const std::vector<Json> records = load_records(dir);
   const fs::path out = out_arg.empty() ? dir / "index.html" : out_arg;
   Json config = Json::object();
@@ -872,6 +960,7 @@ fs::path write_report(const fs::path& dir, const fs::path& out_arg) {
   }
 
   // Files.
+  if (!history_db.empty()) h += history_section(history_db, records, metrics);
   h += "<h2>Jobs and files</h2>\n<table id=\"jobs\"><tr><th>job</th><th>status</th>"
        "<th>points in / output</th><th>files</th></tr>\n";
   for (const auto& r : records) {

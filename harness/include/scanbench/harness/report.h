@@ -16,8 +16,12 @@
 
 namespace scanbench::harness {
 
-/// Writes the page; returns its path (`out`, default DIR/index.html). Throws IoError.
+/// Writes the page; returns its path (`out`, default DIR/index.html). Throws IoError. With a
+/// `history_db` (history.h) the page gains a History section: per (dataset, variant) the
+/// headline metrics and time.total over the commits of the database, the baseline's commit and
+/// the change points marked.
 std::filesystem::path write_report(const std::filesystem::path& dir,
-                                   const std::filesystem::path& out = {});
+                                   const std::filesystem::path& out = {},
+                                   const std::filesystem::path& history_db = {});
 
 }  // namespace scanbench::harness
