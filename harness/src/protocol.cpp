@@ -23,66 +23,68 @@ namespace fs = std::filesystem;
 
 namespace {
 
-[[noreturn]] void fail(const std::string& where, const std::string& what) {
+[[noreturn]] void protocol_fail(const std::string& where, const std::string& what) {
   throw ParamError(fmt::format("{}: {}", where, what));
 }
 
-std::string text_field(const Json& j, const std::string& key, const std::string& where) {
+std::string protocol_text(const Json& j, const std::string& key, const std::string& where) {
   if (!j.contains(key) || !j[key].is_string() || j[key].get<std::string>().empty()) {
-    fail(where + "/" + key, "expected a non-empty string");
+    protocol_fail(where + "/" + key, "expected a non-empty string");
   }
   return j[key].get<std::string>();
 }
 
-std::string choice(const Json& j, const std::string& key, const std::string& where,
-                   const std::vector<std::string>& choices, const std::string& def) {
+std::string protocol_choice(const Json& j, const std::string& key, const std::string& where,
+                            const std::vector<std::string>& choices, const std::string& def) {
   if (!j.contains(key)) return def;
   const std::string v = j[key].is_string() ? j[key].get<std::string>() : j[key].dump();
   if (std::find(choices.begin(), choices.end(), v) == choices.end()) {
     std::string list;
     for (const auto& c : choices)
       list += (list.empty() ? "" : ", ") + c;
-    fail(where + "/" + key, fmt::format("expected one of {}, got '{}'", list, v));
+    protocol_fail(where + "/" + key, fmt::format("expected one of {}, got '{}'", list, v));
   }
   return v;
 }
 
-ProtocolObjective parse_objective(const Json& j, const std::string& where) {
-  check_keys(j, where, {"quantity", "direction", "stat"});
+ProtocolObjective parse_protocol_objective(const Json& j, const std::string& where) {
+  harness::check_keys(j, where, {"quantity", "direction", "stat"});
   ProtocolObjective o;
-  o.quantity = text_field(j, "quantity", where);
-  o.direction = choice(j, "direction", where, {"min", "max"}, "min");
-  o.stat = choice(j, "stat", where, {"median", "mean", "min", "max"}, "median");
+  o.quantity = protocol_text(j, "quantity", where);
+  o.direction = protocol_choice(j, "direction", where, {"min", "max"}, "min");
+  o.stat = protocol_choice(j, "stat", where, {"median", "mean", "min", "max"}, "median");
   return o;
 }
 
-std::vector<Json> value_list(const Json& j, const std::string& where) {
-  if (!j.is_array() || j.empty()) fail(where, "expected a non-empty list of values");
+std::vector<Json> protocol_values(const Json& j, const std::string& where) {
+  if (!j.is_array() || j.empty()) protocol_fail(where, "expected a non-empty list of values");
   std::vector<Json> out(j.begin(), j.end());
   for (std::size_t i = 0; i < out.size(); ++i)
     for (std::size_t k = 0; k < i; ++k)
-      if (out[i] == out[k]) fail(fmt::format("{}/{}", where, i), "value listed twice");
+      if (out[i] == out[k]) protocol_fail(fmt::format("{}/{}", where, i), "value listed twice");
   return out;
 }
 
-ProtocolParam parse_param(const Json& j, const std::string& variant, const std::string& key,
-                          const std::string& where, const Protocol& p, bool has_objective,
-                          const ProtocolObjective& objective) {
-  check_keys(j, where, {"source", "value", "cite", "rule", "range", "sensitivity", "objective"});
+ProtocolParam parse_protocol_param(const Json& j, const std::string& variant,
+                                   const std::string& key, const std::string& where,
+                                   const Protocol& p, bool has_objective,
+                                   const ProtocolObjective& objective) {
+  harness::check_keys(j, where,
+                      {"source", "value", "cite", "rule", "range", "sensitivity", "objective"});
   ProtocolParam q;
   q.variant = variant;
   q.key = key;
   const auto dot = key.rfind('.');
   if (dot == std::string::npos || dot == 0 || dot + 1 == key.size()) {
-    fail(where, "expected a key \"<step>.<param>\" (a sweep key of the variant)");
+    protocol_fail(where, "expected a key \"<step>.<param>\" (a sweep key of the variant)");
   }
   q.step = key.substr(0, dot);
   q.param = key.substr(dot + 1);
-  if (!j.contains("source")) fail(where + "/source", "missing (paper, rule or tuned)");
-  q.source = choice(j, "source", where, {"paper", "rule", "tuned"}, "");
+  if (!j.contains("source")) protocol_fail(where + "/source", "missing (paper, rule or tuned)");
+  q.source = protocol_choice(j, "source", where, {"paper", "rule", "tuned"}, "");
   auto only = [&](const char* field, bool allowed) {
     if (j.contains(field) && !allowed) {
-      fail(where + "/" + field, fmt::format("not used with source \"{}\"", q.source));
+      protocol_fail(where + "/" + field, fmt::format("not used with source \"{}\"", q.source));
     }
   };
   only("cite", q.source == "paper");
@@ -92,27 +94,31 @@ ProtocolParam parse_param(const Json& j, const std::string& variant, const std::
   only("range", q.source == "tuned");
   only("objective", q.source == "tuned");
   if (q.source == "tuned") {
-    if (!j.contains("range")) fail(where + "/range", "missing (the values to tune over)");
-    q.range = value_list(j["range"], where + "/range");
-    if (q.range.size() < 2) fail(where + "/range", "expected at least two values to tune over");
+    if (!j.contains("range")) protocol_fail(where + "/range", "missing (the values to tune over)");
+    q.range = protocol_values(j["range"], where + "/range");
+    if (q.range.size() < 2)
+      protocol_fail(where + "/range", "expected at least two values to tune over");
     if (j.contains("objective")) {
-      q.objective = parse_objective(j["objective"], where + "/objective");
+      q.objective = parse_protocol_objective(j["objective"], where + "/objective");
     } else if (has_objective) {
       q.objective = objective;
     } else {
-      fail(where + "/objective", "missing (and the protocol has no default \"objective\")");
+      protocol_fail(where + "/objective",
+                    "missing (and the protocol has no default \"objective\")");
     }
-    if (p.tuning.empty()) fail(p.where + "/tuning", "missing (the data tuned parameters use)");
+    if (p.tuning.empty())
+      protocol_fail(p.where + "/tuning", "missing (the data tuned parameters use)");
     return q;
   }
-  q.cite = text_field(j, q.source == "paper" ? "cite" : "rule", where);
-  if (!j.contains("value")) fail(where + "/value", "missing");
+  q.cite = protocol_text(j, q.source == "paper" ? "cite" : "rule", where);
+  if (!j.contains("value")) protocol_fail(where + "/value", "missing");
   q.value = j["value"];
-  if (j.contains("sensitivity")) q.range = value_list(j["sensitivity"], where + "/sensitivity");
+  if (j.contains("sensitivity"))
+    q.range = protocol_values(j["sensitivity"], where + "/sensitivity");
   return q;
 }
 
-bool same_value(const Json& a, const Json& b) {
+bool protocol_same_value(const Json& a, const Json& b) {
   if (a.is_number() && b.is_number()) {
     const double x = a.get<double>(), y = b.get<double>();
     return std::abs(x - y) <= 1e-9 * std::max(1.0, std::abs(y));
@@ -121,7 +127,7 @@ bool same_value(const Json& a, const Json& b) {
 }
 
 /// The variant object of `config` labelled `label` (labels as parse_experiment derives them).
-Json* find_variant(Json& config, const std::string& label) {
+Json* protocol_find_variant(Json& config, const std::string& label) {
   if (!config.contains("variants") || !config["variants"].is_array()) return nullptr;
   for (auto& v : config["variants"]) {
     std::string l = v.value("label", std::string());
@@ -138,7 +144,7 @@ Json* find_variant(Json& config, const std::string& label) {
 }
 
 /// The params object of the step `step` of a variant object (one-step or chain form).
-Json* find_step_params(Json& variant, const std::string& step) {
+Json* protocol_step_params(Json& variant, const std::string& step) {
   if (variant.contains("algorithm")) {
     if (variant["algorithm"] != step) return nullptr;
     if (!variant.contains("params")) variant["params"] = Json::object();
@@ -153,7 +159,7 @@ Json* find_step_params(Json& variant, const std::string& step) {
 }
 
 /// The sweep objects of a variant (its "sweep" as a list; empty when it has none).
-std::vector<Json> variant_sweeps(const Json& variant) {
+std::vector<Json> protocol_variant_sweeps(const Json& variant) {
   if (!variant.contains("sweep")) return {};
   if (variant["sweep"].is_array()) return {variant["sweep"].begin(), variant["sweep"].end()};
   return {variant["sweep"]};
@@ -161,29 +167,30 @@ std::vector<Json> variant_sweeps(const Json& variant) {
 
 /// Sets every protocol value of `p` in the config's steps (tuned, not yet chosen: the first value
 /// of the range, for validation) and drops "protocol".
-Json with_values(const Json& config, const Protocol& p) {
+Json protocol_with_values(const Json& config, const Protocol& p) {
   Json c = config;
   c.erase("protocol");
   for (const auto& q : p.params) {
-    Json* v = find_variant(c, q.variant);
-    Json* params = v ? find_step_params(*v, q.step) : nullptr;
+    Json* v = protocol_find_variant(c, q.variant);
+    Json* params = v ? protocol_step_params(*v, q.step) : nullptr;
     if (params == nullptr) continue;  // check_protocol reports it
     (*params)[q.param] = q.value.is_null() && !q.range.empty() ? q.range.front() : q.value;
   }
   return c;
 }
 
-std::string point_text(const Json& point) {
+std::string protocol_point_text(const Json& point) {
   std::string s;
   for (const auto& [k, v] : point.items())
     s += fmt::format("{}{}={}", s.empty() ? "" : " ", k, v.dump());
   return s;
 }
 
-using DataKey = std::tuple<std::string, std::string, std::string, std::string, std::uint64_t>;
+using ProtocolDataKey =
+    std::tuple<std::string, std::string, std::string, std::string, std::uint64_t>;
 
-std::set<DataKey> data_keys(const Plan& plan) {
-  std::set<DataKey> keys;
+std::set<ProtocolDataKey> protocol_data_keys(const Plan& plan) {
+  std::set<ProtocolDataKey> keys;
   for (const auto& j : plan.jobs)
     keys.emplace(j.dataset, j.dataset_params.dump(), j.scanner_preset, j.scanner_params.dump(),
                  j.seed);
@@ -204,30 +211,30 @@ std::vector<const ProtocolParam*> Protocol::tuned(const std::string& variant) co
 }
 
 Protocol parse_protocol(const Json& j, const std::string& where) {
-  check_keys(j, where, {"tuning", "objective", "variants"});
+  harness::check_keys(j, where, {"tuning", "objective", "variants"});
   Protocol p;
   p.where = where;
   if (j.contains("tuning")) {
-    check_keys(j["tuning"], where + "/tuning", {"datasets", "scanners", "seed", "seeds"});
+    harness::check_keys(j["tuning"], where + "/tuning", {"datasets", "scanners", "seed", "seeds"});
     if (!j["tuning"].contains("datasets")) {
-      fail(where + "/tuning/datasets", "missing (the tuning datasets)");
+      protocol_fail(where + "/tuning/datasets", "missing (the tuning datasets)");
     }
     p.tuning = j["tuning"];
   }
   ProtocolObjective objective;
   const bool has_objective = j.contains("objective");
-  if (has_objective) objective = parse_objective(j["objective"], where + "/objective");
+  if (has_objective) objective = parse_protocol_objective(j["objective"], where + "/objective");
   if (!j.contains("variants") || !j["variants"].is_object() || j["variants"].empty()) {
-    fail(where + "/variants", "expected an object: variant label -> its parameters");
+    protocol_fail(where + "/variants", "expected an object: variant label -> its parameters");
   }
   for (const auto& [label, params] : j["variants"].items()) {
     const std::string w = where + "/variants/" + label;
     if (!params.is_object() || params.empty()) {
-      fail(w, "expected an object: \"<step>.<param>\" -> its source");
+      protocol_fail(w, "expected an object: \"<step>.<param>\" -> its source");
     }
     for (const auto& [key, entry] : params.items())
       p.params.push_back(
-          parse_param(entry, label, key, w + "/" + key, p, has_objective, objective));
+          parse_protocol_param(entry, label, key, w + "/" + key, p, has_objective, objective));
   }
   return p;
 }
@@ -236,50 +243,53 @@ void check_protocol(const Protocol& p, const Json& config) {
   Json c = config;
   for (const auto& q : p.params) {
     const std::string w = p.where + "/variants/" + q.variant;
-    Json* v = find_variant(c, q.variant);
-    if (v == nullptr) fail(w, "no variant labelled '" + q.variant + "'");
-    Json* params = find_step_params(*v, q.step);
-    if (params == nullptr) fail(w + "/" + q.key, "the variant has no step '" + q.step + "'");
+    Json* v = protocol_find_variant(c, q.variant);
+    if (v == nullptr) protocol_fail(w, "no variant labelled '" + q.variant + "'");
+    Json* params = protocol_step_params(*v, q.step);
+    if (params == nullptr)
+      protocol_fail(w + "/" + q.key, "the variant has no step '" + q.step + "'");
     if (params->contains(q.param)) {
-      fail(w + "/" + q.key, "also set in the step's params (give each parameter one source)");
+      protocol_fail(w + "/" + q.key,
+                    "also set in the step's params (give each parameter one source)");
     }
-    for (const auto& s : variant_sweeps(*v))
+    for (const auto& s : protocol_variant_sweeps(*v))
       if (s.is_object() && s.contains(q.key)) {
-        fail(w + "/" + q.key, "also swept by the variant (give each parameter one source)");
+        protocol_fail(w + "/" + q.key,
+                      "also swept by the variant (give each parameter one source)");
       }
   }
   // Every value and range value must be accepted by the parameter's declaration: the config with
   // the values set and swept over the ranges must load.
-  Protocol all = p;
-  const Json swept = protocol_config(config, all, true);
-  Experiment e;
-  try {
-    e = parse_experiment(swept, "the config at the protocol's values");
-  } catch (const ParamError& err) {
-    fail(p.where, fmt::format("a protocol value is not accepted: {}", err.what()));
-  }
+  const Json swept = protocol_config(config, p, true);
+  // (expand checks the sweep values against the declarations.)
+  std::set<ProtocolDataKey> verdict;
   bool any_tuned = false;
   for (const auto& q : p.params)
     any_tuned = any_tuned || q.source == "tuned";
-  if (!any_tuned) return;
-  const std::set<DataKey> verdict = data_keys(expand(e));
+  try {
+    const Plan plan = expand(parse_experiment(swept, "the config at the protocol's values"));
+    if (any_tuned) verdict = protocol_data_keys(plan);
+  } catch (const ParamError& err) {
+    protocol_fail(p.where, fmt::format("a protocol value is not accepted: {}", err.what()));
+  }
   for (const auto& q : p.params) {
     if (q.source != "tuned" || q.key != p.tuned(q.variant).front()->key) continue;
     const Experiment t = parse_experiment(tuning_config(config, p, q.variant), p.where + "/tuning");
-    for (const auto& k : data_keys(expand(t)))
+    for (const auto& k : protocol_data_keys(expand(t)))
       if (verdict.count(k)) {
-        fail(p.where + "/tuning",
-             fmt::format("the tuning data overlap the experiment's data (dataset {}, scanner {}, "
-                         "seed {}): tune on another shape or another seed and noise draw",
-                         std::get<0>(k), std::get<2>(k), std::get<4>(k)));
+        protocol_fail(
+            p.where + "/tuning",
+            fmt::format("the tuning data overlap the experiment's data (dataset {}, scanner {}, "
+                        "seed {}): tune on another shape or another seed and noise draw",
+                        std::get<0>(k), std::get<2>(k), std::get<4>(k)));
       }
   }
 }
 
 Json tuning_config(const Json& config, const Protocol& p, const std::string& variant) {
-  Json c = with_values(config, p);
-  Json* v = find_variant(c, variant);
-  if (v == nullptr) fail(p.where + "/variants/" + variant, "no such variant");
+  Json c = protocol_with_values(config, p);
+  Json* v = protocol_find_variant(c, variant);
+  if (v == nullptr) protocol_fail(p.where + "/variants/" + variant, "no such variant");
   Json tv = *v;
   tv.erase("sweep");  // the variant's own swept parameters stay at their base values
   Json sweep = Json::object();
@@ -315,7 +325,7 @@ Json choose_point(const std::vector<Json>& records, const std::vector<const Prot
     auto it = std::find_if(points.begin(), points.end(), [&](const auto& e) {
       if (e.first.size() != key.size()) return false;
       for (const auto& [k, v] : key.items())
-        if (!e.first.contains(k) || !same_value(e.first.at(k), v)) return false;
+        if (!e.first.contains(k) || !protocol_same_value(e.first.at(k), v)) return false;
       return true;
     });
     if (it == points.end()) {
@@ -329,7 +339,8 @@ Json choose_point(const std::vector<Json>& records, const std::vector<const Prot
     std::vector<std::size_t> idx;
     for (const ProtocolParam* q : tuned) {
       std::size_t i = 0;
-      while (i < q->range.size() && !(key.contains(q->key) && same_value(q->range[i], key[q->key])))
+      while (i < q->range.size() &&
+             !(key.contains(q->key) && protocol_same_value(q->range[i], key[q->key])))
         ++i;
       idx.push_back(i);
     }
@@ -352,7 +363,7 @@ Json choose_point(const std::vector<Json>& records, const std::vector<const Prot
     } else if (objective.stat == "max") {
       s = *std::max_element(vals.begin(), vals.end());
     }
-    curve[point_text(key)] = s;
+    curve[protocol_point_text(key)] = s;
     const bool better = objective.direction == "min" ? s < best_v : s > best_v;
     if (std::isnan(best_v) || better) {
       best_v = s;
@@ -400,24 +411,26 @@ Protocol resolve_protocol(const Json& config, Protocol p, const fs::path& out,
 }
 
 Json protocol_config(const Json& config, const Protocol& p, bool sweep_ranges) {
-  Json c = with_values(config, p);
+  Json c = protocol_with_values(config, p);
   if (!sweep_ranges) return c;
   std::map<std::string, std::vector<const ProtocolParam*>> ranged;
   for (const auto& q : p.params)
     if (!q.range.empty()) ranged[q.variant].push_back(&q);
   for (const auto& [label, qs] : ranged) {
-    Json* v = find_variant(c, label);
+    Json* v = protocol_find_variant(c, label);
     if (v == nullptr) continue;
-    std::vector<Json> base = variant_sweeps(*v);
+    std::vector<Json> base = protocol_variant_sweeps(*v);
     if (base.empty()) base.push_back(Json::object());
     Json sweeps = Json::array();
     // One parameter at a time, the others at their value; the point at every value is run
     // once, in the sweep of the variant's first ranged parameter.
     for (const ProtocolParam* q : qs) {
+      // Not yet tuned (validation): the first value of the range stands in.
+      const Json& value = q->value.is_null() ? q->range.front() : q->value;
       std::vector<Json> values;
-      if (q == qs.front()) values.push_back(q->value);
+      if (q == qs.front()) values.push_back(value);
       for (const Json& x : q->range)
-        if (!same_value(x, q->value)) values.push_back(x);
+        if (!protocol_same_value(x, value)) values.push_back(x);
       if (values.empty()) continue;
       for (Json s : base) {
         s[q->key] = values;
@@ -443,10 +456,11 @@ std::vector<Json> records_at_protocol(const std::vector<Json>& records, const Pr
       continue;
     }
     const Json pt = r.value("point", Json::object());
-    const bool varied = vary != nullptr && vary->variant == label && !same_value(at, vary->value);
+    const bool varied =
+        vary != nullptr && vary->variant == label && !protocol_same_value(at, vary->value);
     const ProtocolParam* q = varied ? vary : it->second;
     const Json& want = varied ? at : q->value;
-    if (pt.contains(q->key) && same_value(pt[q->key], want)) out.push_back(r);
+    if (pt.contains(q->key) && protocol_same_value(pt[q->key], want)) out.push_back(r);
   }
   return out;
 }

@@ -59,8 +59,8 @@ std::string param_error(const Json& config) {
   return "";
 }
 
-Json record(const std::string& dataset, const std::string& variant, Json point, double err,
-            const std::string& status = "ok") {
+Json tuning_record(const std::string& dataset, const std::string& variant, Json point, double err,
+                   const std::string& status = "ok") {
   return {{"key", dataset + "|" + variant + "|" + point.dump()},
           {"status", status},
           {"dataset", {{"label", dataset}}},
@@ -81,8 +81,8 @@ std::vector<Json> synthetic_records(const Json& config) {
   std::vector<Json> out;
   for (const auto& job : expand(parse_experiment(config, "synthetic")).jobs) {
     const int stride = job.chain[0]["params"]["stride"].get<int>();
-    out.push_back(record(job.dataset_label, job.variant, job.point,
-                         synthetic_err(job.dataset_label, stride)));
+    out.push_back(tuning_record(job.dataset_label, job.variant, job.point,
+                                synthetic_err(job.dataset_label, stride)));
   }
   return out;
 }
@@ -154,9 +154,10 @@ TEST(Protocol, ChoosePointIsTheBestObjectiveWithTiesInRangeOrder) {
   const auto tuned = p.tuned("sub");
   ASSERT_EQ(tuned.size(), 1u);
   const std::string k = "test.subsample.stride";
-  std::vector<Json> recs = {record("a", "sub", {{k, 8}}, 3.0), record("a", "sub", {{k, 2}}, 2.0),
-                            record("a", "sub", {{k, 4}}, 1.0), record("b", "sub", {{k, 4}}, 5.0),
-                            record("b", "sub", {{k, 2}}, 2.0), record("b", "sub", {{k, 8}}, 3.0)};
+  std::vector<Json> recs = {
+      tuning_record("a", "sub", {{k, 8}}, 3.0), tuning_record("a", "sub", {{k, 2}}, 2.0),
+      tuning_record("a", "sub", {{k, 4}}, 1.0), tuning_record("b", "sub", {{k, 4}}, 5.0),
+      tuning_record("b", "sub", {{k, 2}}, 2.0), tuning_record("b", "sub", {{k, 8}}, 3.0)};
   Json curve;
   // Medians over the datasets: 2 -> 2, 4 -> 3, 8 -> 3.
   EXPECT_EQ(choose_point(recs, tuned, {"err", "min", "median"}, curve), Json({{k, 2}}));
@@ -223,9 +224,10 @@ TEST(Protocol, SensitivityJudgesTheClaimAtEachValueOfTheRange) {
   p.params[0].value = 2;
   // err of "sub" at stride 2, 4, 8 against "ref" at 2.5: the claim sub < ref holds at 2 only.
   const std::string k = "test.subsample.stride";
-  const std::vector<Json> recs = {
-      record("sphere", "sub", {{k, 2}}, 1.0), record("sphere", "sub", {{k, 4}}, 3.0),
-      record("sphere", "sub", {{k, 8}}, 4.0), record("sphere", "ref", Json::object(), 2.5)};
+  const std::vector<Json> recs = {tuning_record("sphere", "sub", {{k, 2}}, 1.0),
+                                  tuning_record("sphere", "sub", {{k, 4}}, 3.0),
+                                  tuning_record("sphere", "sub", {{k, 8}}, 4.0),
+                                  tuning_record("sphere", "ref", Json::object(), 2.5)};
   Claim c;
   c.id = "c";
   ClaimRule r;
