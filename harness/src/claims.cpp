@@ -536,12 +536,24 @@ Json claim_sensitivity(const Claim& claim, const Protocol& protocol,
     if (std::none_of(values.begin(), values.end(), [&](const Json& x) { return x == q.value; })) {
       values.insert(values.begin(), q.value);
     }
-    Json verdicts = Json::object();
+    Json verdicts = Json::object(), rule_verdicts = Json::object();
     std::vector<std::pair<std::string, std::string>> runs;  // verdict, values (consecutive)
     for (const Json& x : values) {
       const ClaimOutcome o = judge_claim(claim, records_at_protocol(records, protocol, &q, x));
-      const std::string shown = x.dump() + (x == q.value ? "*" : "");
+      // With several rules, how many held: a claim failed by one rule of three reads apart from
+      // one failed by all.
+      int held = 0;
+      Json rules = Json::array();
+      for (const auto& r : o.rules) {
+        held += r.verdict == "held" ? 1 : 0;
+        rules.push_back(r.verdict);
+      }
+      const std::string shown = x.dump() + (x == q.value ? "*" : "") +
+                                (o.rules.size() > 1 && o.verdict != "held"
+                                     ? fmt::format(" ({}/{} rules held)", held, o.rules.size())
+                                     : "");
       verdicts[x.dump()] = o.verdict;
+      rule_verdicts[x.dump()] = rules;
       if (!runs.empty() && runs.back().first == o.verdict) {
         runs.back().second += ", " + shown;
       } else {
@@ -557,7 +569,8 @@ Json claim_sensitivity(const Claim& claim, const Protocol& protocol,
                       {"key", q.key},
                       {"source", q.source},
                       {"value", q.value},
-                      {"verdicts", verdicts}});
+                      {"verdicts", verdicts},
+                      {"rule_verdicts", rule_verdicts}});
   }
   if (params.empty()) text = "no parameter ranges declared";
   return {{"text", text + (params.empty() ? ""

@@ -246,6 +246,19 @@ TEST(Protocol, SensitivityJudgesTheClaimAtEachValueOfTheRange) {
             0u)
       << s["text"];
   EXPECT_EQ(claim_sensitivity(c, Protocol{}, recs)["text"], "no parameter ranges declared");
+  // A second rule that holds everywhere: the failed values say how many rules held.
+  ClaimRule below = r;
+  below.what = "sub below 5";
+  below.has_b = false;
+  below.b = ClaimSelector{};
+  below.value = 5.0;
+  c.rules.push_back(below);
+  const Json s2 = claim_sensitivity(c, p, recs);
+  EXPECT_NE(s2["text"].get<std::string>().find(
+                "held at 2*; failed at 4 (1/2 rules held), 8 (1/2 rules held)"),
+            std::string::npos)
+      << s2["text"];
+  EXPECT_EQ(s2["params"][0]["rule_verdicts"]["4"], Json({"failed", "held"}));
 }
 
 // End to end through the real binary: the tuning runs on the torus only, the claim on the sphere

@@ -114,7 +114,8 @@ ClaimOutcome judge_claim(const Claim& claim, const std::vector<Json>& records);
 /// How the verdict moves over the protocol's ranges (protocol.h): for each parameter with a range
 /// (tuned, or a paper/rule value with "sensitivity"), the claim judged on the records with that
 /// parameter at each value of its range and every other at its protocol value. Returns
-/// {"text": one line, "params": [{"variant", "key", "source", "value", "verdicts": {v: verdict}}]};
+/// {"text": one line, "params": [{"variant", "key", "source", "value", "verdicts": {v: verdict},
+/// "rule_verdicts": {v: [verdict per rule]}}]};
 /// `records` are those of the run swept over the ranges (protocol_config with sweep_ranges).
 Json claim_sensitivity(const Claim& claim, const Protocol& protocol,
                        const std::vector<Json>& records);
