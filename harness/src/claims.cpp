@@ -526,6 +526,59 @@ ClaimOutcome judge_claim(const Claim& claim, const std::vector<Json>& records) {
   return out;
 }
 
+Json claim_sensitivity(const Claim& claim, const Protocol& protocol,
+                       const std::vector<Json>& records) {
+  Json params = Json::array();
+  std::string text;
+  for (const auto& q : protocol.params) {
+    if (q.range.empty()) continue;
+    std::vector<Json> values = q.range;
+    if (std::none_of(values.begin(), values.end(), [&](const Json& x) { return x == q.value; })) {
+      values.insert(values.begin(), q.value);
+    }
+    Json verdicts = Json::object(), rule_verdicts = Json::object();
+    std::vector<std::pair<std::string, std::string>> runs;  // verdict, values (consecutive)
+    for (const Json& x : values) {
+      const ClaimOutcome o = judge_claim(claim, records_at_protocol(records, protocol, &q, x));
+      // With several rules, how many held: a claim failed by one rule of three reads apart from
+      // one failed by all.
+      int held = 0;
+      Json rules = Json::array();
+      for (const auto& r : o.rules) {
+        held += r.verdict == "held" ? 1 : 0;
+        rules.push_back(r.verdict);
+      }
+      const std::string shown = x.dump() + (x == q.value ? "*" : "") +
+                                (o.rules.size() > 1 && o.verdict != "held"
+                                     ? fmt::format(" ({}/{} rules held)", held, o.rules.size())
+                                     : "");
+      verdicts[x.dump()] = o.verdict;
+      rule_verdicts[x.dump()] = rules;
+      if (!runs.empty() && runs.back().first == o.verdict) {
+        runs.back().second += ", " + shown;
+      } else {
+        runs.emplace_back(o.verdict, shown);
+      }
+    }
+    std::string line;
+    for (const auto& [v, xs] : runs)
+      line += fmt::format("{}{} at {}", line.empty() ? "" : "; ", v, xs);
+    text += fmt::format("{}{} {} ({}): {}", text.empty() ? "" : " | ", q.variant, q.key, q.source,
+                        line);
+    params.push_back({{"variant", q.variant},
+                      {"key", q.key},
+                      {"source", q.source},
+                      {"value", q.value},
+                      {"verdicts", verdicts},
+                      {"rule_verdicts", rule_verdicts}});
+  }
+  if (params.empty()) text = "no parameter ranges declared";
+  return {{"text", text + (params.empty() ? ""
+                                          : " (* the protocol's value; one parameter "
+                                            "varied at a time)")},
+          {"params", params}};
+}
+
 Json RuleOutcome::to_json(const ClaimRule& r) const {
   return {{"what", r.what},   {"quantity", r.quantity}, {"verdict", verdict},
           {"reason", reason}, {"measured", measured},   {"groups", groups}};
@@ -560,12 +613,16 @@ std::string md_cell(std::string s) {
 }  // namespace
 
 std::string claims_markdown(const Json& summary) {
-  std::string s = "| claim | source | paper | measured | verdict |\n|---|---|---|---|---|\n";
+  std::string s =
+      "| claim | source | paper | parameters | measured | verdict | sensitivity |\n"
+      "|---|---|---|---|---|---|---|\n";
   for (const auto& c : summary.value("claims", Json::array())) {
-    s += fmt::format("| {} | {} | {} | {} | **{}**: {} |\n", md_cell(c.value("id", "")),
+    s += fmt::format("| {} | {} | {} | {} | {} | **{}**: {} | {} |\n", md_cell(c.value("id", "")),
                      md_cell(c.value("source", "")), md_cell(c.value("paper", "")),
+                     md_cell(protocol_summary(c.value("protocol", Json::object()))),
                      md_cell(c.value("measured", "")), md_cell(c.value("verdict", "")),
-                     md_cell(c.value("reason", "")));
+                     md_cell(c.value("reason", "")),
+                     md_cell(c.value("sensitivity", Json::object()).value("text", "")));
   }
   return s;
 }
@@ -586,8 +643,9 @@ std::string claims_html_section(const Json& summary) {
           : ", <span class=\"regression\">regressed: " +
                 html_escape(summary["regressions"].dump()) + "</span>",
       summary.value("quick", false) ? " --quick" : "");
-  h += "<table id=\"claims\"><tr><th>claim</th><th>source</th><th>paper</th><th>measured</th>"
-       "<th>verdict</th><th>reason</th></tr>\n";
+  h += "<table id=\"claims\"><tr><th>claim</th><th>source</th><th>paper</th>"
+       "<th>parameters</th><th>measured</th><th>verdict</th><th>reason</th>"
+       "<th>sensitivity</th></tr>\n";
   for (const auto& c : summary.value("claims", Json::array())) {
     const std::string v = c.value("verdict", std::string("?"));
     const std::string folder = c.value("folder", std::string());
@@ -595,13 +653,16 @@ std::string claims_html_section(const Json& summary) {
     h += fmt::format(
         "<tr><td style=\"text-align:left\">{}<br><small>{}</small></td><td>{}</td>"
         "<td style=\"text-align:left\">{}</td><td style=\"text-align:left\">{}</td>"
-        "<td class=\"{}\">{}</td><td style=\"text-align:left\">{}</td></tr>\n",
+        "<td style=\"text-align:left\">{}</td><td class=\"{}\">{}</td>"
+        "<td style=\"text-align:left\">{}</td><td style=\"text-align:left\">{}</td></tr>\n",
         folder.empty() ? id
                        : fmt::format("<a href=\"{}/index.html\">{}</a>", html_escape(folder), id),
         html_escape(c.value("claim", "")), html_escape(c.value("source", "")),
-        html_escape(c.value("paper", "")), html_escape(c.value("measured", "")),
-        v == "failed" ? "fail" : (v == "held" ? "best" : ""), html_escape(v),
-        html_escape(c.value("reason", "")));
+        html_escape(c.value("paper", "")),
+        html_escape(protocol_summary(c.value("protocol", Json::object()))),
+        html_escape(c.value("measured", "")), v == "failed" ? "fail" : (v == "held" ? "best" : ""),
+        html_escape(v), html_escape(c.value("reason", "")),
+        html_escape(c.value("sensitivity", Json::object()).value("text", "")));
   }
   h += "</table>\n";
   return h;

@@ -5,7 +5,9 @@
 // experiment goes to DIR/<id>/ (records, report) with one scan cache for all claims (DIR/scans,
 // linked as DIR/<id>/scans), then its rules judge the records. Writes DIR/claims.json,
 // DIR/claims.md and DIR/index.html, prints the table, and exits 1 when a claim that held in the
-// baseline (results/baseline/claims.json) failed.
+// baseline (results/baseline/claims.json) failed. A claim whose experiment declares a parameter
+// protocol (protocol.h) is tuned first (DIR/<id>/tuning-<variant>/), then run at the protocol's
+// values and over its ranges; the verdict uses the records at the values, the sensitivity all.
 #include <fmt/format.h>
 
 #include <chrono>
@@ -18,6 +20,7 @@
 #include "scanbench/harness/claims.h"
 #include "scanbench/harness/experiment.h"
 #include "scanbench/harness/history.h"
+#include "scanbench/harness/protocol.h"
 #include "scanbench/harness/records.h"
 #include "scanbench/harness/report.h"
 #include "scanbench/harness/runner.h"
@@ -62,7 +65,7 @@ Json run_claims(const ClaimsOptions& o) {
                   {"claims", Json::array()}};
   for (const Claim& c : claims) {
     const auto tc = std::chrono::steady_clock::now();
-    const Experiment e = parse_experiment(c.experiment_config(o.quick), c.file.string());
+    const Json config = c.experiment_config(o.quick);
     RunOptions ro;
     ro.out = o.out / c.id;
     ro.jobs = o.jobs;
@@ -77,21 +80,44 @@ Json run_claims(const ClaimsOptions& o) {
       fmt::print("claim {} ({}): running {} ...\n", c.id, c.source, ro.out.string());
       std::fflush(stdout);
     }
+    // The parameter protocol: tuned values chosen on the tuning data first, then the claim's
+    // experiment at those values and swept over the ranges for the sensitivity.
+    Protocol protocol;
+    if (config.contains("protocol")) {
+      const RecordsRunner local = local_records_runner(o.jobs, o.resume, true);
+      const RecordsRunner tune = [&](const Json& tc, const fs::path& out) {
+        fs::create_directories(out);
+        if (!fs::exists(fs::symlink_status(out / "scans"))) {
+          fs::create_directory_symlink(fs::path("..") / "scans", out / "scans");
+        }
+        return local(tc, out);
+      };
+      protocol = resolve_protocol(
+          config, parse_protocol(config["protocol"], c.file.string() + ": /experiment/protocol"),
+          ro.out, tune);
+      write_file_atomic(ro.out / "protocol.json", protocol_json(protocol).dump(1) + "\n");
+    }
+    const Experiment e = parse_experiment(protocol_config(config, protocol, true), c.file.string());
     const RunSummary rs = run_experiment(e, ro);
-    const std::vector<Json> records = load_records(ro.out);
+    const std::vector<Json> all_records = load_records(ro.out);
+    const std::vector<Json> records = records_at_protocol(all_records, protocol);
     const ClaimOutcome outcome = judge_claim(c, records);
     Json j = claim_result_json(c, outcome);
+    j["protocol"] = protocol_json(protocol);
+    j["sensitivity"] = claim_sensitivity(c, protocol, all_records);
     j["folder"] = c.id;
     j["jobs"] = rs.planned;
     int not_ok = 0;
-    for (const auto& r : records)
+    for (const auto& r : all_records)
       not_ok += r.value("status", std::string()) == "ok" ? 0 : 1;
     j["jobs_failed"] = not_ok;
     j["wall_s"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - tc).count();
     write_report(ro.out);
     if (!o.quiet) {
-      fmt::print("  {}: {} ({:.0f} s)\n  measured: {}\n", outcome.verdict, outcome.reason,
-                 j["wall_s"].get<double>(), j["measured"].get<std::string>());
+      fmt::print("  {}: {} ({:.0f} s)\n  measured: {}\n  sensitivity: {}\n", outcome.verdict,
+                 outcome.reason, j["wall_s"].get<double>(), j["measured"].get<std::string>(),
+                 j["sensitivity"]["text"].get<std::string>());
+      if (!protocol.empty()) fmt::print("  parameters: {}\n", protocol_summary(j["protocol"]));
       std::fflush(stdout);
     }
     summary["claims"].push_back(j);

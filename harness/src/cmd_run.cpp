@@ -15,6 +15,7 @@
 #include "scanbench/harness/compare.h"
 #include "scanbench/harness/experiment.h"
 #include "scanbench/harness/history.h"
+#include "scanbench/harness/protocol.h"
 #include "scanbench/harness/records.h"
 #include "scanbench/harness/report.h"
 #include "scanbench/harness/runner.h"
@@ -147,7 +148,7 @@ void do_slurm_run(const Experiment& e, const RunOptions& o, const SlurmOptions& 
 /// Runs the config and prints the summary; returns the results folder.
 fs::path do_run(const RunArgs& a, const fs::path& default_config, const std::string& default_out) {
   const fs::path config = a.config.empty() ? default_config : fs::path(a.config);
-  const Experiment e = load_experiment(config);
+  Experiment e = load_experiment(config);
   RunOptions o;
   o.out = a.out.empty() ? fs::path(default_out.empty() ? "results/" + e.name : default_out)
                         : fs::path(a.out);
@@ -156,6 +157,23 @@ fs::path do_run(const RunArgs& a, const fs::path& default_config, const std::str
   o.retry_failed = a.retry_failed;
   o.filter = a.filter;
   o.quiet = a.quiet;
+  if (e.raw.contains("protocol")) {
+    // The declared parameter protocol (protocol.h): tuned values chosen on the tuning data
+    // (OUT/tuning-<variant>/), then the experiment runs at the protocol's values.
+    if (a.executor == "slurm") {
+      throw ParamError(config.string() +
+                       ": /protocol: not supported with --executor slurm (run "
+                       "it locally, or set the values in the steps' params)");
+    }
+    const Protocol p =
+        resolve_protocol(e.raw, parse_protocol(e.raw["protocol"], config.string() + ": /protocol"),
+                         o.out, local_records_runner(o.jobs, o.resume, o.quiet));
+    Json resolved = protocol_config(e.raw, p, false);
+    e = parse_experiment(resolved, config.string());
+    e.file = config;
+    fs::create_directories(o.out);
+    write_file_atomic(o.out / "protocol.json", protocol_json(p).dump(1) + "\n");
+  }
   if (a.executor == "slurm") {
     do_slurm_run(e, o, a.slurm);
     return o.out;

@@ -9,6 +9,7 @@
 
 #include "scanbench/core/datasets.h"
 #include "scanbench/core/rng.h"
+#include "scanbench/harness/protocol.h"
 #include "scanbench/harness/test_algorithms.h"
 #include "scanbench/metrics/registry.h"
 #include "scanbench/scanner/registry.h"
@@ -430,7 +431,7 @@ Experiment parse_experiment(const Json& j, const std::string& where) {
   check_keys(j, w,
              {"scanbench_experiment", "name", "description", "seed", "seeds", "repeats", "threads",
               "timeout_s", "memory_limit_mb", "save_outputs", "datasets", "scanners", "variants",
-              "sweep", "metrics", "metric_params", "compare", "report"});
+              "sweep", "metrics", "metric_params", "compare", "report", "protocol"});
   Experiment e;
   e.raw = j;
   if (!j.contains("scanbench_experiment")) {
@@ -565,6 +566,11 @@ Experiment parse_experiment(const Json& j, const std::string& where) {
   if (j.contains("report")) {
     expect_object(j["report"], w / "report");
     e.report = j["report"];
+  }
+  // The declared parameter protocol (protocol.h): validated here, resolved by the caller that
+  // runs the experiment (resolve_protocol, protocol_config).
+  if (j.contains("protocol")) {
+    check_protocol(parse_protocol(j["protocol"], (w / "protocol").str()), j);
   }
   return e;
 }

@@ -11,6 +11,9 @@
 //   "quick"       optional: a JSON merge patch (RFC 7386) applied to "experiment" by --quick
 //                 (smaller scans, fewer repeats; objects merge, arrays are replaced whole)
 //   "rules"       the verdict rules, all of which must hold (below)
+// The experiment may declare a parameter protocol ("protocol", protocol.h): the claim is then
+// judged at the protocol's values (tuned ones chosen on the tuning data first), and its
+// sensitivity (claim_sensitivity) over the protocol's ranges is reported beside the verdict.
 //
 // A rule compares statistics of one record quantity (records.h, record_value: a metric key such
 // as "p2plane_mean_rel", "time.total" = median of the repeat samples, "time.<step>:<phase>",
@@ -39,6 +42,7 @@
 #include <vector>
 
 #include "scanbench/core/params.h"
+#include "scanbench/harness/protocol.h"
 
 namespace scanbench::harness {
 
@@ -106,6 +110,15 @@ struct ClaimOutcome {
 
 RuleOutcome judge_rule(const ClaimRule& rule, const std::vector<Json>& records);
 ClaimOutcome judge_claim(const Claim& claim, const std::vector<Json>& records);
+
+/// How the verdict moves over the protocol's ranges (protocol.h): for each parameter with a range
+/// (tuned, or a paper/rule value with "sensitivity"), the claim judged on the records with that
+/// parameter at each value of its range and every other at its protocol value. Returns
+/// {"text": one line, "params": [{"variant", "key", "source", "value", "verdicts": {v: verdict},
+/// "rule_verdicts": {v: [verdict per rule]}}]};
+/// `records` are those of the run swept over the ranges (protocol_config with sweep_ranges).
+Json claim_sensitivity(const Claim& claim, const Protocol& protocol,
+                       const std::vector<Json>& records);
 
 /// The entry of one claim in claims.json: id, claim, source, paper, notes, verdict, reason,
 /// measured (one line), rules (with groups), plus what the caller adds (jobs, wall_s, folder).

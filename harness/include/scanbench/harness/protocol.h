@@ -1,0 +1,111 @@
+#pragma once
+// A declared parameter protocol: where each parameter of a variant comes from.
+//
+// An experiment config (experiment.h) may hold "protocol":
+//   {"tuning":    {"datasets": [...], "scanners": [...], "seed": n | "seeds": [...]}
+//                 the tuning data, in the experiment schema: another shape, or another seed and
+//                 noise draw; it must share no (dataset, scanner, seed) with the experiment's own
+//                 data, the data the results (a claim's verdict) are computed on,
+//    "objective": {"quantity": "<record quantity>", "direction": "min" | "max",
+//                  "stat": "median" (default) | "mean" | "min" | "max"}  the default objective,
+//    "variants":  {"<variant label>": {"<step>.<param>": entry, ...}, ...}}
+// with one entry per parameter:
+//   {"source": "paper", "value": v, "cite": "GPF 2017, sec. 4.4"}
+//   {"source": "rule",  "value": v, "rule": "h = 6 h0, h0 = d_bb / sqrt(N) (GPF sec. 5, principle
+//   1)"}
+//   {"source": "tuned", "range": [v1, v2, ...], "objective": {...} (default: the protocol's)}
+// and, for paper and rule, an optional "sensitivity": [v1, ...] of values to re-judge at.
+// <step> is a chain step's label (its algorithm name by default), as in sweep keys; the
+// parameter must not also be set in the step's params or swept by the variant.
+//
+// Tuning: per variant, once, the variant (its swept parameters at their base values) runs on the
+// tuning data over the Cartesian product of its tuned ranges; the point whose objective statistic
+// over all tuning records is best (ties: the first in range order) is the chosen value, used on the
+// experiment's own data. The experiment's data never enter the tuning, and no value is chosen per
+// dataset or case. The chosen values are set in the steps' params, so every record carries them,
+// and the resolved protocol (protocol_json) is written beside the records.
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "scanbench/core/params.h"
+
+namespace scanbench::harness {
+
+struct ProtocolObjective {
+  std::string quantity;  ///< a record quantity (records.h, record_value)
+  std::string direction = "min";
+  std::string stat = "median";
+  Json to_json() const;
+};
+
+struct ProtocolParam {
+  std::string variant;      ///< variant label
+  std::string key;          ///< "<step>.<param>" (a sweep key)
+  std::string step, param;  ///< key split at its last dot
+  std::string source;       ///< paper | rule | tuned
+  std::string cite;         ///< paper: the citation; rule: the rule as stated
+  Json value;               ///< paper/rule: the value; tuned: the chosen value once tuned
+  std::vector<Json> range;  ///< tuned: the candidates; paper/rule: sensitivity values (optional)
+  ProtocolObjective objective;         ///< tuned
+  Json tuning_curve = Json::object();  ///< tuned: "<point>" -> objective statistic
+};
+
+struct Protocol {
+  std::string where;             ///< "<file>: /protocol", for messages
+  Json tuning = Json::object();  ///< the tuning data (datasets, scanners, seed/seeds)
+  std::vector<ProtocolParam> params;
+  bool empty() const { return params.empty(); }
+  /// The params of one variant whose source is "tuned".
+  std::vector<const ProtocolParam*> tuned(const std::string& variant) const;
+};
+
+/// Reads a "protocol" object; `where` is the JSON location prefix ("file: /protocol"). Throws
+/// ParamError naming the file and field.
+Protocol parse_protocol(const Json& j, const std::string& where);
+
+/// Checks `p` against the experiment config holding it: variants and steps exist, no parameter set
+/// twice, every value accepted by the parameter's declaration, the tuning data disjoint from the
+/// experiment's. Throws ParamError.
+void check_protocol(const Protocol& p, const Json& config);
+
+/// The experiment config that tunes `variant`: the tuning data, that variant alone, swept over the
+/// product of its tuned ranges, one repeat, no "protocol".
+Json tuning_config(const Json& config, const Protocol& p, const std::string& variant);
+
+/// The best point of tuning records by `objective` over `tuned` keys (records not "ok" or without
+/// the quantity are skipped; a point with none is not a candidate). Fills `curve` with
+/// "<key>=<v> ..." -> statistic. Throws Error when no point has a value.
+Json choose_point(const std::vector<Json>& tuning_records,
+                  const std::vector<const ProtocolParam*>& tuned,
+                  const ProtocolObjective& objective, Json& curve);
+
+/// Runs an experiment config into a folder and returns its records.
+using RecordsRunner =
+    std::function<std::vector<Json>(const Json& config, const std::filesystem::path& out)>;
+/// The runner of `scanbench run`: child processes, `jobs` at a time; `resume` keeps records.
+RecordsRunner local_records_runner(int jobs, bool resume, bool quiet);
+
+/// Tunes every variant with tuned parameters (tuning_config, run into out/tuning-<variant>) and
+/// returns the protocol with each tuned value chosen.
+Protocol resolve_protocol(const Json& config, Protocol p, const std::filesystem::path& out,
+                          const RecordsRunner& run);
+
+/// The config to run: every protocol value set in its step's params, no "protocol"; with
+/// `sweep_ranges`, each variant also swept over each parameter's range (one at a time, the others
+/// at their value) for the sensitivity of the results.
+Json protocol_config(const Json& config, const Protocol& resolved, bool sweep_ranges);
+
+/// The records at the protocol's values: records of a protocol variant swept over a range keep
+/// only those at the value (`vary`, when given, is the one parameter taken at `at` instead).
+std::vector<Json> records_at_protocol(const std::vector<Json>& records, const Protocol& p,
+                                      const ProtocolParam* vary = nullptr, const Json& at = {});
+
+/// The resolved protocol as recorded: per variant, per parameter its source, cite or rule,
+/// value, and when tuned the range, tuning data, objective and tuning curve.
+Json protocol_json(const Protocol& p);
+/// One line: "gpf: filter.gpf.h tuned 0.04 (min p2plane_mean_rel on ...), omega paper 0.02; ...".
+std::string protocol_summary(const Json& protocol);
+
+}  // namespace scanbench::harness

@@ -1,0 +1,331 @@
+// The declared parameter protocol (protocol.h): validation with one-line errors naming the field,
+// the tuned choice (the best objective on the tuning data only; ties by range order), the config
+// at the protocol's values and over its ranges, the sensitivity of a claim, and `scanbench claims`
+// and `scanbench run` with a protocol end to end through the real binary.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "cli_test_util.h"
+#include "scanbench/core/errors.h"
+#include "scanbench/harness/claims.h"
+#include "scanbench/harness/experiment.h"
+#include "scanbench/harness/protocol.h"
+
+namespace fs = std::filesystem;
+using scanbench::Json;
+using scanbench::ParamError;
+using namespace scanbench::harness;
+using scanbench::test::make_temp_dir;
+using scanbench::test::read_jsonl;
+using scanbench::test::Result;
+using scanbench::test::sh;
+using scanbench::test::slurp;
+
+namespace {
+
+/// An experiment on the sphere: variants "sub" (test.subsample, stride tuned on the torus) and
+/// "ref" (stride 3).
+Json experiment_with_protocol() {
+  setenv("SCANBENCH_TEST_ALGORITHMS", "1", 1);  // test.subsample in this process
+  return {
+      {"scanbench_experiment", 1},
+      {"seed", 1},
+      {"datasets", {{{"name", "sphere"}}}},
+      {"scanners", {{{"preset", "clean"}, {"params", {{"views", 2}, {"resolution", 48}}}}}},
+      {"metrics", {"regularity.nn_dist"}},
+      {"variants",
+       {{{"label", "sub"}, {"algorithm", "test.subsample"}},
+        {{"label", "ref"}, {"algorithm", "test.subsample"}, {"params", {{"stride", 3}}}}}},
+      {"protocol",
+       {{"tuning", {{"datasets", {{{"name", "torus"}}}}}},
+        {"objective", {{"quantity", "err"}, {"direction", "min"}}},
+        {"variants",
+         {{"sub", {{"test.subsample.stride", {{"source", "tuned"}, {"range", {2, 4, 8}}}}}}}}}}};
+}
+
+std::string param_error(const Json& config) {
+  try {
+    parse_experiment(config, "exp.json");
+  } catch (const ParamError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+Json tuning_record(const std::string& dataset, const std::string& variant, Json point, double err,
+                   const std::string& status = "ok") {
+  return {{"key", dataset + "|" + variant + "|" + point.dump()},
+          {"status", status},
+          {"dataset", {{"label", dataset}}},
+          {"variant", {{"label", variant}}},
+          {"point", point},
+          {"metrics", {{"err", err}}}};
+}
+
+/// err of the stride on a dataset: the torus is best at stride 2, the sphere at stride 8, so a
+/// choice that looked at the sphere would differ from one made on the torus alone.
+double synthetic_err(const std::string& dataset, int stride) {
+  if (dataset == "torus") return stride == 2 ? 1.0 : (stride == 4 ? 2.0 : 3.0);
+  return stride == 8 ? 1.0 : (stride == 4 ? 2.0 : 3.0);
+}
+
+/// Records for every job of a config, err from synthetic_err (the runner the protocol is given).
+std::vector<Json> synthetic_records(const Json& config) {
+  std::vector<Json> out;
+  for (const auto& job : expand(parse_experiment(config, "synthetic")).jobs) {
+    const int stride = job.chain[0]["params"]["stride"].get<int>();
+    out.push_back(tuning_record(job.dataset_label, job.variant, job.point,
+                                synthetic_err(job.dataset_label, stride)));
+  }
+  return out;
+}
+
+TEST(Protocol, BadProtocolIsOneLineNamingTheField) {
+  EXPECT_EQ(param_error(experiment_with_protocol()), "");
+  auto broken = [](auto edit) {
+    Json c = experiment_with_protocol();
+    edit(c["protocol"]);
+    return param_error(c);
+  };
+  const std::string pv = "exp.json: /protocol/variants/sub/test.subsample.stride";
+  EXPECT_EQ(broken([](Json& p) { p["variants"]["sub"]["test.subsample.stride"]["source"] = "x"; }),
+            pv + "/source: expected one of paper, rule, tuned, got 'x'");
+  EXPECT_EQ(broken([](Json& p) { p["variants"]["sub"]["test.subsample.stride"].erase("range"); }),
+            pv + "/range: missing (the values to tune over)");
+  EXPECT_EQ(broken([](Json& p) { p["variants"]["sub"]["test.subsample.stride"]["value"] = 2; }),
+            pv + "/value: not used with source \"tuned\"");
+  EXPECT_EQ(broken([](Json& p) {
+              p["variants"]["sub"]["test.subsample.stride"]["range"] = Json::array({2});
+            }),
+            pv + "/range: expected at least two values to tune over");
+  EXPECT_EQ(broken([](Json& p) { p.erase("objective"); }),
+            pv + "/objective: missing (and the protocol has no default \"objective\")");
+  EXPECT_EQ(broken([](Json& p) { p.erase("tuning"); }),
+            "exp.json: /protocol/tuning: missing (the data tuned parameters use)");
+  EXPECT_EQ(broken([](Json& p) { p["objective"]["direction"] = "down"; }),
+            "exp.json: /protocol/objective/direction: expected one of min, max, got 'down'");
+  EXPECT_EQ(broken([](Json& p) {
+              p["variants"]["sub"]["test.subsample.stride"] = {{"source", "paper"}, {"value", 2}};
+            }),
+            pv + "/cite: expected a non-empty string");
+  EXPECT_EQ(broken([](Json& p) { p["variants"]["nope"] = p["variants"]["sub"]; }),
+            "exp.json: /protocol/variants/nope: no variant labelled 'nope'");
+  EXPECT_EQ(broken([](Json& p) {
+              p["variants"]["ref"] = {
+                  {"test.subsample.stride", {{"source", "rule"}, {"rule", "r"}, {"value", 3}}}};
+            }),
+            "exp.json: /protocol/variants/ref/test.subsample.stride: also set in the step's params "
+            "(give each parameter one source)");
+  EXPECT_EQ(broken([](Json& p) {
+              p["variants"]["sub"]["other.stride"] = {{"source", "tuned"}, {"range", {1, 2}}};
+            }),
+            "exp.json: /protocol/variants/sub/other.stride: the variant has no step 'other'");
+  // A value the parameter's declaration rejects (stride in [1, 1000]).
+  const std::string bad_value = broken([](Json& p) {
+    p["variants"]["sub"]["test.subsample.stride"]["range"] = Json::array({2, 5000});
+  });
+  EXPECT_EQ(bad_value.rfind("exp.json: /protocol: a protocol value is not accepted: ", 0), 0u)
+      << bad_value;
+  // Tuning data that are the experiment's own data (same shape, scanner and seed).
+  EXPECT_EQ(broken([](Json& p) {
+              p["tuning"]["datasets"] = {{{"name", "sphere"}}};
+            }),
+            "exp.json: /protocol/tuning: the tuning data overlap the experiment's data (dataset "
+            "sphere, scanner clean, seed 1): tune on another shape or another seed and noise draw");
+  // The same shape with another seed is disjoint.
+  EXPECT_EQ(broken([](Json& p) {
+              p["tuning"]["datasets"] = {{{"name", "sphere"}}};
+              p["tuning"]["seed"] = 2;
+            }),
+            "");
+  for (const std::string& e : {bad_value, broken([](Json& p) { p["objective"] = 1; })})
+    EXPECT_EQ(e.find('\n'), std::string::npos) << e;
+}
+
+TEST(Protocol, ChoosePointIsTheBestObjectiveWithTiesInRangeOrder) {
+  const Protocol p = parse_protocol(experiment_with_protocol()["protocol"], "p");
+  const auto tuned = p.tuned("sub");
+  ASSERT_EQ(tuned.size(), 1u);
+  const std::string k = "test.subsample.stride";
+  std::vector<Json> recs = {
+      tuning_record("a", "sub", {{k, 8}}, 3.0), tuning_record("a", "sub", {{k, 2}}, 2.0),
+      tuning_record("a", "sub", {{k, 4}}, 1.0), tuning_record("b", "sub", {{k, 4}}, 5.0),
+      tuning_record("b", "sub", {{k, 2}}, 2.0), tuning_record("b", "sub", {{k, 8}}, 3.0)};
+  Json curve;
+  // Medians over the datasets: 2 -> 2, 4 -> 3, 8 -> 3.
+  EXPECT_EQ(choose_point(recs, tuned, {"err", "min", "median"}, curve), Json({{k, 2}}));
+  EXPECT_DOUBLE_EQ(curve[k + "=4"].get<double>(), 3.0);
+  EXPECT_EQ(choose_point(recs, tuned, {"err", "max", "median"}, curve), Json({{k, 4}}));  // tie
+  EXPECT_EQ(choose_point(recs, tuned, {"err", "min", "min"}, curve), Json({{k, 4}}));
+  // A failed job is no candidate.
+  recs[1]["status"] = "error";
+  recs[4]["status"] = "timeout";
+  EXPECT_EQ(choose_point(recs, tuned, {"err", "min", "median"}, curve), Json({{k, 4}}));
+  EXPECT_THROW(choose_point(recs, tuned, {"missing", "min", "median"}, curve), scanbench::Error);
+}
+
+TEST(Protocol, TuningSeesOnlyTheTuningDataAndItsChoiceIsUsedOnTheExperimentsData) {
+  const Json config = experiment_with_protocol();
+  const Protocol declared = parse_protocol(config["protocol"], "exp.json: /protocol");
+  std::vector<Json> asked;
+  const RecordsRunner run = [&](const Json& c, const fs::path& out) {
+    asked.push_back(c);
+    EXPECT_EQ(out.filename().string(), "tuning-sub");
+    return synthetic_records(c);
+  };
+  const Protocol p = resolve_protocol(config, declared, "out", run);
+  ASSERT_EQ(asked.size(), 1u);  // once per variant with tuned parameters
+  for (const auto& job : expand(parse_experiment(asked[0], "t")).jobs) {
+    EXPECT_EQ(job.dataset, "torus");
+    EXPECT_EQ(job.variant, "sub");
+  }
+  ASSERT_EQ(p.params.size(), 1u);
+  EXPECT_EQ(p.params[0].value, 2);  // the torus's best
+  // On the experiment's own data the best would have been 8: the data disagree, and the choice
+  // did not look at them.
+  const Json swept = protocol_config(config, p, true);
+  Json curve;
+  const std::vector<Json> verdict = synthetic_records(swept);
+  EXPECT_EQ(choose_point(verdict, p.tuned("sub"), {"err", "min", "median"}, curve),
+            Json({{"test.subsample.stride", 8}}));
+  // The config to run sets the chosen value; swept, it covers the range one value per job.
+  const Json plain = protocol_config(config, p, false);
+  EXPECT_FALSE(plain.contains("protocol"));
+  EXPECT_EQ(plain["variants"][0]["params"]["stride"], 2);
+  EXPECT_EQ(swept["variants"][0]["sweep"],
+            Json::parse(R"([{"test.subsample.stride": [2, 4, 8]}])"));
+  // The records at the protocol: "sub" at stride 2 only, "ref" untouched.
+  const std::vector<Json> at = records_at_protocol(verdict, p);
+  ASSERT_EQ(at.size(), 2u);
+  EXPECT_EQ(at[0]["point"]["test.subsample.stride"], 2);
+  EXPECT_EQ(at[1]["variant"]["label"], "ref");
+  // The recorded protocol: source, chosen value, range, tuning data, objective and curve.
+  const Json j = protocol_json(p)["sub"]["test.subsample.stride"];
+  EXPECT_EQ(j["source"], "tuned");
+  EXPECT_EQ(j["value"], 2);
+  EXPECT_EQ(j["range"], Json({2, 4, 8}));
+  EXPECT_EQ(j["tuning_data"]["datasets"][0]["name"], "torus");
+  EXPECT_EQ(j["objective"]["quantity"], "err");
+  EXPECT_DOUBLE_EQ(j["tuning_curve"]["test.subsample.stride=8"].get<double>(), 3.0);
+  EXPECT_NE(protocol_summary(protocol_json(p)).find("sub: test.subsample.stride tuned 2 (min err"),
+            std::string::npos);
+}
+
+TEST(Protocol, SensitivityJudgesTheClaimAtEachValueOfTheRange) {
+  const Json config = experiment_with_protocol();
+  Protocol p = parse_protocol(config["protocol"], "p");
+  p.params[0].value = 2;
+  // err of "sub" at stride 2, 4, 8 against "ref" at 2.5: the claim sub < ref holds at 2 only.
+  const std::string k = "test.subsample.stride";
+  const std::vector<Json> recs = {tuning_record("sphere", "sub", {{k, 2}}, 1.0),
+                                  tuning_record("sphere", "sub", {{k, 4}}, 3.0),
+                                  tuning_record("sphere", "sub", {{k, 8}}, 4.0),
+                                  tuning_record("sphere", "ref", Json::object(), 2.5)};
+  Claim c;
+  c.id = "c";
+  ClaimRule r;
+  r.what = "sub below ref";
+  r.quantity = "err";
+  r.a.variant = "sub";
+  r.b.variant = "ref";
+  r.has_b = true;
+  r.op = "<";
+  c.rules = {r};
+  EXPECT_EQ(judge_claim(c, records_at_protocol(recs, p)).verdict, "held");
+  const Json s = claim_sensitivity(c, p, recs);
+  EXPECT_EQ(s["params"][0]["verdicts"], Json({{"2", "held"}, {"4", "failed"}, {"8", "failed"}}));
+  EXPECT_EQ(s["text"].get<std::string>().rfind(
+                "sub test.subsample.stride (tuned): held at 2*; failed at 4, 8", 0),
+            0u)
+      << s["text"];
+  EXPECT_EQ(claim_sensitivity(c, Protocol{}, recs)["text"], "no parameter ranges declared");
+  // A second rule that holds everywhere: the failed values say how many rules held.
+  ClaimRule below = r;
+  below.what = "sub below 5";
+  below.has_b = false;
+  below.b = ClaimSelector{};
+  below.value = 5.0;
+  c.rules.push_back(below);
+  const Json s2 = claim_sensitivity(c, p, recs);
+  EXPECT_NE(s2["text"].get<std::string>().find(
+                "held at 2*; failed at 4 (1/2 rules held), 8 (1/2 rules held)"),
+            std::string::npos)
+      << s2["text"];
+  EXPECT_EQ(s2["params"][0]["rule_verdicts"]["4"], Json({"failed", "held"}));
+}
+
+// End to end through the real binary: the tuning runs on the torus only, the claim on the sphere
+// at the chosen stride, claims.json keeps the protocol and the sensitivity; `scanbench run` uses
+// the same protocol; a bad protocol exits 2 with one line naming the file and field.
+TEST(ProtocolE2E, ClaimsAndRunTuneOnTheTuningDataOnly) {
+  const fs::path dir = make_temp_dir("protocol");
+  fs::create_directories(dir / "claims");
+  Json exp = experiment_with_protocol();
+  exp["protocol"]["objective"] = {{"quantity", "output_points"}, {"direction", "max"}};
+  const Json claim = {{"scanbench_claim", 1},
+                      {"claim", "the tuned stride keeps more points than stride 3"},
+                      {"source", "test"},
+                      {"experiment", exp},
+                      {"rules",
+                       {{{"what", "more points"},
+                         {"quantity", "output_points"},
+                         {"a", {{"variant", "sub"}}},
+                         {"op", ">"},
+                         {"b", {{"variant", "ref"}}}}}}};
+  std::ofstream(dir / "claims" / "tuned.json") << claim.dump(1);
+  const std::string bin = SCANBENCH_BINARY;
+  Result r = sh(bin + " claims --claims " + (dir / "claims").string() + " -o " +
+                (dir / "out").string() + " --baseline " + (dir / "none.json").string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  const Json s = Json::parse(slurp(dir / "out" / "claims.json"));
+  const Json& c = s["claims"][0];
+  EXPECT_EQ(c["verdict"], "held") << c.dump(1);
+  EXPECT_EQ(c["protocol"]["sub"]["test.subsample.stride"]["value"], 2);
+  EXPECT_EQ(c["sensitivity"]["params"][0]["verdicts"],
+            Json({{"2", "held"}, {"4", "failed"}, {"8", "failed"}}));
+  std::set<std::string> tuning_datasets;
+  for (const auto& rec : read_jsonl(dir / "out" / "tuned" / "tuning-sub" / "runs.jsonl"))
+    tuning_datasets.insert(rec["dataset"]["label"].get<std::string>());
+  EXPECT_EQ(tuning_datasets, std::set<std::string>{"torus"});
+  EXPECT_TRUE(fs::exists(dir / "out" / "tuned" / "protocol.json"));
+  const std::string md = slurp(dir / "out" / "claims.md");
+  EXPECT_NE(md.find("sub: test.subsample.stride tuned 2 (max output_points over [2,4,8] on torus)"),
+            std::string::npos)
+      << md;
+  EXPECT_NE(md.find("held at 2*; failed at 4, 8"), std::string::npos) << md;
+
+  // `scanbench run`: the chosen value in every record's chain.
+  Json run_exp = exp;
+  std::ofstream(dir / "exp.json") << run_exp.dump(1);
+  r = sh(bin + " run " + (dir / "exp.json").string() + " -o " + (dir / "run").string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(
+      Json::parse(slurp(dir / "run" / "protocol.json"))["sub"]["test.subsample.stride"]["value"],
+      2);
+  int tuned_records = 0;
+  for (const auto& rec : read_jsonl(dir / "run" / "runs.jsonl")) {
+    if (rec["variant"]["label"] != "sub") continue;
+    ++tuned_records;
+    EXPECT_EQ(rec["variant"]["chain"][0]["params"]["stride"], 2);
+  }
+  EXPECT_EQ(tuned_records, 1);
+
+  // Bad input: exit 2, one line naming the file and the field.
+  run_exp["protocol"]["variants"]["sub"]["test.subsample.stride"]["source"] = "guessed";
+  std::ofstream(dir / "bad.json") << run_exp.dump(1);
+  r = sh(bin + " run " + (dir / "bad.json").string() + " -o " + (dir / "bad").string());
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("bad.json: /protocol/variants/sub/test.subsample.stride/source"),
+            std::string::npos)
+      << r.out;
+  fs::remove_all(dir);
+}
+
+}  // namespace
