@@ -12,6 +12,8 @@
 #include "scanbench/harness/bench.h"
 #include "scanbench/harness/claims.h"
 #include "scanbench/harness/experiment.h"
+#include "scanbench/harness/protocol.h"
+#include "scanbench/harness/records.h"
 #include "scanbench/scanner/scanner.h"
 
 namespace scanbench::harness {
@@ -25,13 +27,43 @@ PointCloud scan_of(const TriangleMesh& mesh, const Json& params, std::uint64_t s
   return scanner::scan(mesh, p, ctx).cloud;
 }
 
+// The claim's experiment at its protocol's values: paper and rule values from the claim file,
+// tuned values as the committed baseline run chose them (results/baseline/claims.json, a real
+// `scanbench claims --quick --update-baseline`), so a bench does not re-tune on every run.
+Json with_baseline_protocol(const Json& config, const std::string& claim_id,
+                            const std::filesystem::path& file) {
+  Protocol p = parse_protocol(config.at("protocol"), file.string() + ": /protocol");
+  const auto baseline = project_root() / "results" / "baseline" / "claims.json";
+  Json chosen = Json::object();
+  if (std::filesystem::exists(baseline)) {
+    for (const Json& c : read_json_file(baseline).value("claims", Json::array()))
+      if (c.value("id", std::string()) == claim_id) chosen = c.value("protocol", Json::object());
+  }
+  for (ProtocolParam& pp : p.params) {
+    if (pp.source != "tuned") continue;
+    const Json* v = nullptr;
+    if (chosen.contains(pp.variant) && chosen[pp.variant].contains(pp.key))
+      v = &chosen[pp.variant][pp.key];
+    if (!v || !v->contains("value") || v->at("value").is_null()) {
+      throw IoError(
+          fmt::format("{}: no tuned value of {} {} for claim {} (run `scanbench claims --quick "
+                      "--update-baseline`)",
+                      baseline.string(), pp.variant, pp.key, claim_id));
+    }
+    pp.value = v->at("value");
+  }
+  return protocol_config(config, p, false);
+}
+
 }  // namespace
 
 PaperCase load_paper_case(const std::string& claim_id, const std::string& dataset, bool quick,
                           long target_points, std::uint64_t seed) {
   const auto file = config_root() / "claims" / (claim_id + ".json");
   const Claim claim = load_claim(file);
-  Experiment e = parse_experiment(claim.experiment_config(quick), file.string());
+  Json config = claim.experiment_config(quick);
+  if (config.contains("protocol")) config = with_baseline_protocol(config, claim_id, file);
+  Experiment e = parse_experiment(config, file.string());
   if (e.datasets.empty())
     throw ParamError(fmt::format("{}: the claim has no dataset", file.string()));
   // A dataset the claim does not name is scanned like the claim's first one.
