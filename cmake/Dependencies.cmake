@@ -12,6 +12,9 @@ find_package(nanoflann REQUIRED CONFIG HINTS /usr/share/nanoflann/cmake)
 find_package(tinyobjloader REQUIRED CONFIG)
 find_package(OpenImageIO REQUIRED CONFIG)
 find_package(CGAL REQUIRED CONFIG)
+# Open3D 0.16 (libopen3d-dev): the peer.open3d_* entries; OpenMP to pin its thread count.
+find_package(Open3D 0.16 REQUIRED CONFIG)
+find_package(OpenMP REQUIRED COMPONENTS CXX)
 find_package(Threads REQUIRED)
 
 list(APPEND CMAKE_MODULE_PATH /usr/lib/x86_64-linux-gnu/cmake/OpenVDB)
