@@ -58,7 +58,7 @@ struct PcdField {
   std::size_t offset = 0;  // bytes (binary) or tokens (ascii) from the row's start
 };
 
-std::vector<std::string> words(const std::string& line) {
+std::vector<std::string> pcd_words(const std::string& line) {
   std::istringstream in(line);
   std::vector<std::string> w;
   for (std::string s; in >> s;)
@@ -76,7 +76,7 @@ PcdPoints read_pcd(const fs::path& path, std::string_view stage) {
   std::size_t points = 0;
   std::string data;
   for (std::string line; data.empty() && std::getline(in, line);) {
-    const auto w = words(line);
+    const auto w = pcd_words(line);
     if (w.empty() || w[0][0] == '#') continue;
     if (w[0] == "FIELDS") {
       for (std::size_t i = 1; i < w.size(); ++i)
@@ -123,7 +123,7 @@ PcdPoints read_pcd(const fs::path& path, std::string_view stage) {
     } else {
       std::string line;
       if (!std::getline(in, line)) throw fail("truncated data");
-      const auto w = words(line);
+      const auto w = pcd_words(line);
       if (w.size() != row)
         throw fail(fmt::format("row {} has {} values, not {}", r, w.size(), row));
       for (int c = 0; c < 3; ++c) {
@@ -233,9 +233,11 @@ PointCloud pcl_outlier_removal(const PointCloud& in, const PclOutlierParams& p, 
   constexpr std::string_view stage = "peer.pcl_outlier_removal";
   check_points(in, stage, 2);
   const double diag = diagonal_of(in, stage);
-  require_programs({"pcl_ply2pcd", "pcl_outlier_removal"}, stage);
+  require_programs({"pcl_ply2pcd", "pcl_outlier_removal", "pcl_convert_pcd_ascii_binary"}, stage);
   auto timer = ctx.phase("pcl");
-  const PclJob job(PointCloud{in.positions}, "pcl-outliers", p.timeout_s, stage, ctx);
+  PointCloud positions;
+  positions.positions = in.positions;
+  const PclJob job(positions, "pcl-outliers", p.timeout_s, stage, ctx);
   const fs::path output = job.dir.path() / "output.pcd";
   std::vector<std::string> args = {job.input.string(), output.string(), "-method", p.method};
   if (p.method == "radius") {
@@ -245,7 +247,11 @@ PointCloud pcl_outlier_removal(const PointCloud& in, const PclOutlierParams& p, 
     args.insert(args.end(), {"-mean_k", std::to_string(p.k), "-std_dev_mul", number(p.std_ratio)});
   }
   job.run("pcl_outlier_removal", args, output, "point cloud", p.timeout_s, stage, ctx);
-  const PcdPoints pcd = read_pcd(output, stage);
+  // pcl_outlier_removal writes binary_compressed (LZF) PCD; PCL's converter makes it binary.
+  const fs::path binary = job.dir.path() / "output_binary.pcd";
+  job.run("pcl_convert_pcd_ascii_binary", {output.string(), binary.string(), "1"}, binary,
+          "point cloud", p.timeout_s, stage, ctx);
+  const PcdPoints pcd = read_pcd(binary, stage);
   // PCL keeps the input order: match the kept points back (bitwise) to keep every attribute.
   std::vector<Eigen::Index> kept;
   kept.reserve(pcd.positions.size());

@@ -6,7 +6,8 @@
 // an empty output file is an Error):
 //   the input points -> binary PLY (x y z [nx ny nz], gray colours; io.h write_point_cloud_rgb)
 //   -> pcl_ply2pcd -> the PCL program -> a PCD file (points) or a VTK file (pcl_poisson_
-//   reconstruction) -> pcl_vtk2ply -> PLY mesh (read_mesh).
+//   reconstruction) -> pcl_vtk2ply -> PLY mesh (read_mesh). pcl_outlier_removal writes LZF-
+//   compressed PCD, which pcl_convert_pcd_ascii_binary turns into binary PCD first.
 // Point outputs are read from the program's PCD directly (binary or ascii PCD v0.7: fields x y z
 // and, when present, normal_x normal_y normal_z), not through pcl_pcd2ply: PCL's PointNormal
 // carries unnamed padding fields, which pcl_pcd2ply writes as PLY list properties "_".
