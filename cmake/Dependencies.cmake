@@ -12,6 +12,13 @@ find_package(nanoflann REQUIRED CONFIG HINTS /usr/share/nanoflann/cmake)
 find_package(tinyobjloader REQUIRED CONFIG)
 find_package(OpenImageIO REQUIRED CONFIG)
 find_package(CGAL REQUIRED CONFIG)
+# Open3D 0.16 (libopen3d-dev): the peer.open3d_* entries; OpenMP to pin its thread count.
+# Its version file accepts only an exact version, hence the check after the find.
+find_package(Open3D REQUIRED CONFIG)
+if(Open3D_VERSION VERSION_LESS 0.16)
+  message(FATAL_ERROR "Open3D ${Open3D_VERSION} found, 0.16 or newer needed (libopen3d-dev)")
+endif()
+find_package(OpenMP REQUIRED COMPONENTS CXX)
 find_package(Threads REQUIRED)
 find_package(SQLite3 REQUIRED)  # CMake's FindSQLite3: the results history (harness)
 

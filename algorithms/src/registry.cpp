@@ -17,7 +17,9 @@
 #include "scanbench/algorithms/gps.h"
 #include "scanbench/algorithms/hem.h"
 #include "scanbench/algorithms/lop.h"
+#include "scanbench/algorithms/open3d_peers.h"
 #include "scanbench/algorithms/pca_normals.h"
+#include "scanbench/algorithms/pcl_peers.h"
 #include "scanbench/algorithms/poisson.h"
 
 namespace scanbench::algorithms {
@@ -198,6 +200,56 @@ const AlgorithmRegistry& registry() {
         "jet smoothing for `iterations` scales, alpha-shape or advancing-front meshing, facets "
         "back-projected onto the input points.",
         cgal_scale_space, kPointsToMesh));
+    // Open3D 0.16 (libopen3d-dev) and PCL 1.13 (pcl-tools programs) peers.
+    reg.add(make_entry<Open3dPoissonParams>(
+        "peer.open3d_poisson",
+        "Open3D 0.16 CreateFromPointCloudPoisson (Kazhdan and Hoppe 2013; peer): Neumann "
+        "boundary, screening weight 2 and samples per node 1.5 fixed by Open3D, one solver "
+        "thread; density_trim removes vertices below a quantile of Open3D's densities. Needs "
+        "oriented normals (normals.pca -> peer.open3d_poisson).",
+        open3d_poisson, kPointsToMesh));
+    reg.add(make_entry<Open3dBallPivotingParams>(
+        "peer.open3d_ball_pivoting",
+        "Open3D 0.16 CreateFromPointCloudBallPivoting (Bernardini et al. 1999; peer): radii "
+        "radius, 2 radius, ... as fractions of the bbox diagonal; interpolating, holes where no "
+        "ball pivots. Needs oriented normals.",
+        open3d_ball_pivoting, kPointsToMesh));
+    reg.add(make_entry<Open3dAlphaShapeParams>(
+        "peer.open3d_alpha_shape",
+        "Open3D 0.16 CreateFromPointCloudAlphaShape (Edelsbrunner and Muecke 1994; peer): "
+        "boundary of the Delaunay tetrahedra (Qhull) with circumradius below alpha (a fraction "
+        "of the bbox diagonal).",
+        open3d_alpha_shape, kPointsToMesh));
+    reg.add(make_entry<Open3dOutlierParams>(
+        "peer.open3d_outlier_removal",
+        "Open3D 0.16 RemoveStatisticalOutliers (mean k-NN distance above mean + std_ratio "
+        "sigma) or RemoveRadiusOutliers (fewer than min_points within radius, a fraction of "
+        "the bbox diagonal); kept points keep every attribute.",
+        open3d_outlier_removal));
+    reg.add(make_entry<Open3dNormalsParams>(
+        "peer.open3d_normals",
+        "Open3D 0.16 EstimateNormals (k-NN or hybrid radius PCA) then "
+        "OrientNormalsConsistentTangentPlane (Hoppe et al. 1992 MST), the global sign outward "
+        "at the point farthest from the centroid (as normals.pca).",
+        open3d_normals));
+    reg.add(make_entry<PclMlsParams>(
+        "peer.pcl_mls",
+        "PCL 1.13 moving least squares through pcl_mls_smoothing (peer): local plane plus "
+        "polynomial of polynomial_order within radius (a fraction of the bbox diagonal), "
+        "Gaussian weight radius^2; points projected, PCL normals; no upsampling (the program "
+        "offers none). Run by the external-program runner (pcl-tools).",
+        pcl_mls));
+    reg.add(make_entry<PclOutlierParams>(
+        "peer.pcl_outlier_removal",
+        "PCL 1.13 statistical or radius outlier removal through pcl_outlier_removal (peer); "
+        "kept points matched back to the input, every attribute kept (pcl-tools).",
+        pcl_outlier_removal));
+    reg.add(make_entry<PclPoissonParams>(
+        "peer.pcl_poisson",
+        "PCL 1.13 pcl::Poisson through pcl_poisson_reconstruction (PCL's older PoissonRecon copy; "
+        "peer): depth and screening point_weight, no density trimming. Needs oriented normals "
+        "(normals.pca -> peer.pcl_poisson; pcl-tools).",
+        pcl_poisson, kPointsToMesh));
     reg.add(make_entry<ExternalParams>(
         "external.points",
         "Any program as a step: `command` with {in} (the points as PLY), {out} (a point cloud, "

@@ -21,6 +21,8 @@
 #include <sstream>
 #include <thread>
 
+#include "scanbench/algorithms/open3d_peers.h"
+#include "scanbench/algorithms/pcl_peers.h"
 #include "scanbench/core/allocator.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/simd.h"
@@ -61,6 +63,9 @@ Json run_context_json() {
                                     NLOHMANN_JSON_VERSION_MINOR, NLOHMANN_JSON_VERSION_PATCH)},
       {"fmt",
        fmt::format("{}.{}.{}", FMT_VERSION / 10000, FMT_VERSION / 100 % 100, FMT_VERSION % 100)},
+      // The peers' libraries: Open3D is linked, PCL runs as the pcl-tools programs.
+      {"open3d", algorithms::open3d_version()},
+      {"pcl_tools", algorithms::pcl_tools_version()},
   };
   char host[256] = {0};
   if (gethostname(host, sizeof(host) - 1) != 0) host[0] = 0;

@@ -46,6 +46,10 @@ std::string page_of_algorithm(const std::string& name) {
       {"mesh.decimate", "algorithms/gps.md"},
       {"peer.cgal_advancing_front", "algorithms/reconstruction.md"},
       {"peer.cgal_scale_space", "algorithms/reconstruction.md"},
+      {"peer.open3d_poisson", "algorithms/reconstruction.md"},
+      {"peer.open3d_ball_pivoting", "algorithms/reconstruction.md"},
+      {"peer.open3d_alpha_shape", "algorithms/reconstruction.md"},
+      {"peer.pcl_poisson", "algorithms/reconstruction.md"},
   };
   static const std::vector<std::pair<std::string, std::string>> prefixes = {
       {"subdivide.", "algorithms/gps.md"},
