@@ -298,9 +298,24 @@ void add_nightly_command(Cli& cli) {
       const Json cfg = read_json_file(out / "config.json");
       CompareOptions opts = CompareOptions::from_json(
           cfg["config"].value("compare", Json::object()), "config.json: /compare");
-      // With a history database timings are judged against this machine's history only.
+      // With a history database timings are judged against this machine's history only; without
+      // one, against the baseline only when the baseline ran on this machine (machine_identity:
+      // host, CPU model, hardware threads, ISA), else timings are reported and not judged.
+      const std::vector<Json> base_records = load_records(baseline);
+      const std::vector<Json> new_records = load_records(out);
       if (!a->run.db.empty()) opts.timing = false;
-      CompareResult res = compare_records(load_records(baseline), load_records(out), opts);
+      if (a->run.db.empty() && !base_records.empty() && !new_records.empty()) {
+        const std::string bm = machine_identity(base_records.front().value("context", Json::object()));
+        const std::string nm = machine_identity(new_records.front().value("context", Json::object()));
+        if (bm != nm) {
+          opts.timing = false;
+          fmt::print(
+              "timings not judged: the baseline ran on {}, this run on {} (accuracy is judged; "
+              "give --db for timings judged against this machine's own history)\n",
+              bm, nm);
+        }
+      }
+      CompareResult res = compare_records(base_records, new_records, opts);
       if (!a->run.db.empty()) {
         judge_timings_by_history(res, a->run.db, load_records(out), added.identity);
       }
