@@ -10,6 +10,7 @@
 #include "scanbench/metrics/evaluate.h"
 #include "scanbench/metrics/ground_truth.h"
 #include "scanbench/metrics/mesh_facts.h"
+#include "scanbench/metrics/point_truth.h"
 #include "scanbench/metrics/registry.h"
 #include "scanbench/metrics/surface_sampling.h"
 #include "test_meshes.h"
@@ -142,8 +143,10 @@ TEST(MetricDirections, EveryEmittedKeyIsDeclaredAndEveryDeclaredKeyEmitted) {
   PointCloud cpts = sample_surface(cube, 800, 5);
   cpts.properties.clear();
   const Json re = evaluate(cgt, cpts, nullptr, {"edges.p2plane", "edges.normals"}, params, ctx);
+  // A point-cloud ground truth (the record's gt_points).
+  const Json rt = evaluate_point_truth(sample_surface(m, 800, 6), pts, {}, params, ctx);
   std::set<std::string> emitted;
-  for (const Json* r : {&rp, &rm, &re})
+  for (const Json* r : {&rp, &rm, &re, &rt})
     for (const auto& [k, v] : r->items())
       if (k != "histograms" && k != "metric_params" && k != "skipped") emitted.insert(k);
   for (const auto& k : emitted)
