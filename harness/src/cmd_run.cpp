@@ -305,8 +305,10 @@ void add_nightly_command(Cli& cli) {
       const std::vector<Json> new_records = load_records(out);
       if (!a->run.db.empty()) opts.timing = false;
       if (a->run.db.empty() && !base_records.empty() && !new_records.empty()) {
-        const std::string bm = machine_identity(base_records.front().value("context", Json::object()));
-        const std::string nm = machine_identity(new_records.front().value("context", Json::object()));
+        const std::string bm =
+            machine_identity(base_records.front().value("context", Json::object()));
+        const std::string nm =
+            machine_identity(new_records.front().value("context", Json::object()));
         if (bm != nm) {
           opts.timing = false;
           fmt::print(
