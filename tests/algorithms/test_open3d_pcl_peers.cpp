@@ -243,15 +243,17 @@ TEST(OpenAndPclPeers, ByteIdenticalAtOneAndTwoThreads) {
 }
 
 TEST(OpenAndPclPeers, BadParameterIsOneLineNamingIt) {
-  for (const auto& [name, params] :
-       {std::pair{"peer.open3d_poisson", Json{{"depth", 1}}},
-        std::pair{"peer.open3d_ball_pivoting", Json{{"radius", 0.0}}},
-        std::pair{"peer.open3d_alpha_shape", Json{{"alpha", -1.0}}},
-        std::pair{"peer.open3d_outlier_removal", Json{{"method", "median"}}},
-        std::pair{"peer.open3d_normals", Json{{"k", 2}}},
-        std::pair{"peer.pcl_mls", Json{{"polynomial_order", 9}}},
-        std::pair{"peer.pcl_outlier_removal", Json{{"std_ratio", 0.0}}},
-        std::pair{"peer.pcl_poisson", Json{{"depth", 20}}}}) {
+  for (const auto& entry : {std::pair{"peer.open3d_poisson", Json{{"depth", 1}}},
+                            std::pair{"peer.open3d_ball_pivoting", Json{{"radius", 0.0}}},
+                            std::pair{"peer.open3d_alpha_shape", Json{{"alpha", -1.0}}},
+                            std::pair{"peer.open3d_outlier_removal", Json{{"method", "median"}}},
+                            std::pair{"peer.open3d_normals", Json{{"k", 2}}},
+                            std::pair{"peer.pcl_mls", Json{{"polynomial_order", 9}}},
+                            std::pair{"peer.pcl_outlier_removal", Json{{"std_ratio", 0.0}}},
+                            std::pair{"peer.pcl_poisson", Json{{"depth", 20}}}}) {
+    // Named copies, not a structured binding: clang 14 cannot capture bindings in a lambda.
+    const std::string name = entry.first;
+    const Json& params = entry.second;
     SCOPED_TRACE(name);
     const std::string msg = error_of([&] { run(name, params, StageData{scanned_sphere()}); });
     EXPECT_NE(msg.find(std::string(name) + "." + params.begin().key()), std::string::npos) << msg;
