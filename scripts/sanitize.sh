@@ -20,6 +20,8 @@ cmake -S "$here" -B "$san" -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_BUILD_TYPE=Sanit
   -DSCANBENCH_FUZZ=ON -DSCANBENCH_SANITIZE_SCOPE="$scope" -DSCANBENCH_WERROR=ON \
   -DSCANBENCH_BUILD_BENCH=OFF -DCMAKE_UNITY_BUILD=ON \
   -DSCANBENCH_FUZZ_SECONDS="${SCANBENCH_FUZZ_SECONDS:-20}" >/dev/null
+# Third-party runtimes' exit-time allocations (tests/lsan.supp says which and why).
+export LSAN_OPTIONS="suppressions=$here/tests/lsan.supp${LSAN_OPTIONS:+:$LSAN_OPTIONS}"
 ccache_zero
 start=$SECONDS
 if [ "$scope" = all ]; then
