@@ -635,7 +635,8 @@ fs::path write_report(const fs::path& dir, const fs::path& out_arg, const fs::pa
     if (!by_variant.count(v)) variant_order.push_back(v);
     // Records of different sweeps (e.g. alpha x levels, then h alone) are plotted separately.
     std::string swept;
-    for (const auto& [k, val] : r->value("point", Json::object()).items())
+    const Json point = r->value("point", Json::object());
+    for (const auto& [k, val] : point.items())
       swept += "," + k;
     by_variant[v][group_of(*r) + "\x1f" + swept].push_back(r);
   }
