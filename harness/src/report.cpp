@@ -357,7 +357,8 @@ std::string group_of(const Json& r) {
 std::vector<std::string> numeric_point_keys(const std::vector<const Json*>& rs) {
   std::vector<std::string> keys;
   if (rs.empty()) return keys;
-  for (const auto& [k, v] : (*rs.front())["point"].items()) {
+  const Json first = rs.front()->value("point", Json::object());
+  for (const auto& [k, v] : first.items()) {
     bool numeric = true;
     std::set<double> distinct;
     for (const Json* r : rs) {
@@ -655,7 +656,8 @@ fs::path write_report(const fs::path& dir, const fs::path& out_arg, const fs::pa
       if (!keys.empty()) {
         const std::string xkey = keys.front();
         std::vector<std::string> skeys;
-        for (const auto& [k, val] : (*rs.front())["point"].items())
+        const Json first = rs.front()->value("point", Json::object());
+        for (const auto& [k, val] : first.items())
           if (k != xkey) skeys.push_back(k);
         for (const auto& m : plot_metrics) {
           const auto series = build_series(rs, xkey, skeys, m, false);
