@@ -209,7 +209,8 @@ TEST(HarnessE2E, PipelineTableReportCompare) {
   EXPECT_EQ(Json::parse(slurp(dir / "cmp.json"))["verdict"], "regression");
 
   // The page renders in a real browser: table rows and SVG plots are in the DOM.
-  if (!fs::exists("/usr/bin/chromium")) GTEST_SKIP() << "chromium not installed";
+  ASSERT_TRUE(fs::exists("/usr/bin/chromium"))
+      << "chromium not installed (scripts/setup.sh installs it)";
   const fs::path profile = make_temp_dir("chromium");
   const auto dom =
       sh("timeout 60 /usr/bin/chromium --headless --no-sandbox --disable-gpu --disable-quic "

@@ -437,7 +437,8 @@ TEST(HistoryCli, ReportHistorySectionRendersInChromium) {
   const std::string html = slurp(run / "index.html");
   EXPECT_NE(html.find("<h2>History</h2>"), std::string::npos);
   EXPECT_NE(html.find("class=\"change\""), std::string::npos);
-  if (!fs::exists("/usr/bin/chromium")) GTEST_SKIP() << "chromium not installed";
+  ASSERT_TRUE(fs::exists("/usr/bin/chromium"))
+      << "chromium not installed (scripts/setup.sh installs it)";
   const fs::path profile = make_temp_dir("chromium");
   const auto dom =
       sh("timeout 60 /usr/bin/chromium --headless --no-sandbox --disable-gpu --disable-quic "
