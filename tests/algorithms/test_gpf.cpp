@@ -13,8 +13,8 @@
 #include <vector>
 
 #include "fixtures.h"
-#include "gpf_internal.h"
-#include "projection_kernels.h"
+#include "gpf/gpf_internal.h"
+#include "lop/projection_kernels.h"
 #include "scanbench/algorithms/bilateral_normals.h"
 #include "scanbench/algorithms/clop.h"
 #include "scanbench/algorithms/gpf.h"

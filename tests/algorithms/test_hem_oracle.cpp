@@ -12,7 +12,7 @@
 #include <limits>
 #include <vector>
 
-#include "hem_internal.h"
+#include "mixtures/hem_internal.h"
 #include "scanbench/core/rng.h"
 
 namespace scanbench::algorithms {

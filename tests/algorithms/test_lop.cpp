@@ -8,13 +8,13 @@
 #include <set>
 
 #include "fixtures.h"
-#include "mixture_index.h"
-#include "projection_kernels.h"
+#include "spatial/mixture_index.h"
+#include "lop/projection_kernels.h"
 #include "scanbench/algorithms/lop.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/kdtree.h"
 #include "scanbench/core/rng.h"
-#include "simd_exp.h"
+#include "spatial/simd_exp.h"
 
 namespace scanbench::algorithms {
 namespace {

@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "run_program.h"
+#include "peers/run_program.h"
 #include "scanbench/algorithms/pca_normals.h"
 #include "scanbench/algorithms/poisson.h"
 #include "scanbench/core/rng.h"

@@ -13,9 +13,9 @@
 #include <string>
 
 #include "fixtures.h"
-#include "hem_internal.h"
-#include "neighbor_grid.h"
-#include "projection_kernels.h"
+#include "mixtures/hem_internal.h"
+#include "spatial/neighbor_grid.h"
+#include "lop/projection_kernels.h"
 #include "scanbench/algorithms/clop.h"
 #include "scanbench/algorithms/csw.h"
 #include "scanbench/algorithms/hem.h"

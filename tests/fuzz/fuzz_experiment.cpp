@@ -1,4 +1,4 @@
-// libFuzzer target for the experiment-config loader (harness/src/experiment.cpp): the input is
+// libFuzzer target for the experiment-config loader (harness/src/config/experiment.cpp): the input is
 // parsed as JSON the way load_experiment parses a file (comments allowed), then validated by
 // parse_experiment against the real registries of algorithms, metrics, datasets and scanner
 // presets. A config may only load or throw a scanbench::Error (ParamError, IoError,

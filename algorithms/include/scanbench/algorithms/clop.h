@@ -26,13 +26,13 @@
 //  - kernel theta(r) = exp(-16 r^2 / h^2), h a fraction of the input's bbox diagonal.
 //  - Components are gathered per cell of particles (cells of side h/4, doubled up to h where
 //    particles are sparse) from uniform grids over the component means, one grid per size class
-//    (largest covariance eigenvalue within a factor 2; algorithms/src/mixture_index.h). A term
+//    (largest covariance eigenvalue within a factor 2; algorithms/src/spatial/mixture_index.h). A term
 //    (component, kernel) is dropped when its exponent -(mu_s - q)^T Lambda_sk^-1 (mu_s - q) / 2
 //    is below -16: the same e^-16 truncation as LOP's support radius h (for a point-like Gaussian
 //    the eq. 24 cutoff is exactly h). The search radius of a class, sqrt(32 (lambda_class + s^2))
 //    with s^2 = sigma_1^2 h^2 (attraction) or h^2/32 (eq. 24), holds every term that is kept.
 //  - The repulsion is a particle-particle sum over the project's neighbour grid
-//    (algorithms/src/neighbor_grid.h), the same kernels as resample.wlop.
+//    (algorithms/src/spatial/neighbor_grid.h), the same kernels as resample.wlop.
 // Where this differs from the paper (README, "CLOP family: deviations from the paper"):
 //  - none by default. `repulsion_weights` = wlop gives CLOP's repulsion WLOP's w_i' (Huang et
 //    al. 2009; eq. 5 of the paper has none), so that CLOP and WLOP share one F2. The HEM flag

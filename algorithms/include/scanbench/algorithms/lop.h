@@ -16,7 +16,7 @@
 // exp(-4 r^2/R^2), i.e. R = h/2 for the same kernel), h a fraction of the input's bounding-box
 // diagonal. Every sum runs over the support radius h (theta(h) = exp(-16) ~ 1.1e-7; nothing beyond
 // h counts, so a particle with no other particle within h feels no repulsion). Neighbours come
-// from the project's uniform neighbour grid (algorithms/src/neighbor_grid.h, cells of side h/2),
+// from the project's uniform neighbour grid (algorithms/src/spatial/neighbor_grid.h, cells of side h/2),
 // streamed per particle and summed with vectorised float kernels; distances are clamped below at
 // 0.01 h inside alpha and beta. All particles move simultaneously (Jacobi update) and each
 // particle's sums run in a fixed order, so the output is bit-identical for any thread count.

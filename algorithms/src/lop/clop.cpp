@@ -1,0 +1,451 @@
+#include "scanbench/algorithms/clop.h"
+
+#include <fmt/format.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/LU>
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstring>
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include "spatial/mixture_index.h"
+#include "lop/projection_kernels.h"
+#include "scanbench/core/errors.h"
+#include "scanbench/core/kdtree.h"
+#include "scanbench/core/radix_sort.h"
+#include "scanbench/core/simd_dispatch.h"
+#include "spatial/simd_exp.h"
+
+// Eigen's packet types (__m128, __m256, __m512) carry vector attributes that GCC reports as
+// ignored when they are template arguments (the kernels are templates over the packet type of
+// the active ISA, scanbench/core/simd_dispatch.h); the attributes do not matter there.
+#pragma GCC diagnostic ignored "-Wignored-attributes"
+
+namespace scanbench::algorithms {
+
+namespace {
+
+using Eigen::Index;
+
+// Per component: the mean (x, y, z), then for the three fit Gaussians (k = 0..2) and the eq. 24
+// kernel (k = 3) the inverse of Lambda as (xx, xy, xz, yy, yz, zz) and the log of the
+// dimensionless weight prefactor: f[3 + 7 k + e]. The attraction's fields f[0..23] are a
+// candidate's fields in CellScratch::soa, in order.
+struct Precomputed {
+  static constexpr int kernel(int k) { return 3 + 7 * k; }
+  float f[32];  // 31 used; 128 bytes
+};
+
+constexpr int kShells = 8;
+constexpr double kMinOccupancy = 6.0;
+constexpr Precomputed kZeroRecord{};
+
+// Per-thread scratch of one cell of particles: the candidate components in packets of L floats
+// (the packet width of the active ISA, scanbench/core/simd.h), each packet a block of fields of L
+// floats (mean x, y, z, then per kernel the six entries
+// of Lambda^-1 and the log prefactor): what a packet of terms needs is contiguous.
+struct CellScratch {
+  std::vector<detail::GridRange> ranges;
+  std::vector<Index> ids, sorted;
+  std::vector<float> d2;
+  std::vector<int> shell;
+  std::vector<float> soa;
+  std::vector<float> valid;  // all-ones bit pattern for real candidates, 0 for the padding
+};
+
+// The components of `m` (weights, means, covariances) in the order of a grid of cubic cells of
+// side `cell`, so that the components gathered for one cell of particles lie close together in
+// memory (at a million points the mixture's tables no longer fit the caches).
+GaussianMixture spatially_sorted(const GaussianMixture& m, double cell) {
+  const Index k = m.size();
+  std::vector<std::pair<std::uint64_t, Index>> keys(static_cast<std::size_t>(k));
+  const Eigen::Vector3f lo =
+      k > 0 ? Eigen::Vector3f(m.means.rowwise().minCoeff()) : Eigen::Vector3f::Zero();
+  for (Index s = 0; s < k; ++s) {
+    std::uint64_t key = 0;
+    for (int d = 0; d < 3; ++d) {
+      const double c = std::floor((m.means(d, s) - lo[d]) / cell);
+      key = (key << 21) | static_cast<std::uint64_t>(std::clamp(c, 0.0, 2097151.0));
+    }
+    keys[static_cast<std::size_t>(s)] = {key, s};
+  }
+  tbb::parallel_sort(keys.begin(), keys.end());
+  GaussianMixture out;
+  out.weights.resize(k);
+  out.means.resize(3, k);
+  out.covariances.resize(6, k);
+  for (Index t = 0; t < k; ++t) {
+    const Index s = keys[static_cast<std::size_t>(t)].second;
+    out.weights[t] = m.weights[s];
+    out.means.col(t) = m.means.col(s);
+    out.covariances.col(t) = m.covariances.col(s);
+  }
+  return out;
+}
+
+class PreparedMixture {
+ public:
+  // h: the attraction's kernel width; h_initial: the first iteration's (eq. 24).
+  PreparedMixture(const GaussianMixture& mixture, double h, double h_initial)
+      : sorted_(spatially_sorted(mixture, h)),
+        cell_(static_cast<float>(h / 4.0)),
+        index_(sorted_, kClopFitSigmas[0] * kClopFitSigmas[0] * h * h,
+               kClopFitSigmas[0] * kClopFitSigmas[0] * h * h) {
+    const GaussianMixture& m = sorted_;
+    const Index k = m.size();
+    for (int j = 0; j < 3; ++j)
+      s2_[j] = static_cast<float>(kClopFitSigmas[j] * kClopFitSigmas[j] * h * h);
+    s2_[3] = static_cast<float>(h_initial * h_initial / 32.0);
+    pre_.resize(static_cast<std::size_t>(k));
+    tbb::parallel_for(tbb::blocked_range<Index>(0, k, 256), [&](const auto& r) {
+      for (Index s = r.begin(); s != r.end(); ++s) {
+        const Eigen::Matrix3d cov = m.covariance(s).cast<double>();
+        Precomputed& p = pre_[static_cast<std::size_t>(s)];
+        for (int d = 0; d < 3; ++d)
+          p.f[d] = m.means(d, s);
+        for (int j = 0; j < 4; ++j) {
+          const double var =
+              j < 3 ? kClopFitSigmas[j] * kClopFitSigmas[j] * h * h : h_initial * h_initial / 32.0;
+          const Eigen::Matrix3d lambda = cov + var * Eigen::Matrix3d::Identity();
+          const Eigen::Matrix3d inv = lambda.inverse();
+          const double det = lambda.determinant();
+          float* kj = p.f + Precomputed::kernel(j);
+          kj[0] = static_cast<float>(inv(0, 0));
+          kj[1] = static_cast<float>(inv(0, 1));
+          kj[2] = static_cast<float>(inv(0, 2));
+          kj[3] = static_cast<float>(inv(1, 1));
+          kj[4] = static_cast<float>(inv(1, 2));
+          kj[5] = static_cast<float>(inv(2, 2));
+          // eq. 19 times h^3 (dimensionless; the common h^3 cancels in eq. 22) and eq. 24 times
+          // the constant (h^2/32)^(3/2) (2 pi)^(3/2) / c_theta that cancels in eq. 23.
+          const double scale = j < 3 ? kClopFitWeights[j] * std::pow(var, 1.5) : std::pow(var, 1.5);
+          kj[6] = static_cast<float>(std::log(m.weights(s) * scale / std::sqrt(det)));
+        }
+      }
+    });
+    r_attraction_ = index_.radii(s2_[0]);
+    r_initial_ = index_.radii(s2_[3]);
+  }
+
+  // One projection of every particle: eq. 24 (kInitial, j = 3) or eq. 22 (j = 0..2),
+  // q' = q + sum_j s2_j w_j Lambda_j^-1 (mu - q) / sum_j w_j. Particles are batched by cells of
+  // width h/4: the components near a cell are gathered once (radius + the cell's half diagonal,
+  // from per-size-class grids of the means, which never move) into structure-of-arrays form, then
+  // each particle of the cell evaluates them in SIMD packets.
+  // A term (component s, kernel k) is dropped when its exponent is below -16: exactly the
+  // truncation of the gather radius, applied per term (when the widest kernel is out of reach,
+  // the narrower ones are too: Lambda_j^-1 >= Lambda_0^-1). Each particle's result depends only
+  // on its cell's candidate list, never on the thread count.
+  // Packet is the float packet of the active ISA: the terms of a particle are summed lane-wise
+  // in a fixed order, so each width gives the same result at any thread count (widths differ
+  // from each other only in float summation order).
+  template <bool kInitial>
+  void project_all(const Eigen::Matrix3Xf& q, Eigen::Matrix3Xf& out) const {
+    simd::with_packet(
+        [&](auto tag) { project_all_impl<kInitial, typename decltype(tag)::type>(q, out); });
+  }
+
+ private:
+  template <bool kInitial, class Packet>
+  void project_all_impl(const Eigen::Matrix3Xf& q, Eigen::Matrix3Xf& out) const {
+    constexpr int kLanes = Eigen::internal::unpacket_traits<Packet>::size;
+    constexpr int j0 = kInitial ? 3 : 0;
+    constexpr int nk = kInitial ? 1 : 3;
+    const Index n = q.cols();
+    if (n == 0) return;
+    const Eigen::Vector3f lo = q.rowwise().minCoeff();
+    // Cells of side h/4; where the particles are spread thinly (noise thicker than the cell,
+    // fewer than kMinOccupancy per occupied cell on average) the side doubles, up to h, so that
+    // one gather serves several particles. The terms kept do not depend on the cell (every term
+    // within reach is gathered, the rest is masked out), only their summation order does.
+    float cell = cell_;
+    std::vector<std::pair<std::uint64_t, Index>> keys(static_cast<std::size_t>(n));
+    std::vector<std::size_t> starts;
+    for (;;) {
+      const float inv_cell = 1.0f / cell;
+      auto coord = [&](float v, float l) {
+        return static_cast<std::uint64_t>(
+            std::clamp(std::floor((v - l) * inv_cell), 0.0f, static_cast<float>((1 << 21) - 1)));
+      };
+      tbb::parallel_for(tbb::blocked_range<Index>(0, n, 4096), [&](const auto& r) {
+        for (Index i = r.begin(); i != r.end(); ++i) {
+          const std::uint64_t key = (coord(q(0, i), lo.x()) << 42) |
+                                    (coord(q(1, i), lo.y()) << 21) | coord(q(2, i), lo.z());
+          keys[static_cast<std::size_t>(i)] = {key, i};
+        }
+      });
+      radix_sort(keys, [](const auto& e) { return e.first; });  // (key, index) order
+      starts.clear();
+      for (std::size_t i = 0; i < keys.size(); ++i)
+        if (i == 0 || keys[i].first != keys[i - 1].first) starts.push_back(i);
+      starts.push_back(keys.size());
+      const double occupancy =
+          static_cast<double>(n) / static_cast<double>(std::max<std::size_t>(starts.size() - 1, 1));
+      if (occupancy >= kMinOccupancy || cell >= 4.0f * cell_) break;
+      cell *= 2.0f;
+    }
+    std::vector<float> radii = kInitial ? r_initial_ : r_attraction_;
+    const float half_diag = 0.5f * std::sqrt(3.0f) * cell;
+    for (float& r : radii)
+      r += half_diag;
+
+    constexpr int nf = 3 + 7 * nk;
+    const auto project_cells = [&](const tbb::blocked_range<std::size_t>& rr) {
+      namespace ei = Eigen::internal;
+      CellScratch sc;
+      float ones;
+      const std::uint32_t bits = 0xffffffffu;
+      std::memcpy(&ones, &bits, sizeof ones);
+      for (std::size_t c = rr.begin(); c != rr.end(); ++c) {
+        const std::uint64_t key = keys[starts[c]].first;
+        const Eigen::Vector3f center =
+            lo + cell * (Eigen::Vector3f(static_cast<float>(key >> 42),
+                                         static_cast<float>((key >> 21) & ((1u << 21) - 1)),
+                                         static_cast<float>(key & ((1u << 21) - 1))) +
+                         Eigen::Vector3f::Constant(0.5f));
+        sc.ids.clear();
+        sc.d2.clear();
+        index_.gather(center, radii, sc.ranges, sc.ids, sc.d2);
+        const auto m = static_cast<Index>(sc.ids.size());
+        // Candidates ordered by distance shell around the cell centre (a stable counting
+        // sort), so that the terms out of reach of a particle, above all those of the
+        // narrow kernels, fill whole packets that are skipped.
+        {
+          float far2 = 0.0f;
+          for (const float d : sc.d2)
+            far2 = std::max(far2, d);
+          std::array<std::size_t, kShells + 1> next{};
+          const float scale = far2 > 0.0f ? kShells / std::sqrt(far2) : 0.0f;
+          sc.shell.resize(sc.ids.size());
+          for (std::size_t k = 0; k < sc.ids.size(); ++k) {
+            sc.shell[k] = std::min(kShells - 1, static_cast<int>(std::sqrt(sc.d2[k]) * scale));
+            ++next[static_cast<std::size_t>(sc.shell[k]) + 1];
+          }
+          for (int b = 0; b < kShells; ++b)
+            next[static_cast<std::size_t>(b) + 1] += next[static_cast<std::size_t>(b)];
+          sc.sorted.resize(sc.ids.size());
+          for (std::size_t k = 0; k < sc.ids.size(); ++k)
+            sc.sorted[next[static_cast<std::size_t>(sc.shell[k])]++] = sc.ids[k];
+          sc.ids.swap(sc.sorted);
+        }
+        const Index padded = (m + kLanes - 1) / kLanes * kLanes;
+        const auto np = static_cast<std::size_t>(padded);
+        sc.soa.resize(nf * np);
+        sc.valid.assign(np, 0.0f);
+        std::fill_n(sc.valid.begin(), m, ones);
+        if constexpr (!kInitial && nf % kLanes == 0) {
+          // The 24 fields of L candidates: their records' first 24 floats, transposed in L x L
+          // blocks (a zero record pads the last packet); L = 4 or 8.
+          static_assert(nf == 24);
+          using Block = Eigen::internal::PacketBlock<Packet, kLanes>;
+          for (Index t = 0; t < padded; t += kLanes) {
+            const float* rec[kLanes];
+            for (int l = 0; l < kLanes; ++l)
+              rec[l] =
+                  t + l < m
+                      ? pre_[static_cast<std::size_t>(sc.ids[static_cast<std::size_t>(t + l)])].f
+                      : kZeroRecord.f;
+            float* block = sc.soa.data() + static_cast<std::size_t>(t) * nf;
+            for (int b = 0; b < nf; b += kLanes) {
+              Block pb;
+              for (int l = 0; l < kLanes; ++l)
+                pb.packet[l] = ei::ploadu<Packet>(rec[l] + b);
+              ei::ptranspose(pb);
+              for (int l = 0; l < kLanes; ++l)
+                ei::pstoreu(block + (b + l) * kLanes, pb.packet[l]);
+            }
+          }
+        } else {
+          for (Index k = m; k < padded; ++k)  // the padding lanes of the last packet
+            for (int f = 0; f < nf; ++f)
+              sc.soa[static_cast<std::size_t>((padded - kLanes) * nf + f * kLanes + k % kLanes)] =
+                  0.0f;
+          for (Index k = 0; k < m; ++k) {
+            const float* src =
+                pre_[static_cast<std::size_t>(sc.ids[static_cast<std::size_t>(k)])].f;
+            const auto kk = static_cast<std::size_t>(k);
+            float* dst = sc.soa.data() + (kk - kk % kLanes) * nf + kk % kLanes;
+            for (int d = 0; d < 3; ++d)
+              dst[d * kLanes] = src[d];
+            for (int e = 0; e < 7 * nk; ++e)
+              dst[(3 + e) * kLanes] = src[Precomputed::kernel(j0) + e];
+          }
+        }
+        const Packet limit = ei::pset1<Packet>(32.0f);
+        const Packet minus_half = ei::pset1<Packet>(-0.5f);
+        for (std::size_t pi = starts[c]; pi < starts[c + 1]; ++pi) {
+          const Index i = keys[pi].second;
+          const Eigen::Vector3f qi = q.col(i);
+          const Packet qx = ei::pset1<Packet>(qi.x()), qy = ei::pset1<Packet>(qi.y()),
+                       qz = ei::pset1<Packet>(qi.z());
+          Packet sw = ei::pset1<Packet>(0.0f), sx = sw, sy = sw, sz = sw;
+          for (Index t = 0; t < padded; t += kLanes) {
+            const float* block = sc.soa.data() + static_cast<std::size_t>(t) * nf;
+            const Packet dx = ei::psub(ei::ploadu<Packet>(block), qx);
+            const Packet dy = ei::psub(ei::ploadu<Packet>(block + kLanes), qy);
+            const Packet dz = ei::psub(ei::ploadu<Packet>(block + 2 * kLanes), qz);
+            const Packet keep = ei::ploadu<Packet>(sc.valid.data() + t);
+            for (int jj = 0; jj < nk; ++jj) {
+              const float* a = block + (3 + 7 * jj) * kLanes;
+              const Packet a0 = ei::ploadu<Packet>(a);
+              const Packet a1 = ei::ploadu<Packet>(a + kLanes);
+              const Packet a2 = ei::ploadu<Packet>(a + 2 * kLanes);
+              const Packet a3 = ei::ploadu<Packet>(a + 3 * kLanes);
+              const Packet a4 = ei::ploadu<Packet>(a + 4 * kLanes);
+              const Packet a5 = ei::ploadu<Packet>(a + 5 * kLanes);
+              const Packet tx =
+                  ei::padd(ei::padd(ei::pmul(a0, dx), ei::pmul(a1, dy)), ei::pmul(a2, dz));
+              const Packet ty =
+                  ei::padd(ei::padd(ei::pmul(a1, dx), ei::pmul(a3, dy)), ei::pmul(a4, dz));
+              const Packet tz =
+                  ei::padd(ei::padd(ei::pmul(a2, dx), ei::pmul(a4, dy)), ei::pmul(a5, dz));
+              const Packet quad =
+                  ei::padd(ei::padd(ei::pmul(dx, tx), ei::pmul(dy, ty)), ei::pmul(dz, tz));
+              // A term whose exponent is below -16 is dropped (the e^-16 truncation of
+              // LOP's support radius, per component and kernel). The widest kernel comes
+              // first: when it is out of reach, so are the narrower ones.
+              const Packet in = ei::pand(keep, ei::pcmp_le(quad, limit));
+              if (!ei::predux_any(in)) {
+                if (jj == 0) break;
+                continue;
+              }
+              const Packet w =
+                  ei::pand(detail::fast_pexp(ei::padd(ei::ploadu<Packet>(a + 6 * kLanes),
+                                                      ei::pmul(minus_half, quad))),
+                           in);
+              const Packet ws = ei::pmul(w, ei::pset1<Packet>(s2_[j0 + jj]));
+              sw = ei::padd(sw, w);
+              sx = ei::padd(sx, ei::pmul(ws, tx));
+              sy = ei::padd(sy, ei::pmul(ws, ty));
+              sz = ei::padd(sz, ei::pmul(ws, tz));
+            }
+          }
+          const float den = ei::predux(sw);
+          out.col(i) = den > 0.0f
+                           ? Eigen::Vector3f(qi + Eigen::Vector3f(ei::predux(sx), ei::predux(sy),
+                                                                  ei::predux(sz)) /
+                                                      den)
+                           : qi;  // no component within reach: the particle stays
+        }
+      }
+    };
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, starts.size() - 1, 1), project_cells);
+  }
+
+  GaussianMixture sorted_;
+  float cell_;
+  float s2_[4];
+  std::vector<Precomputed> pre_;
+  detail::MixtureGrid index_;
+  std::vector<float> r_attraction_, r_initial_;
+};
+
+}  // namespace
+
+double clop_alpha_hat(double r, double h) {
+  double sum = 0.0;
+  for (int k = 0; k < 3; ++k) {
+    const double sh = kClopFitSigmas[k] * h;
+    sum += kClopFitWeights[k] * std::exp(-0.5 * r * r / (sh * sh));
+  }
+  return sum;
+}
+
+Eigen::Vector3f clop_attraction_reference(const Eigen::Vector3f& q, const GaussianMixture& m,
+                                          double h) {
+  Eigen::Vector3d num = Eigen::Vector3d::Zero();
+  double den = 0.0;
+  const Eigen::Vector3d qd = q.cast<double>();
+  for (Index s = 0; s < m.size(); ++s) {
+    const Eigen::Matrix3d cov = m.covariance(s).cast<double>();
+    const Eigen::Vector3d d = m.means.col(s).cast<double>() - qd;
+    for (int k = 0; k < 3; ++k) {
+      const double var = kClopFitSigmas[k] * kClopFitSigmas[k] * h * h;
+      const Eigen::Matrix3d lambda = cov + var * Eigen::Matrix3d::Identity();
+      const Eigen::Matrix3d inv = lambda.inverse();
+      const double w = m.weights(s) * kClopFitWeights[k] * std::pow(var, 1.5) /
+                       std::sqrt(lambda.determinant()) * std::exp(-0.5 * d.dot(inv * d));
+      num += w * var * (inv * d);
+      den += w;
+    }
+  }
+  if (!(den > 0.0)) return q;
+  return (qd + num / den).cast<float>();
+}
+
+void clop_project(const GaussianMixture& m, Eigen::Matrix3Xf& q, const ClopParams& p, double h_abs,
+                  RunContext& ctx) {
+  if (m.size() == 0) throw InputError("resample.clop: empty mixture");
+  const Index n = q.cols();
+  std::optional<PreparedMixture> pm;
+  {
+    auto timer = ctx.phase("init");
+    // The authors' demo runs its first iteration at 2 h (see clop.h).
+    pm.emplace(m, h_abs, p.first_iteration == "authors" ? 2.0 * h_abs : h_abs);
+  }
+  Eigen::Matrix3Xf next(3, n);
+  {
+    auto timer = ctx.phase("attraction");
+    pm->project_all<true>(q, next);
+    q.swap(next);
+  }
+  const float h = static_cast<float>(h_abs);
+  const float cutoff = static_cast<float>(p.repulsion_cutoff * h_abs);
+  const float mu = static_cast<float>(p.mu);
+  Eigen::Matrix3Xf rep = Eigen::Matrix3Xf::Zero(3, n);
+  const int steps = p.iterations - 1;
+  for (int t = 0; t < steps; ++t) {
+    ctx.check_cancelled("resample.clop");
+    {
+      auto timer = ctx.phase("attraction");
+      pm->project_all<false>(q, next);
+    }
+    if (mu > 0.0f) {
+      const bool recompute = !p.interleave || t % 2 == 0 || t == steps - 1;
+      if (recompute) {
+        auto timer = ctx.phase("repulsion");
+        detail::NeighborGrid grid(q, kernels::grid_cell(cutoff));
+        // w_i' within the cutoff: the whole repulsion kernel is cut (section 8).
+        if (p.repulsion_weights == "wlop")
+          grid.set_weights(kernels::density_weights(grid, q, h, cutoff));
+        rep = kernels::repulsions(q, grid, h, cutoff);
+      }
+      next += mu * rep;
+    }
+    q.swap(next);
+  }
+}
+
+AlgorithmOutput clop(const PointCloud& in, const ClopParams& p, RunContext& ctx) {
+  constexpr const char* stage = "resample.clop";
+  in.validate(stage);
+  if (in.empty()) throw InputError(fmt::format("{}: the input has no points", stage));
+  const double diag = in.bbox().diagonal();
+  if (!(diag > 0.0))
+    throw InputError(fmt::format("{}: the input's bounding box has a zero diagonal", stage));
+  const double h = p.h * diag;
+  const Index m = kernels::particle_count(p.particles, in.size(), stage);
+  AlgorithmOutput out;
+  Eigen::Matrix3Xf q;
+  {
+    auto timer = ctx.phase("init");
+    q = kernels::initial_particles(in.positions, m, ctx.stream_seed("particles"),
+                                   static_cast<float>(0.01 * h));
+  }
+  {
+    auto timer = ctx.phase("hem");
+    out.mixture = hem_mixture(in.positions, hem_params_of(p, h), h, diag, ctx);
+  }
+  clop_project(*out.mixture, q, p, h, ctx);
+  out.points.positions = std::move(q);
+  return out;
+}
+
+}  // namespace scanbench::algorithms

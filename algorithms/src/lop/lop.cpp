@@ -1,0 +1,71 @@
+#include "scanbench/algorithms/lop.h"
+
+#include <fmt/format.h>
+
+#include <optional>
+#include <string_view>
+
+#include "lop/projection_kernels.h"
+#include "scanbench/core/errors.h"
+
+namespace scanbench::algorithms {
+
+namespace {
+
+PointCloud project(const PointCloud& input, const LopParams& p, RunContext& ctx, bool weighted,
+                   std::string_view stage) {
+  input.validate(stage);
+  if (input.empty()) throw InputError(fmt::format("{}: the input has no points", stage));
+  const float diag = input.bbox().diagonal();
+  if (!(diag > 0.0f)) {
+    throw InputError(fmt::format("{}: the input's bounding box has a zero diagonal", stage));
+  }
+  const float h = static_cast<float>(p.h) * diag;
+  const Eigen::Matrix3Xf& pts = input.positions;
+  const Eigen::Index m = kernels::particle_count(p.particles, input.size(), stage);
+
+  Eigen::Matrix3Xf q;
+  Eigen::Matrix3Xf next;
+  std::optional<detail::NeighborGrid> point_grid;
+  {
+    auto timer = ctx.phase("init");
+    point_grid.emplace(pts, kernels::grid_cell(h));
+    // Copies (upsampling) are jittered by a small fraction of h so that they can separate.
+    q = kernels::initial_particles(pts, m, ctx.stream_seed("particles"), 0.01f * h);
+    q = kernels::l2_means(q, *point_grid, h);
+  }
+  if (weighted && p.iterations > 1) {
+    auto timer = ctx.phase("density");
+    point_grid->set_weights(kernels::density_weights(*point_grid, pts, h, h).cwiseInverse());
+  }
+  const float mu = static_cast<float>(p.mu);
+  for (int it = 1; it < p.iterations; ++it) {
+    ctx.check_cancelled(stage);
+    {
+      auto timer = ctx.phase("attraction");
+      next = kernels::attractions(q, *point_grid, h);
+    }
+    {
+      auto timer = ctx.phase("repulsion");
+      detail::NeighborGrid particle_grid(q, kernels::grid_cell(h));
+      if (weighted) particle_grid.set_weights(kernels::density_weights(particle_grid, q, h, h));
+      next += mu * kernels::repulsions(q, particle_grid, h, h);
+    }
+    q.swap(next);
+  }
+  PointCloud out;
+  out.positions = std::move(q);
+  return out;
+}
+
+}  // namespace
+
+PointCloud lop(const PointCloud& input, const LopParams& p, RunContext& ctx) {
+  return project(input, p, ctx, false, "resample.lop");
+}
+
+PointCloud wlop(const PointCloud& input, const LopParams& p, RunContext& ctx) {
+  return project(input, p, ctx, true, "resample.wlop");
+}
+
+}  // namespace scanbench::algorithms

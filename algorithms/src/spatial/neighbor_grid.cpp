@@ -1,0 +1,123 @@
+#include "spatial/neighbor_grid.h"
+
+#include "scanbench/core/radix_sort.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+
+namespace scanbench::algorithms::detail {
+
+NeighborGrid::NeighborGrid(const Eigen::Matrix3Xf& points, float cell)
+    : n_(points.cols()), cell_(cell), inv_cell_(1.0f / cell) {
+  const auto n = static_cast<std::size_t>(n_);
+  const std::size_t padded = n + static_cast<std::size_t>(kPad);
+  // Dummies: far away (their squared distance overflows to +inf) and of weight 0.
+  x_.assign(padded, std::numeric_limits<float>::max());
+  y_.assign(padded, std::numeric_limits<float>::max());
+  z_.assign(padded, std::numeric_limits<float>::max());
+  w_.assign(padded, 0.0f);
+  index_.resize(n);
+  position_.resize(n);
+  point_key_.resize(n);
+  if (n_ == 0) {
+    cell_begin_.push_back(0);
+    return;
+  }
+  lo_ = points.rowwise().minCoeff();
+  const Eigen::Vector3f hi = points.rowwise().maxCoeff();
+  for (int d = 0; d < 3; ++d)
+    dims_[d] = static_cast<std::int64_t>(std::floor((hi[d] - lo_[d]) * inv_cell_)) + 1;
+  std::vector<std::pair<std::uint64_t, Eigen::Index>> keys(n);
+  tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, n_, 4096), [&](const auto& r) {
+    for (Eigen::Index i = r.begin(); i != r.end(); ++i) {
+      Cell c = cell_of(points(0, i), points(1, i), points(2, i));
+      // Rounding at the upper face can give dims; the point belongs to the last cell.
+      c.x = std::min(c.x, dims_[0] - 1);
+      c.y = std::min(c.y, dims_[1] - 1);
+      c.z = std::min(c.z, dims_[2] - 1);
+      keys[static_cast<std::size_t>(i)] = {key(c.x, c.y, c.z), i};
+    }
+  });
+  radix_sort(keys, [](const auto& e) { return e.first; });  // (key, index) order
+  for (std::size_t k = 0; k < n; ++k) {
+    const Eigen::Index i = keys[k].second;
+    x_[k] = points(0, i);
+    y_[k] = points(1, i);
+    z_[k] = points(2, i);
+    w_[k] = 1.0f;
+    index_[k] = i;
+    position_[static_cast<std::size_t>(i)] = static_cast<Eigen::Index>(k);
+    point_key_[k] = keys[k].first;
+    if (k == 0 || keys[k].first != keys[k - 1].first) {
+      cell_key_.push_back(keys[k].first);
+      cell_z_.push_back(
+          static_cast<std::int64_t>(keys[k].first % static_cast<std::uint64_t>(dims_[2])));
+      cell_begin_.push_back(static_cast<Eigen::Index>(k));
+    }
+  }
+  cell_begin_.push_back(n_);
+  // A dense table costs 4 bytes per cell of the box: allowed up to 8 per point (32 bytes, the
+  // size of the sorted arrays) and while occupied-cell numbers fit 32 bits.
+  const double box =
+      static_cast<double>(dims_[0]) * static_cast<double>(dims_[1]) * static_cast<double>(dims_[2]);
+  if (box <= 8.0 * static_cast<double>(n_) + 4096.0 &&
+      cell_key_.size() < std::numeric_limits<std::uint32_t>::max()) {
+    dense_first_.resize(static_cast<std::size_t>(box) + 1);
+    std::size_t c = 0;
+    for (std::size_t k = 0; k < dense_first_.size(); ++k) {
+      while (c < cell_key_.size() && cell_key_[c] < k)
+        ++c;
+      dense_first_[k] = static_cast<std::uint32_t>(c);
+    }
+  }
+}
+
+void NeighborGrid::set_weights(const Eigen::VectorXf& w) {
+  for (Eigen::Index k = 0; k < n_; ++k)
+    w_[static_cast<std::size_t>(k)] = w[index_[static_cast<std::size_t>(k)]];
+}
+
+void NeighborGrid::ranges_near(const Eigen::Vector3f& q, float radius,
+                               std::vector<GridRange>& out) const {
+  out.clear();
+  if (n_ == 0) return;
+  const float r2 = radius * radius;
+  const auto lo = [&](int d) {
+    return static_cast<std::int64_t>(std::floor((q[d] - radius - lo_[d]) * inv_cell_));
+  };
+  const auto hi = [&](int d) {
+    return static_cast<std::int64_t>(std::floor((q[d] + radius - lo_[d]) * inv_cell_));
+  };
+  const std::int64_t x0 = std::max<std::int64_t>(lo(0), 0), x1 = std::min(hi(0), dims_[0] - 1);
+  const std::int64_t y0 = std::max<std::int64_t>(lo(1), 0), y1 = std::min(hi(1), dims_[1] - 1);
+  const std::int64_t z0 = lo(2), z1 = hi(2);
+  for (std::int64_t cx = x0; cx <= x1; ++cx) {
+    const float cx0 = lo_.x() + static_cast<float>(cx) * cell_;
+    const float ex = std::max({cx0 - q.x(), q.x() - (cx0 + cell_), 0.0f});
+    for (std::int64_t cy = y0; cy <= y1; ++cy) {
+      const float cy0 = lo_.y() + static_cast<float>(cy) * cell_;
+      const float ey = std::max({cy0 - q.y(), q.y() - (cy0 + cell_), 0.0f});
+      if (ex * ex + ey * ey > r2) continue;
+      const auto [a, b] = column(cx, cy, z0, z1);
+      if (a != b) out.push_back({cell_begin_[a], cell_begin_[b]});
+    }
+  }
+}
+
+std::pair<std::size_t, std::size_t> NeighborGrid::column(std::int64_t cx, std::int64_t cy,
+                                                         std::int64_t z0, std::int64_t z1) const {
+  z0 = std::max<std::int64_t>(z0, 0);
+  z1 = std::min<std::int64_t>(z1, dims_[2] - 1);
+  if (z0 > z1) return {0, 0};
+  if (!dense_first_.empty())
+    return {dense_first_[static_cast<std::size_t>(key(cx, cy, z0))],
+            dense_first_[static_cast<std::size_t>(key(cx, cy, z1)) + 1]};
+  const auto a = std::lower_bound(cell_key_.begin(), cell_key_.end(), key(cx, cy, z0));
+  const auto b = std::upper_bound(a, cell_key_.end(), key(cx, cy, z1));
+  return {static_cast<std::size_t>(a - cell_key_.begin()),
+          static_cast<std::size_t>(b - cell_key_.begin())};
+}
+
+}  // namespace scanbench::algorithms::detail

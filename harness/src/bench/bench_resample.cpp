@@ -1,0 +1,231 @@
+// `scanbench bench resample`: the CLOP paper's Camel case (Fig. 9), from claim clop-fig9-speed.
+// --scaling adds 1- vs 2-thread speedups, CLOP's time growth exponent over input sizes and its
+// peak memory per input point (Linux: peak RSS reset through /proc/self/clear_refs). The growth
+// run keeps the kernel's neighbourhood constant: h scales as 1/sqrt(N) from the case's scan (h
+// N^1/2 fixed, as for a surface sampled N times), since at a fixed h every LOP-family operator
+// does O(N) work per particle and grows as N^2 by definition.
+#include <fmt/format.h>
+
+#include <cmath>
+
+#include "exec/proc_memory.h"
+#include "scanbench/core/run_context.h"
+#include "scanbench/core/simd.h"
+#include "scanbench/harness/bench.h"
+#include "scanbench/harness/chain.h"
+#include "scanbench/metrics/evaluate.h"
+#include "scanbench/metrics/ground_truth.h"
+
+namespace scanbench::harness {
+
+namespace {
+
+// A case of the rounds: `chain` on `input`, its last output kept for the accuracy table.
+struct ChainCase {
+  std::string name;
+  Json chain;
+  const PointCloud* input = nullptr;
+  int threads = 0;
+  ChainRun last;
+};
+
+TimedCase timed_case(ChainCase& c, std::uint64_t seed) {
+  return {c.name, [&c, seed] {
+            RunContext ctx(seed, c.threads);
+            StageData in;
+            in.points = *c.input;
+            c.last = run_chain(c.chain, std::move(in), ctx, false);
+            return Sample{c.last.wall_s, c.last.cpu_s};
+          }};
+}
+
+double phase(const ChainRun& r, const std::string& suffix) {
+  double s = 0.0;
+  for (const auto& [k, v] : r.phases) {
+    if (k.size() > suffix.size() && k.compare(k.size() - suffix.size(), suffix.size(), suffix) == 0)
+      s += v;
+  }
+  return s;
+}
+
+void print_progress(int round) {
+  fmt::print("  round {}{}\n", round < 0 ? "warm-up " : "", round < 0 ? -round : round + 1);
+  std::fflush(stdout);
+}
+
+}  // namespace
+
+Json bench_resample(const ResampleBenchOptions& opts) {
+  ResampleBenchOptions o = opts;
+  if (o.quick) {
+    o.points = o.points > 0 ? std::min(o.points, 20000L) : 20000L;
+    o.rounds = std::min(o.rounds, 3);
+    o.sizes = {5000, 20000, 80000};
+  }
+  const PaperCase pc = load_paper_case("clop-fig9-speed", o.dataset, o.quick, o.points, o.seed);
+  const Json& clop_chain = pc.chains.at("clop");
+  const Json& wlop_chain = pc.chains.at("wlop");
+  const Json& wp = wlop_chain.at(0).at("params");
+  fmt::print("simd: {}; CGAL peers compiled with {}\n", simd::describe(), simd::compile_flags());
+  fmt::print("{} (claim {}): {} scan points; clop {}; wlop {}; {} rounds + {} warm-up\n",
+             pc.dataset, pc.claim, pc.scan.size(), clop_chain.at(0).at("params").dump(), wp.dump(),
+             o.rounds, o.warmup);
+
+  std::vector<ChainCase> cases;
+  cases.push_back({"clop", clop_chain, &pc.scan, o.threads, {}});
+  cases.push_back({"wlop", wlop_chain, &pc.scan, o.threads, {}});
+  if (!o.no_cgal)
+    cases.push_back(
+        {"cgal_wlop", single_step_chain("peer.cgal_wlop", wp), &pc.scan, o.threads, {}});
+  // The paper's other reading of eq. 26 (Algorithm 1: v_j summed in the kernel pass), for
+  // comparison only.
+  Json kernel = clop_chain;
+  kernel[0]["params"]["density"] = "kernel";
+  cases.push_back({"clop_kernel_density", kernel, &pc.scan, o.threads, {}});
+  std::vector<TimedCase> timed;
+  for (ChainCase& c : cases)
+    timed.push_back(timed_case(c, o.seed));
+  const Rounds rounds = run_rounds(timed, o.rounds, o.warmup, print_progress);
+
+  const metrics::GroundTruth gt(pc.mesh, o.seed);
+  auto measure = [&](const PointCloud& p) {
+    RunContext mctx(o.seed, o.threads);
+    return metrics::evaluate(gt, p, &pc.scan, {"accuracy.p2plane", "regularity.nn_dist"},
+                             Json::object(), mctx);
+  };
+  const Json in_m = measure(pc.scan);
+  fmt::print("{:>19} {:>10} {:>10} {:>10} {:>14} {:>11}\n", "method", "median_s", "cpu_s",
+             "particles", "p2plane_mean", "nn_dist_cv");
+  fmt::print("{:>19} {:>10} {:>10} {:>10} {:>14.6f} {:>11.4f}\n", "input", "-", "-", pc.scan.size(),
+             in_m.value("p2plane_mean_rel", 0.0), in_m.value("nn_dist_cv", 0.0));
+  Json cases_j = Json::array();
+  for (const ChainCase& c : cases) {
+    const Json m = measure(c.last.output.points);
+    const Sample med = median_sample(rounds, c.name);
+    Json j = {{"name", c.name},
+              {"chain", c.chain},
+              {"median_s", med.wall_s},
+              {"cpu_s", med.cpu_s},
+              {"p2plane_mean", m.value("p2plane_mean_rel", 0.0)},
+              {"p2plane_mean_abs", m.value("p2plane_mean", 0.0)},
+              {"p2plane_rms", m.value("p2plane_rms_rel", 0.0)},
+              {"nn_dist_cv", m.value("nn_dist_cv", 0.0)},
+              {"particles", c.last.output.points.size()},
+              {"phases", c.last.phases}};
+    if (c.last.output.mixture) j["mixture_components"] = c.last.output.mixture->size();
+    fmt::print("{:>19} {:>10.3f} {:>10.3f} {:>10} {:>14.6f} {:>11.4f}\n", c.name, med.wall_s,
+               med.cpu_s, c.last.output.points.size(), j["p2plane_mean"].get<double>(),
+               j["nn_dist_cv"].get<double>());
+    cases_j.push_back(std::move(j));
+  }
+
+  std::vector<PairedRatio> ratios;
+  ratios.push_back(paired_ratio(rounds, "wlop_over_clop", "wlop", "clop", Target{6.0}, o.seed));
+  ratios.push_back(paired_ratio(rounds, "wlop_over_clop_kernel_density", "wlop",
+                                "clop_kernel_density", std::nullopt, o.seed));
+  if (!o.no_cgal) {
+    ratios.push_back(
+        paired_ratio(rounds, "cgal_wlop_over_clop", "cgal_wlop", "clop", Target{25.0}, o.seed));
+    ratios.push_back(
+        paired_ratio(rounds, "cgal_wlop_over_wlop", "cgal_wlop", "wlop", Target{3.0}, o.seed));
+  }
+  for (const PairedRatio& r : ratios)
+    fmt::print("{}\n", describe(r));
+  // Phase by phase (wall seconds of the last round), beside the CLOP paper's Fig. 9 Camel
+  // speedups (GPU): WLOP's attraction includes its L2 first iteration (phase init), as CLOP's
+  // includes its continuous first iteration; repulsion includes the densities w_i.
+  const ChainRun& wl = cases[1].last;
+  const ChainRun& cl = cases[0].last;
+  Json by_phase = {{"attraction_wlop_over_clop",
+                    (phase(wl, ":init") + phase(wl, ":attraction")) / phase(cl, ":attraction")},
+                   {"repulsion_wlop_over_clop", phase(wl, ":repulsion") / phase(cl, ":repulsion")},
+                   {"hem_share_of_clop", phase(cl, ":hem") / cl.wall_s}};
+  fmt::print(
+      "  by phase (last round): attraction {:.2f} (paper Fig. 9 Camel F1: 7.15), repulsion {:.2f} "
+      "(F2: 7.80); HEM is {:.0f}% of CLOP (paper: 20%)\n",
+      by_phase["attraction_wlop_over_clop"].get<double>(),
+      by_phase["repulsion_wlop_over_clop"].get<double>(),
+      100.0 * by_phase["hem_share_of_clop"].get<double>());
+
+  Json out = {{"benchmark", "resample"},
+              {"claim", pc.claim},
+              {"context", run_context_json()},
+              {"dataset", pc.dataset},
+              {"scan_points", pc.scan.size()},
+              {"scanner_params", pc.scanner_params},
+              {"threads", o.threads},
+              {"seed", o.seed},
+              {"input",
+               {{"p2plane_mean", in_m.value("p2plane_mean_rel", 0.0)},
+                {"nn_dist_cv", in_m.value("nn_dist_cv", 0.0)}}},
+              {"cases", cases_j},
+              {"rounds", to_json(rounds)},
+              {"by_phase", by_phase}};
+  // Like for like: CGAL's WLOP (header-only, instantiated in algorithms/) is compiled with the
+  // flags of the whole build, the same as our widest kernels.
+  out["cgal_peers_compiled_with"] = {{"isa", std::string(simd::name(simd::compiled()))},
+                                     {"flags", std::string(simd::compile_flags())}};
+
+  if (o.scaling) {
+    // 1 vs 2 threads, interleaved.
+    std::vector<ChainCase> th = {{"clop_1t", clop_chain, &pc.scan, 1, {}},
+                                 {"clop_2t", clop_chain, &pc.scan, 2, {}},
+                                 {"wlop_1t", wlop_chain, &pc.scan, 1, {}},
+                                 {"wlop_2t", wlop_chain, &pc.scan, 2, {}}};
+    std::vector<TimedCase> tt;
+    for (ChainCase& c : th)
+      tt.push_back(timed_case(c, o.seed));
+    const Rounds tr = run_rounds(tt, o.rounds, o.warmup, print_progress);
+    for (const char* m : {"clop", "wlop"}) {
+      ratios.push_back(paired_ratio(tr, fmt::format("{}_threads_2_over_1", m),
+                                    fmt::format("{}_1t", m), fmt::format("{}_2t", m), Target{1.8},
+                                    o.seed));
+      fmt::print("{}\n", describe(ratios.back()));
+    }
+    out["thread_rounds"] = to_json(tr);
+    // Growth: one run per size (medians of `rounds`), h scaled to keep the neighbourhoods.
+    Json growth = Json::array();
+    std::vector<double> ns, ts;
+    double per_point = -1.0;
+    for (long size : o.sizes) {
+      const PaperCase big = load_paper_case("clop-fig9-speed", o.dataset, o.quick, size, o.seed);
+      Json chain = clop_chain;
+      const double h =
+          chain[0]["params"]["h"].get<double>() *
+          std::sqrt(static_cast<double>(pc.scan.size()) / static_cast<double>(big.scan.size()));
+      chain[0]["params"]["h"] = h;
+      ChainCase c{"clop", chain, &big.scan, o.threads, {}};
+      const bool mem_ok = reset_peak_rss();
+      const long rss0 = status_kb("VmRSS");
+      const Rounds g = run_rounds({timed_case(c, o.seed)}, o.quick ? 1 : 3, 0);
+      const long hwm = status_kb("VmHWM");
+      const Sample med = median_sample(g, "clop");
+      per_point = mem_ok && rss0 >= 0 && hwm >= 0
+                      ? 1024.0 * static_cast<double>(std::max(hwm - rss0, 0L)) /
+                            static_cast<double>(big.scan.size())
+                      : -1.0;
+      ns.push_back(static_cast<double>(big.scan.size()));
+      ts.push_back(med.wall_s);
+      growth.push_back({{"points", big.scan.size()},
+                        {"h", h},
+                        {"median_s", med.wall_s},
+                        {"cpu_s", med.cpu_s},
+                        {"peak_bytes_per_point", per_point}});
+      fmt::print("clop at {:>9} points, h {:.4f}: {:8.3f} s ({:.3f} CPU s), peak {:.0f} B/point\n",
+                 big.scan.size(), h, med.wall_s, med.cpu_s, per_point);
+    }
+    Json sc = {{"growth", growth}};
+    if (ns.size() >= 2) {
+      sc["clop_growth_exponent"] =
+          std::log(ts.back() / ts.front()) / std::log(ns.back() / ns.front());
+      sc["clop_peak_bytes_per_point_largest"] = per_point;
+      fmt::print("clop growth exponent {:.3f} (target <= 1.1), peak {:.0f} B/point at {}\n",
+                 sc["clop_growth_exponent"].get<double>(), per_point, static_cast<long>(ns.back()));
+    }
+    out["scaling"] = sc;
+  }
+  out["ratios"] = ratios_json(ratios);
+  return out;
+}
+
+}  // namespace scanbench::harness

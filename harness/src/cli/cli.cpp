@@ -1,0 +1,65 @@
+#include "scanbench/harness/cli.h"
+
+#include <fmt/format.h>
+
+#include <cstdio>
+
+#include "cli/commands.h"
+#include "scanbench/core/errors.h"
+#include "scanbench/core/simd.h"
+#include "scanbench/core/version.h"
+
+namespace scanbench::harness {
+
+int run_cli(int argc, char** argv) {
+  Cli cli;
+  // The SIMD path (SCANBENCH_ISA is checked here, once, for every command: an ISA this binary or
+  // CPU lacks is a one-line error).
+  std::string isa;
+  try {
+    isa = simd::describe();
+  } catch (const Error& e) {
+    std::fprintf(stderr, "scanbench: %s\n", e.what());
+    return 2;
+  }
+  cli.app.set_version_flag("--version", fmt::format("scanbench {} (commit {})\nsimd: {}",
+                                                    version_string(), git_commit(), isa));
+  cli.app.require_subcommand(1);
+
+  // One explicit list of subcommands.
+  add_list_command(cli);
+  add_scan_command(cli);
+  add_import_command(cli);
+  add_algo_command(cli);
+  add_bench_command(cli);
+  add_eval_command(cli);
+  add_run_command(cli);
+  add_job_command(cli);
+  add_table_command(cli);
+  add_compare_command(cli);
+  add_report_command(cli);
+  add_nightly_command(cli);
+  add_status_command(cli);
+  add_merge_command(cli);
+  add_slurm_task_command(cli);
+  add_claims_command(cli);
+  add_history_command(cli);
+
+  try {
+    cli.app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int code = cli.app.exit(e);
+    return code == 0 ? 0 : 2;
+  }
+  try {
+    return cli.action ? cli.action() : 0;
+  } catch (const Error& e) {
+    std::fprintf(stderr, "scanbench: %s\n", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "scanbench: internal error: %s\n", e.what());
+    return 3;
+  }
+}
+
+}  // namespace scanbench::harness

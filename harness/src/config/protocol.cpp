@@ -1,0 +1,515 @@
+#include "scanbench/harness/protocol.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <map>
+#include <set>
+#include <tuple>
+
+#include "config/json_checks.h"
+#include "scanbench/core/errors.h"
+#include "scanbench/core/timing.h"
+#include "scanbench/harness/experiment.h"
+#include "scanbench/harness/records.h"
+#include "scanbench/harness/runner.h"
+
+namespace scanbench::harness {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+[[noreturn]] void protocol_fail(const std::string& where, const std::string& what) {
+  throw ParamError(fmt::format("{}: {}", where, what));
+}
+
+std::string protocol_text(const Json& j, const std::string& key, const std::string& where) {
+  if (!j.contains(key) || !j[key].is_string() || j[key].get<std::string>().empty()) {
+    protocol_fail(where + "/" + key, "expected a non-empty string");
+  }
+  return j[key].get<std::string>();
+}
+
+std::string protocol_choice(const Json& j, const std::string& key, const std::string& where,
+                            const std::vector<std::string>& choices, const std::string& def) {
+  if (!j.contains(key)) return def;
+  const std::string v = j[key].is_string() ? j[key].get<std::string>() : j[key].dump();
+  if (std::find(choices.begin(), choices.end(), v) == choices.end()) {
+    std::string list;
+    for (const auto& c : choices)
+      list += (list.empty() ? "" : ", ") + c;
+    protocol_fail(where + "/" + key, fmt::format("expected one of {}, got '{}'", list, v));
+  }
+  return v;
+}
+
+ProtocolObjective parse_protocol_objective(const Json& j, const std::string& where) {
+  harness::check_keys(j, where, {"quantity", "direction", "stat"});
+  ProtocolObjective o;
+  o.quantity = protocol_text(j, "quantity", where);
+  o.direction = protocol_choice(j, "direction", where, {"min", "max"}, "min");
+  o.stat = protocol_choice(j, "stat", where, {"median", "mean", "min", "max"}, "median");
+  return o;
+}
+
+std::vector<Json> protocol_values(const Json& j, const std::string& where) {
+  if (!j.is_array() || j.empty()) protocol_fail(where, "expected a non-empty list of values");
+  std::vector<Json> out(j.begin(), j.end());
+  for (std::size_t i = 0; i < out.size(); ++i)
+    for (std::size_t k = 0; k < i; ++k)
+      if (out[i] == out[k]) protocol_fail(fmt::format("{}/{}", where, i), "value listed twice");
+  return out;
+}
+
+ProtocolParam parse_protocol_param(const Json& j, const std::string& variant,
+                                   const std::string& key, const std::string& where,
+                                   const Protocol& p, bool has_objective,
+                                   const ProtocolObjective& objective) {
+  harness::check_keys(j, where,
+                      {"source", "value", "cite", "rule", "range", "sensitivity", "objective"});
+  ProtocolParam q;
+  q.variant = variant;
+  q.key = key;
+  const auto dot = key.rfind('.');
+  if (dot == std::string::npos || dot == 0 || dot + 1 == key.size()) {
+    protocol_fail(where, "expected a key \"<step>.<param>\" (a sweep key of the variant)");
+  }
+  q.step = key.substr(0, dot);
+  q.param = key.substr(dot + 1);
+  if (!j.contains("source")) protocol_fail(where + "/source", "missing (paper, rule or tuned)");
+  q.source = protocol_choice(j, "source", where, {"paper", "rule", "tuned"}, "");
+  auto only = [&](const char* field, bool allowed) {
+    if (j.contains(field) && !allowed) {
+      protocol_fail(where + "/" + field, fmt::format("not used with source \"{}\"", q.source));
+    }
+  };
+  only("cite", q.source == "paper");
+  only("rule", q.source == "rule");
+  only("value", q.source != "tuned");
+  only("sensitivity", q.source != "tuned");
+  only("range", q.source == "tuned");
+  only("objective", q.source == "tuned");
+  if (q.source == "tuned") {
+    if (!j.contains("range")) protocol_fail(where + "/range", "missing (the values to tune over)");
+    q.range = protocol_values(j["range"], where + "/range");
+    if (q.range.size() < 2)
+      protocol_fail(where + "/range", "expected at least two values to tune over");
+    if (j.contains("objective")) {
+      q.objective = parse_protocol_objective(j["objective"], where + "/objective");
+    } else if (has_objective) {
+      q.objective = objective;
+    } else {
+      protocol_fail(where + "/objective",
+                    "missing (and the protocol has no default \"objective\")");
+    }
+    if (p.tuning.empty())
+      protocol_fail(p.where + "/tuning", "missing (the data tuned parameters use)");
+    return q;
+  }
+  q.cite = protocol_text(j, q.source == "paper" ? "cite" : "rule", where);
+  if (!j.contains("value")) protocol_fail(where + "/value", "missing");
+  q.value = j["value"];
+  if (j.contains("sensitivity"))
+    q.range = protocol_values(j["sensitivity"], where + "/sensitivity");
+  return q;
+}
+
+bool protocol_same_value(const Json& a, const Json& b) {
+  if (a.is_number() && b.is_number()) {
+    const double x = a.get<double>(), y = b.get<double>();
+    return std::abs(x - y) <= 1e-9 * std::max(1.0, std::abs(y));
+  }
+  return a == b;
+}
+
+/// The variant object of `config` labelled `label` (labels as parse_experiment derives them).
+Json* protocol_find_variant(Json& config, const std::string& label) {
+  if (!config.contains("variants") || !config["variants"].is_array()) return nullptr;
+  for (auto& v : config["variants"]) {
+    std::string l = v.value("label", std::string());
+    if (l.empty() && v.contains("algorithm") && v["algorithm"].is_string()) {
+      l = v["algorithm"].get<std::string>();
+    }
+    if (l.empty() && v.contains("chain") && v["chain"].is_array()) {
+      for (const auto& s : v["chain"])
+        l += (l.empty() ? "" : "+") + s.value("label", s.value("algorithm", std::string()));
+    }
+    if (l == label) return &v;
+  }
+  return nullptr;
+}
+
+/// The params object of the step `step` of a variant object (one-step or chain form).
+Json* protocol_step_params(Json& variant, const std::string& step) {
+  if (variant.contains("algorithm")) {
+    if (variant["algorithm"] != step) return nullptr;
+    if (!variant.contains("params")) variant["params"] = Json::object();
+    return &variant["params"];
+  }
+  for (auto& s : variant["chain"]) {
+    if (s.value("label", s.value("algorithm", std::string())) != step) continue;
+    if (!s.contains("params")) s["params"] = Json::object();
+    return &s["params"];
+  }
+  return nullptr;
+}
+
+/// The sweep objects of a variant (its "sweep" as a list; empty when it has none).
+std::vector<Json> protocol_variant_sweeps(const Json& variant) {
+  if (!variant.contains("sweep")) return {};
+  if (variant["sweep"].is_array()) return {variant["sweep"].begin(), variant["sweep"].end()};
+  return {variant["sweep"]};
+}
+
+/// Sets every protocol value of `p` in the config's steps (tuned, not yet chosen: the first value
+/// of the range, for validation) and drops "protocol".
+Json protocol_with_values(const Json& config, const Protocol& p) {
+  Json c = config;
+  c.erase("protocol");
+  for (const auto& q : p.params) {
+    Json* v = protocol_find_variant(c, q.variant);
+    Json* params = v ? protocol_step_params(*v, q.step) : nullptr;
+    if (params == nullptr) continue;  // check_protocol reports it
+    (*params)[q.param] = q.value.is_null() && !q.range.empty() ? q.range.front() : q.value;
+  }
+  return c;
+}
+
+std::string protocol_point_text(const Json& point) {
+  std::string s;
+  for (const auto& [k, v] : point.items())
+    s += fmt::format("{}{}={}", s.empty() ? "" : " ", k, v.dump());
+  return s;
+}
+
+using ProtocolDataKey =
+    std::tuple<std::string, std::string, std::string, std::string, std::uint64_t>;
+
+std::set<ProtocolDataKey> protocol_data_keys(const Plan& plan) {
+  std::set<ProtocolDataKey> keys;
+  for (const auto& j : plan.jobs)
+    keys.emplace(j.dataset, j.dataset_params.dump(), j.scanner_preset, j.scanner_params.dump(),
+                 j.seed);
+  return keys;
+}
+
+}  // namespace
+
+Json ProtocolObjective::to_json() const {
+  return {{"quantity", quantity}, {"direction", direction}, {"stat", stat}};
+}
+
+std::vector<const ProtocolParam*> Protocol::tuned(const std::string& variant) const {
+  std::vector<const ProtocolParam*> out;
+  for (const auto& q : params)
+    if (q.variant == variant && q.source == "tuned") out.push_back(&q);
+  return out;
+}
+
+Protocol parse_protocol(const Json& j, const std::string& where) {
+  harness::check_keys(j, where, {"tuning", "objective", "variants"});
+  Protocol p;
+  p.where = where;
+  if (j.contains("tuning")) {
+    harness::check_keys(j["tuning"], where + "/tuning", {"datasets", "scanners", "seed", "seeds"});
+    if (!j["tuning"].contains("datasets")) {
+      protocol_fail(where + "/tuning/datasets", "missing (the tuning datasets)");
+    }
+    p.tuning = j["tuning"];
+  }
+  ProtocolObjective objective;
+  const bool has_objective = j.contains("objective");
+  if (has_objective) objective = parse_protocol_objective(j["objective"], where + "/objective");
+  if (!j.contains("variants") || !j["variants"].is_object() || j["variants"].empty()) {
+    protocol_fail(where + "/variants", "expected an object: variant label -> its parameters");
+  }
+  for (const auto& [label, params] : j["variants"].items()) {
+    const std::string w = where + "/variants/" + label;
+    if (!params.is_object() || params.empty()) {
+      protocol_fail(w, "expected an object: \"<step>.<param>\" -> its source");
+    }
+    for (const auto& [key, entry] : params.items())
+      p.params.push_back(
+          parse_protocol_param(entry, label, key, w + "/" + key, p, has_objective, objective));
+  }
+  return p;
+}
+
+void check_protocol(const Protocol& p, const Json& config) {
+  Json c = config;
+  for (const auto& q : p.params) {
+    const std::string w = p.where + "/variants/" + q.variant;
+    Json* v = protocol_find_variant(c, q.variant);
+    if (v == nullptr) protocol_fail(w, "no variant labelled '" + q.variant + "'");
+    Json* params = protocol_step_params(*v, q.step);
+    if (params == nullptr)
+      protocol_fail(w + "/" + q.key, "the variant has no step '" + q.step + "'");
+    if (params->contains(q.param)) {
+      protocol_fail(w + "/" + q.key,
+                    "also set in the step's params (give each parameter one source)");
+    }
+    for (const auto& s : protocol_variant_sweeps(*v))
+      if (s.is_object() && s.contains(q.key)) {
+        protocol_fail(w + "/" + q.key,
+                      "also swept by the variant (give each parameter one source)");
+      }
+  }
+  // Every value and range value must be accepted by the parameter's declaration: the config with
+  // the values set and swept over the ranges must load.
+  const Json swept = protocol_config(config, p, true);
+  // (expand checks the sweep values against the declarations.)
+  std::set<ProtocolDataKey> verdict;
+  bool any_tuned = false;
+  for (const auto& q : p.params)
+    any_tuned = any_tuned || q.source == "tuned";
+  try {
+    const Plan plan = expand(parse_experiment(swept, "the config at the protocol's values"));
+    if (any_tuned) verdict = protocol_data_keys(plan);
+  } catch (const ParamError& err) {
+    protocol_fail(p.where, fmt::format("a protocol value is not accepted: {}", err.what()));
+  }
+  for (const auto& q : p.params) {
+    if (q.source != "tuned" || q.key != p.tuned(q.variant).front()->key) continue;
+    const Experiment t = parse_experiment(tuning_config(config, p, q.variant), p.where + "/tuning");
+    for (const auto& k : protocol_data_keys(expand(t)))
+      if (verdict.count(k)) {
+        protocol_fail(
+            p.where + "/tuning",
+            fmt::format("the tuning data overlap the experiment's data (dataset {}, scanner {}, "
+                        "seed {}): tune on another shape or another seed and noise draw",
+                        std::get<0>(k), std::get<2>(k), std::get<4>(k)));
+      }
+  }
+}
+
+Json tuning_config(const Json& config, const Protocol& p, const std::string& variant) {
+  Json c = protocol_with_values(config, p);
+  Json* v = protocol_find_variant(c, variant);
+  if (v == nullptr) protocol_fail(p.where + "/variants/" + variant, "no such variant");
+  Json tv = *v;
+  tv.erase("sweep");  // the variant's own swept parameters stay at their base values
+  Json sweep = Json::object();
+  for (const ProtocolParam* q : p.tuned(variant))
+    sweep[q->key] = q->range;
+  if (!sweep.empty()) tv["sweep"] = sweep;
+  c["variants"] = Json::array({tv});
+  c["datasets"] = p.tuning["datasets"];
+  if (p.tuning.contains("scanners")) c["scanners"] = p.tuning["scanners"];
+  for (const char* k : {"seed", "seeds"})
+    if (p.tuning.contains(k)) {
+      c.erase("seed");
+      c.erase("seeds");
+      c[k] = p.tuning[k];
+    }
+  c.erase("sweep");  // global scanner/dataset sweeps belong to the experiment's data
+  c["repeats"] = 1;
+  c["name"] = c.value("name", std::string("experiment")) + "-tuning-" + variant;
+  return c;
+}
+
+Json choose_point(const std::vector<Json>& records, const std::vector<const ProtocolParam*>& tuned,
+                  const ProtocolObjective& objective, Json& curve) {
+  std::vector<std::pair<Json, std::vector<double>>> points;  // in order of first appearance
+  for (const auto& r : records) {
+    if (r.value("status", std::string()) != "ok") continue;
+    const double x = record_value(r, objective.quantity);
+    if (std::isnan(x)) continue;
+    const Json pt = r.value("point", Json::object());
+    Json key = Json::object();
+    for (const ProtocolParam* q : tuned)
+      if (pt.contains(q->key)) key[q->key] = pt[q->key];
+    auto it = std::find_if(points.begin(), points.end(), [&](const auto& e) {
+      if (e.first.size() != key.size()) return false;
+      for (const auto& [k, v] : key.items())
+        if (!e.first.contains(k) || !protocol_same_value(e.first.at(k), v)) return false;
+      return true;
+    });
+    if (it == points.end()) {
+      points.emplace_back(key, std::vector<double>{});
+      it = points.end() - 1;
+    }
+    it->second.push_back(x);
+  }
+  // Range order for ties: sort the points by their index in each range.
+  auto rank = [&](const Json& key) {
+    std::vector<std::size_t> idx;
+    for (const ProtocolParam* q : tuned) {
+      std::size_t i = 0;
+      while (i < q->range.size() &&
+             !(key.contains(q->key) && protocol_same_value(q->range[i], key[q->key])))
+        ++i;
+      idx.push_back(i);
+    }
+    return idx;
+  };
+  std::stable_sort(points.begin(), points.end(),
+                   [&](const auto& a, const auto& b) { return rank(a.first) < rank(b.first); });
+  curve = Json::object();
+  Json best;
+  double best_v = std::numeric_limits<double>::quiet_NaN();
+  for (const auto& [key, vals] : points) {
+    std::vector<double> v = vals;
+    double s = median(v);
+    if (objective.stat == "mean") {
+      s = 0;
+      for (double x : vals)
+        s += x / static_cast<double>(vals.size());
+    } else if (objective.stat == "min") {
+      s = *std::min_element(vals.begin(), vals.end());
+    } else if (objective.stat == "max") {
+      s = *std::max_element(vals.begin(), vals.end());
+    }
+    curve[protocol_point_text(key)] = s;
+    const bool better = objective.direction == "min" ? s < best_v : s > best_v;
+    if (std::isnan(best_v) || better) {
+      best_v = s;
+      best = key;
+    }
+  }
+  if (best.is_null()) {
+    throw Error(fmt::format("tuning: no tuning record has a value of '{}'", objective.quantity));
+  }
+  return best;
+}
+
+RecordsRunner local_records_runner(int jobs, bool resume, bool quiet) {
+  return [=](const Json& config, const fs::path& out) {
+    const Experiment e = parse_experiment(config, (out / "config.json").string());
+    RunOptions o;
+    o.out = out;
+    o.jobs = jobs;
+    o.resume = resume;
+    o.quiet = quiet;
+    run_experiment(e, o);
+    return load_records(out);
+  };
+}
+
+Protocol resolve_protocol(const Json& config, Protocol p, const fs::path& out,
+                          const RecordsRunner& run) {
+  std::set<std::string> done;
+  for (auto& q : p.params) {
+    if (q.source != "tuned" || !done.insert(q.variant).second) continue;
+    const std::vector<const ProtocolParam*> tuned = p.tuned(q.variant);
+    // The objective of the variant's first tuned parameter decides the joint choice.
+    const ProtocolObjective objective = tuned.front()->objective;
+    const Json tc = tuning_config(config, p, q.variant);
+    const std::vector<Json> records = run(tc, out / ("tuning-" + q.variant));
+    Json curve;
+    const Json best = choose_point(records, tuned, objective, curve);
+    for (auto& r : p.params) {
+      if (r.variant != q.variant || r.source != "tuned") continue;
+      r.value = best.value(r.key, Json());
+      r.tuning_curve = curve;
+    }
+  }
+  return p;
+}
+
+Json protocol_config(const Json& config, const Protocol& p, bool sweep_ranges) {
+  Json c = protocol_with_values(config, p);
+  if (!sweep_ranges) return c;
+  std::map<std::string, std::vector<const ProtocolParam*>> ranged;
+  for (const auto& q : p.params)
+    if (!q.range.empty()) ranged[q.variant].push_back(&q);
+  for (const auto& [label, qs] : ranged) {
+    Json* v = protocol_find_variant(c, label);
+    if (v == nullptr) continue;
+    std::vector<Json> base = protocol_variant_sweeps(*v);
+    if (base.empty()) base.push_back(Json::object());
+    Json sweeps = Json::array();
+    // One parameter at a time, the others at their value; the point at every value is run
+    // once, in the sweep of the variant's first ranged parameter.
+    for (const ProtocolParam* q : qs) {
+      // Not yet tuned (validation): the first value of the range stands in.
+      const Json& value = q->value.is_null() ? q->range.front() : q->value;
+      std::vector<Json> values;
+      if (q == qs.front()) values.push_back(value);
+      for (const Json& x : q->range)
+        if (!protocol_same_value(x, value)) values.push_back(x);
+      if (values.empty()) continue;
+      for (Json s : base) {
+        s[q->key] = values;
+        sweeps.push_back(s);
+      }
+    }
+    (*v)["sweep"] = sweeps;
+  }
+  return c;
+}
+
+std::vector<Json> records_at_protocol(const std::vector<Json>& records, const Protocol& p,
+                                      const ProtocolParam* vary, const Json& at) {
+  std::map<std::string, const ProtocolParam*> first;  // variant -> its first ranged parameter
+  for (const auto& q : p.params)
+    if (!q.range.empty() && !first.count(q.variant)) first[q.variant] = &q;
+  std::vector<Json> out;
+  for (const auto& r : records) {
+    const std::string label = r.value("variant", Json::object()).value("label", std::string());
+    const auto it = first.find(label);
+    if (it == first.end()) {
+      out.push_back(r);
+      continue;
+    }
+    const Json pt = r.value("point", Json::object());
+    const bool varied =
+        vary != nullptr && vary->variant == label && !protocol_same_value(at, vary->value);
+    const ProtocolParam* q = varied ? vary : it->second;
+    const Json& want = varied ? at : q->value;
+    if (pt.contains(q->key) && protocol_same_value(pt[q->key], want)) out.push_back(r);
+  }
+  return out;
+}
+
+Json protocol_json(const Protocol& p) {
+  Json j = Json::object();
+  for (const auto& q : p.params) {
+    Json e = {{"source", q.source}, {"value", q.value}};
+    if (q.source == "paper") e["cite"] = q.cite;
+    if (q.source == "rule") e["rule"] = q.cite;
+    if (q.source == "tuned") {
+      e["range"] = q.range;
+      e["tuning_data"] = p.tuning;
+      e["objective"] = q.objective.to_json();
+      e["tuning_curve"] = q.tuning_curve;
+    } else if (!q.range.empty()) {
+      e["sensitivity"] = q.range;
+    }
+    j[q.variant][q.key] = e;
+  }
+  return j;
+}
+
+std::string protocol_summary(const Json& protocol) {
+  std::string s;
+  for (const auto& [variant, params] : protocol.items()) {
+    std::string v;
+    for (const auto& [key, e] : params.items()) {
+      const std::string src = e.value("source", std::string());
+      std::string item = fmt::format("{} {} {}", key, src, e.value("value", Json()).dump());
+      if (src == "tuned") {
+        std::string data;
+        for (const auto& d : e["tuning_data"].value("datasets", Json::array()))
+          data += (data.empty() ? "" : "+") +
+                  (d.is_object() ? d.value("label", d.value("name", std::string("?"))) : d.dump());
+        const Json& t = e["tuning_data"];
+        const std::string seed = t.contains("seed")    ? " seed " + t["seed"].dump()
+                                 : t.contains("seeds") ? " seeds " + t["seeds"].dump()
+                                                       : "";
+        item += fmt::format(" ({} {} over {} on {}{})", e["objective"].value("direction", ""),
+                            e["objective"].value("quantity", ""), e["range"].dump(), data, seed);
+      } else {
+        item += fmt::format(" ({})", e.value(src == "paper" ? "cite" : "rule", std::string()));
+      }
+      v += (v.empty() ? "" : ", ") + item;
+    }
+    s += fmt::format("{}{}: {}", s.empty() ? "" : "; ", variant, v);
+  }
+  return s;
+}
+
+}  // namespace scanbench::harness
