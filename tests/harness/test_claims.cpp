@@ -272,6 +272,10 @@ TEST(ClaimRules, MatchedJudgesEveryPointInTheBudgetBandAndNoOther) {
   o = judge_rule(r, recs);
   EXPECT_EQ(o.verdict, "inconclusive");
   EXPECT_NE(o.reason.find("no a record in the band [100, 200]"), std::string::npos) << o.reason;
+  recs[1]["metrics"]["mesh_bytes"] = 150.0;  // a third of depth 8's (50) below depth 7's (100)
+  o = judge_rule(r, recs);
+  EXPECT_EQ(o.verdict, "inconclusive");
+  EXPECT_NE(o.reason.find("empty"), std::string::npos) << o.reason;
 }
 
 TEST(ClaimFiles, TradeoffRulesRejectBadFields) {

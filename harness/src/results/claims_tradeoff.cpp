@@ -249,8 +249,10 @@ std::string judge_matched_group(const ClaimRule& rule, const std::vector<const J
   gj["band"] = {band_lo, band_hi};
   gj["reference"] = ref;
   if (verdicts.empty()) {
-    why = fmt::format("no a record in the band [{}, {}] of {} (a: {})", num(band_lo), num(band_hi),
-                      rule.match_quantity, sizes);
+    why = fmt::format("no a record in the band [{}, {}] of {}{} (a: {})", num(band_lo),
+                      num(band_hi), rule.match_quantity,
+                      band_lo > band_hi ? " (empty: its lower end lies above its upper end)" : "",
+                      sizes);
     measured = "no a record in the band";
     return "inconclusive";
   }
