@@ -60,7 +60,7 @@ std::string get_choice(const Json& j, const std::string& key, const std::string&
 }
 
 ClaimSelector parse_selector(const Json& j, const std::string& where) {
-  harness::check_keys(j, where, {"variant", "point", "dataset"});
+  check_keys(j, where, {"variant", "point", "dataset"});
   ClaimSelector s;
   s.variant = get_string(j, "variant", where, false);
   s.dataset = get_string(j, "dataset", where, false);
@@ -75,9 +75,9 @@ ClaimRule parse_rule(const Json& j, const std::string& where) {
   if (j.is_object() && j.contains("kind") && (j["kind"] == "front" || j["kind"] == "matched")) {
     return parse_tradeoff_rule(j, where);
   }
-  harness::check_keys(j, where,
-                      {"what", "kind", "quantity", "per", "stat", "a", "b", "value", "factor", "op",
-                       "margin", "tolerance", "abs", "param", "range"});
+  check_keys(j, where,
+             {"what", "kind", "quantity", "per", "stat", "a", "b", "value", "factor", "op",
+              "margin", "tolerance", "abs", "param", "range"});
   ClaimRule r;
   r.what = get_string(j, "what", where, true);
   r.kind = get_choice(j, "kind", where, {"compare", "argmin"}, "compare");
@@ -350,9 +350,9 @@ Json Claim::experiment_config(bool use_quick) const {
 
 Claim parse_claim(const Json& j, const std::string& where, const std::string& default_id) {
   const std::string w0 = where + ": ";  // + "/key": "file: /key"
-  harness::check_keys(j, w0,
-                      {"scanbench_claim", "id", "claim", "source", "paper", "notes", "experiment",
-                       "quick", "rules"});
+  check_keys(j, w0,
+             {"scanbench_claim", "id", "claim", "source", "paper", "notes", "experiment", "quick",
+              "rules"});
   if (!j.contains("scanbench_claim") || !j["scanbench_claim"].is_number_integer() ||
       j["scanbench_claim"].get<int>() != kClaimVersion) {
     fail(w0 + "/scanbench_claim", fmt::format("expected claim format version {}", kClaimVersion));

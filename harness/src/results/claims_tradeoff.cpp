@@ -266,12 +266,11 @@ ClaimRule parse_tradeoff_rule(const Json& j, const std::string& where) {
   r.kind = j["kind"].get<std::string>();
   const bool is_front = r.kind == "front";
   if (is_front) {
-    harness::check_keys(j, where,
-                        {"what", "kind", "quantity", "per", "a", "b", "cost", "cost_b",
-                         "exclude_steps", "factor", "op"});
+    check_keys(j, where,
+               {"what", "kind", "quantity", "per", "a", "b", "cost", "cost_b", "exclude_steps",
+                "factor", "op"});
   } else {
-    harness::check_keys(j, where,
-                        {"what", "kind", "quantity", "per", "a", "b", "factor", "op", "match"});
+    check_keys(j, where, {"what", "kind", "quantity", "per", "a", "b", "factor", "op", "match"});
   }
   r.what = text(j, "what", where, true);
   r.quantity = text(j, "quantity", where, true);
@@ -313,7 +312,7 @@ ClaimRule parse_tradeoff_rule(const Json& j, const std::string& where) {
   }
   const Json& m = j["match"];
   const std::string w = where + "/match";
-  harness::check_keys(m, w, {"quantity", "ref", "lo", "lo_factor", "hi", "hi_factor"});
+  check_keys(m, w, {"quantity", "ref", "lo", "lo_factor", "hi", "hi_factor"});
   r.match_quantity = text(m, "quantity", w, true);
   r.match_ref = text(m, "ref", w, false, r.match_quantity);
   r.match_lo = selector(m, "lo", w);
