@@ -203,22 +203,22 @@ Json tradeoff_record(const std::string& variant, const std::string& key, double 
 }
 
 TEST(ClaimRules, ParetoFrontsOfTwoSweeps) {
-  // b (depth sweep): times 2, 4, 8 for errors 4, 2, 1; a dominated point (time 5, error 3) is
-  // not on b's front. a (sigma sweep): errors 3.5, 1.8 at times 1.5, 3.5: as accurate as b's 4
+  // b = y (depth sweep): times 2, 4, 8 for errors 4, 2, 1; a dominated point (time 5, error 3) is
+  // not on b's front. a = x (sigma sweep): errors 3.5, 1.8 at times 1.5, 3.5: as accurate as b's 4
   // and 2 for less time, and nothing reaches b's 1.
   std::vector<Json> recs;
   const double bt[] = {2, 4, 8, 5}, be[] = {4, 2, 1, 3};
   for (int i = 0; i < 4; ++i)
-    recs.push_back(tradeoff_record("b", "depth", i, be[i], {bt[i] + 10, bt[i] + 10.1}, 10, 0));
-  recs.push_back(tradeoff_record("a", "sigma", 1, 3.5, {11.5, 11.6}, 10, 0));
-  recs.push_back(tradeoff_record("a", "sigma", 2, 1.8, {13.5, 13.6}, 10, 0));
+    recs.push_back(tradeoff_record("y", "depth", i, be[i], {bt[i] + 10, bt[i] + 10.1}, 10, 0));
+  recs.push_back(tradeoff_record("x", "sigma", 1, 3.5, {11.5, 11.6}, 10, 0));
+  recs.push_back(tradeoff_record("x", "sigma", 2, 1.8, {13.5, 13.6}, 10, 0));
   const Json rule = {{"what", "a faster at equal error"},
                      {"kind", "front"},
                      {"quantity", "err"},
                      {"cost", "time.total"},
                      {"exclude_steps", {"clop"}},
-                     {"a", {{"variant", "a"}}},
-                     {"b", {{"variant", "b"}}}};
+                     {"a", {{"variant", "x"}}},
+                     {"b", {{"variant", "y"}}}};
   const ClaimRule r = parse_claim(claim_json({rule}), "c.json", "c").rules[0];
   RuleOutcome o = judge_rule(r, recs);
   EXPECT_EQ(o.verdict, "held") << o.reason;
@@ -245,23 +245,23 @@ TEST(ClaimRules, ParetoFrontsOfTwoSweeps) {
 
 TEST(ClaimRules, MatchedJudgesEveryPointInTheBudgetBandAndNoOther) {
   // Band: [bytes of depth 7, a third of depth 8's] = [100, 200].
-  std::vector<Json> recs = {tradeoff_record("p", "depth", 7, 2.0, {1}, 0, 100),
-                            tradeoff_record("p", "depth", 8, 1.0, {1}, 0, 600),
-                            tradeoff_record("g", "sigma", 1, 5.0, {1}, 0, 50),
-                            tradeoff_record("g", "sigma", 2, 1.5, {1}, 0, 150),
-                            tradeoff_record("g", "sigma", 3, 0.5, {1}, 0, 400)};
-  const Json d7 = {{"variant", "p"}, {"point", {{"depth", 7}}}};
+  std::vector<Json> recs = {tradeoff_record("y", "depth", 7, 2.0, {1}, 0, 100),
+                            tradeoff_record("y", "depth", 8, 1.0, {1}, 0, 600),
+                            tradeoff_record("x", "sigma", 1, 5.0, {1}, 0, 50),
+                            tradeoff_record("x", "sigma", 2, 1.5, {1}, 0, 150),
+                            tradeoff_record("x", "sigma", 3, 0.5, {1}, 0, 400)};
+  const Json d7 = {{"variant", "y"}, {"point", {{"depth", 7}}}};
   const Json rule = {{"what", "g below depth 7 in the band"},
                      {"kind", "matched"},
                      {"quantity", "err"},
-                     {"a", {{"variant", "g"}}},
+                     {"a", {{"variant", "x"}}},
                      {"op", "<"},
                      {"b", d7},
                      {"match",
                       {{"quantity", "sizes.covmesh_bytes"},
                        {"ref", "mesh_bytes"},
                        {"lo", d7},
-                       {"hi", {{"variant", "p"}, {"point", {{"depth", 8}}}}},
+                       {"hi", {{"variant", "y"}, {"point", {{"depth", 8}}}}},
                        {"hi_factor", 1.0 / 3.0}}}};
   const ClaimRule r = parse_claim(claim_json({rule}), "c.json", "c").rules[0];
   RuleOutcome o = judge_rule(r, recs);
