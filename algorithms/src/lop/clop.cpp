@@ -15,6 +15,7 @@
 #include <optional>
 #include <vector>
 
+#include "input_checks.h"
 #include "lop/projection_kernels.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/kdtree.h"
@@ -450,11 +451,7 @@ void clop_project(const GaussianMixture& m, Eigen::Matrix3Xf& q, const ClopParam
 
 AlgorithmOutput clop(const PointCloud& in, const ClopParams& p, RunContext& ctx) {
   constexpr const char* stage = "resample.clop";
-  in.validate(stage);
-  if (in.empty()) throw InputError(fmt::format("{}: the input has no points", stage));
-  const double diag = in.bbox().diagonal();
-  if (!(diag > 0.0))
-    throw InputError(fmt::format("{}: the input's bounding box has a zero diagonal", stage));
+  const double diag = detail::checked_diagonal(in, stage);
   const double h = p.h * diag;
   const Index m = kernels::particle_count(p.particles, in.size(), stage);
   AlgorithmOutput out;
@@ -466,7 +463,7 @@ AlgorithmOutput clop(const PointCloud& in, const ClopParams& p, RunContext& ctx)
   }
   {
     auto timer = ctx.phase("hem");
-    out.mixture = hem_mixture(in.positions, hem_params_of(p, h), h, diag, ctx);
+    out.mixture = hem_mixture(in.positions, hem_params_of(p), h, diag, ctx);
   }
   clop_project(*out.mixture, q, p, h, ctx);
   out.points.positions = std::move(q);

@@ -11,6 +11,7 @@
 #include <cmath>
 #include <vector>
 
+#include "input_checks.h"
 #include "lop/projection_kernels.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/kdtree.h"
@@ -319,13 +320,9 @@ Eigen::Matrix3Xf csw_normals(const GaussianMixture& m, const Eigen::Matrix3Xf& p
 PointCloud csw(const StageData& data, const CswParams& p, RunContext& ctx) {
   constexpr const char* stage = "normals.csw";
   const PointCloud& in = data.points;
-  in.validate(stage);
-  if (in.empty()) throw InputError(fmt::format("{}: the input has no points", stage));
+  const double diag = detail::checked_diagonal(in, stage);
   const GaussianMixture& mixture =
       data.require_mixture(fmt::format("{} (chain mixture.hem -> normals.csw)", stage));
-  const double diag = in.bbox().diagonal();
-  if (!(diag > 0.0))
-    throw InputError(fmt::format("{}: the input's bounding box has a zero diagonal", stage));
   const double h = p.h * diag;
   Eigen::Matrix3Xf q;
   Eigen::Matrix3Xf initial;

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdint>
 
+#include "input_checks.h"
 #include "mixtures/hem_internal.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/rng.h"
@@ -30,6 +31,14 @@ void set_conditioned(Component& c, const Eigen::Matrix3d& cov, double abs_floor)
 }
 
 }  // namespace hem_detail
+
+namespace {
+
+using Eigen::Index;
+using hem_detail::Component;
+using hem_detail::Components;
+
+}  // namespace
 
 GaussianMixture hem_mixture(const Eigen::Matrix3Xf& points, const HemParams& p, double h_abs,
                             double diagonal, RunContext& ctx, HemStats* stats) {
@@ -79,8 +88,7 @@ GaussianMixture hem_mixture(const Eigen::Matrix3Xf& points, const HemParams& p, 
 }
 
 AlgorithmOutput hem(const PointCloud& in, const HemParams& p, RunContext& ctx) {
-  in.validate("mixture.hem");
-  if (in.empty()) throw InputError("mixture.hem: empty point cloud");
+  detail::check_points(in, "mixture.hem");
   const double diag = in.bbox().diagonal();
   const double h_abs = p.h * (diag > 0.0 ? diag : 1.0);
   AlgorithmOutput out;
