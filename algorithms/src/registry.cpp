@@ -38,7 +38,7 @@ constexpr StageIo kPointsToMesh{DataKind::Points, DataKind::Mesh, DataKind::Mesh
 }  // namespace
 
 const AlgorithmRegistry& registry() {
-  static const AlgorithmRegistry r = [] {
+  static AlgorithmRegistry r = [] {  // not const: plugins add entries (add_plugin_entry)
     AlgorithmRegistry reg("algorithm");
     // One explicit list; every entry has a create-by-name test (tests/algorithms).
     reg.add(make_entry<HemParams>(
