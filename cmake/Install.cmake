@@ -58,6 +58,10 @@ foreach(t core algorithms metrics)
   # The public headers use C++20 (concepts in core/registry.h): consumers compile as C++20 too.
   target_compile_features(scanbench_${t} PUBLIC cxx_std_20)
 endforeach()
+# A plugin compiles for the instruction set of the libraries (cmake/Simd.cmake): Eigen's alignment
+# of the shared types (EIGEN_MAX_ALIGN_BYTES, 64 with AVX-512) follows it, and memory one side
+# allocates the other frees. The loader refuses a plugin whose alignment differs.
+target_compile_options(scanbench_core INTERFACE "$<INSTALL_INTERFACE:${SCANBENCH_SIMD_FLAGS}>")
 set_target_properties(scanbench PROPERTIES INSTALL_RPATH "$ORIGIN/../${CMAKE_INSTALL_LIBDIR}")
 # The binary's own libraries (shared: FindOpenVDB sets BUILD_SHARED_LIBS), installed beside the
 # public ones but neither exported nor with headers.

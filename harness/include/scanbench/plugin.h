@@ -26,7 +26,8 @@
 // a name that is already registered, a key declared with another direction than a built-in
 // metric's, or an exception thrown by the registration function refuses the whole plugin with a
 // one-line error naming the file. So does a library built against another ABI version
-// (scanbench/core/abi.h) or one without the two symbols below.
+// (scanbench/core/abi.h) or for another Eigen alignment (instruction set), or one without the
+// symbols SCANBENCH_PLUGIN defines.
 //
 // Jobs run in child processes (the runner's isolation): a plugin that crashes or hangs inside a
 // job fails that job only, with status "crash" or "timeout" in its record. Every record names each
@@ -98,16 +99,22 @@ class PluginRegistrar {
 /// The symbols a plugin exports (SCANBENCH_PLUGIN defines both).
 inline constexpr const char* kPluginAbiSymbol = "scanbench_plugin_abi_version";
 inline constexpr const char* kPluginRegisterSymbol = "scanbench_plugin_register";
+inline constexpr const char* kPluginAlignSymbol = "scanbench_plugin_eigen_max_align_bytes";
 using PluginAbiFn = int (*)();
 using PluginRegisterFn = void (*)(PluginRegistrar&);
 
 }  // namespace scanbench
 
-/// Defines a plugin's two exported functions: the ABI version it was compiled against and its
+/// Defines a plugin's exported functions: the ABI version it was compiled against, its Eigen
+/// alignment (EIGEN_MAX_ALIGN_BYTES, set by the instruction set, -march, which scanbench::core's
+/// usage requirements give a plugin: memory allocated on one side is freed on the other) and its
 /// registration function, whose body follows the macro: SCANBENCH_PLUGIN(r) { r.algorithm...; }
-#define SCANBENCH_PLUGIN(registrar)                                                      \
-  extern "C" __attribute__((visibility("default"))) int scanbench_plugin_abi_version() { \
-    return SCANBENCH_ABI_VERSION;                                                        \
-  }                                                                                      \
-  extern "C" __attribute__((visibility("default"))) void scanbench_plugin_register(      \
+#define SCANBENCH_PLUGIN(registrar)                                                                \
+  extern "C" __attribute__((visibility("default"))) int scanbench_plugin_abi_version() {           \
+    return SCANBENCH_ABI_VERSION;                                                                  \
+  }                                                                                                \
+  extern "C" __attribute__((visibility("default"))) int scanbench_plugin_eigen_max_align_bytes() { \
+    return EIGEN_MAX_ALIGN_BYTES;                                                                  \
+  }                                                                                                \
+  extern "C" __attribute__((visibility("default"))) void scanbench_plugin_register(                \
       ::scanbench::PluginRegistrar& registrar)

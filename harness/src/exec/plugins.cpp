@@ -159,6 +159,13 @@ const LoadedPlugin& load_plugin(const fs::path& file, const std::string& origin)
         "against this scanbench's installed package)",
         path.string(), v, SCANBENCH_ABI_VERSION));
   }
+  const auto align = reinterpret_cast<PluginAbiFn>(symbol(handle.get(), path, kPluginAlignSymbol));
+  if (const int a = align(); a != EIGEN_MAX_ALIGN_BYTES) {
+    throw Error(fmt::format(
+        "plugin {}: compiled with Eigen alignment {} bytes, this scanbench with {} (compile it "
+        "for the same instruction set; scanbench::core's usage requirements give the flags)",
+        path.string(), a, EIGEN_MAX_ALIGN_BYTES));
+  }
   // From here the plugin's code may be referenced (its entries' functions, its statics): the
   // library stays loaded for the life of the process, also when it is refused.
   void* h = handle.release();
