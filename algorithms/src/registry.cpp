@@ -207,7 +207,7 @@ void register_external(AlgorithmRegistry& reg) {
 }  // namespace
 
 const AlgorithmRegistry& registry() {
-  static const AlgorithmRegistry r = [] {
+  static AlgorithmRegistry r = [] {  // not const: plugins add entries (add_plugin_entry)
     AlgorithmRegistry reg("algorithm");
     // One explicit list, family by family; every entry has a create-by-name test
     // (tests/algorithms).

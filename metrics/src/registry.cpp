@@ -146,7 +146,7 @@ std::optional<Better> key_direction(std::string_view key) {
 }
 
 const MetricRegistry& registry() {
-  static const MetricRegistry r = [] {
+  static MetricRegistry r = [] {  // not const: plugins add entries (add_plugin_entry)
     MetricRegistry reg("metric");
     const Needs closest{true, false};
     // One explicit list; every entry has a create-by-name test (tests/metrics).

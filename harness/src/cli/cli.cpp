@@ -8,6 +8,7 @@
 #include "scanbench/core/errors.h"
 #include "scanbench/core/simd.h"
 #include "scanbench/core/version.h"
+#include "scanbench/harness/plugins.h"
 
 namespace scanbench::harness {
 
@@ -25,6 +26,13 @@ int run_cli(int argc, char** argv) {
   cli.app.set_version_flag("--version", fmt::format("scanbench {} (commit {})\nsimd: {}",
                                                     version_string(), git_commit(), isa));
   cli.app.require_subcommand(1);
+  // Plugins (docs/plugins.md), loaded before any command runs: SCANBENCH_PLUGIN_PATH, then these.
+  std::vector<std::string> plugin_files;
+  cli.app
+      .add_option("--plugin", plugin_files,
+                  "Load a plugin (a shared library of algorithms and metrics, "
+                  "scanbench/plugin.h) before the command; repeatable")
+      ->type_name("FILE");
 
   // One explicit list of subcommands.
   add_list_command(cli);
@@ -50,6 +58,14 @@ int run_cli(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     const int code = cli.app.exit(e);
     return code == 0 ? 0 : 2;
+  }
+  try {
+    load_plugins_from_env();
+    for (const auto& f : plugin_files)
+      load_plugin(f, "--plugin");
+  } catch (const Error& e) {
+    std::fprintf(stderr, "scanbench: %s\n", e.what());
+    return 2;
   }
   try {
     return cli.action ? cli.action() : 0;

@@ -6,6 +6,7 @@
 #include "cli/commands.h"
 #include "scanbench/algorithms/registry.h"
 #include "scanbench/core/datasets.h"
+#include "scanbench/harness/plugins.h"
 #include "scanbench/metrics/registry.h"
 #include "scanbench/scanner/registry.h"
 
@@ -13,11 +14,14 @@ namespace scanbench::harness {
 
 namespace {
 
+// `kind` "algorithm" or "metric" marks each entry's source (built in or a plugin).
 template <class R>
-Json entries_json(const R& reg) {
+Json entries_json(const R& reg, std::string_view kind = "") {
   Json a = Json::array();
-  for (const auto& e : reg.entries())
+  for (const auto& e : reg.entries()) {
     a.push_back(e.to_json());
+    if (!kind.empty()) mark_source(a.back(), kind);
+  }
   return a;
 }
 
@@ -40,6 +44,7 @@ void print_text(const std::string& title, const Json& entries) {
     if (e.contains("available") && !e["available"].get<bool>()) {
       status = "  [file missing: run scripts/setup.sh]";
     }
+    if (e.contains("plugin")) status += "  [plugin " + e["plugin"]["path"].get<std::string>() + "]";
     fmt::print("  {}{}\n      {}\n", e["name"].get<std::string>(), status,
                e["doc"].get<std::string>());
     for (const auto& p : e["params"]) {
@@ -87,8 +92,8 @@ void add_list_command(Cli& cli) {
     cli.action = [opts] {
       Json all = Json::object();
       auto want = [&](const char* k) { return opts->kind.empty() || opts->kind == k; };
-      if (want("algorithms")) all["algorithms"] = entries_json(algorithms::registry());
-      if (want("metrics")) all["metrics"] = entries_json(metrics::registry());
+      if (want("algorithms")) all["algorithms"] = entries_json(algorithms::registry(), "algorithm");
+      if (want("metrics")) all["metrics"] = entries_json(metrics::registry(), "metric");
       if (want("datasets")) all["datasets"] = datasets_json();
       if (want("scanners")) all["scanners"] = entries_json(scanner::presets());
       if (opts->json) {

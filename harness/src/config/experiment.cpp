@@ -9,6 +9,7 @@
 
 #include "scanbench/core/datasets.h"
 #include "scanbench/core/rng.h"
+#include "scanbench/harness/plugins.h"
 #include "scanbench/harness/protocol.h"
 #include "scanbench/harness/test_algorithms.h"
 #include "scanbench/metrics/registry.h"
@@ -415,6 +416,7 @@ Experiment load_experiment(const fs::path& file) {
     throw ParamError(
         fmt::format("{}: {}: duplicate key (JSON keeps only one of them)", file.string(), dup));
   }
+  load_config_plugins(j, file);  // before parsing: the variants may name plugin algorithms
   Experiment e = parse_experiment(j, file.string());  // errors name the path as given
   e.file = file;
   // Relative mesh paths are relative to the config's folder.
@@ -431,7 +433,7 @@ Experiment parse_experiment(const Json& j, const std::string& where) {
   check_keys_at(j, w,
              {"scanbench_experiment", "name", "description", "seed", "seeds", "repeats", "threads",
               "timeout_s", "memory_limit_mb", "save_outputs", "datasets", "scanners", "variants",
-              "sweep", "metrics", "metric_params", "compare", "report", "protocol"});
+              "sweep", "metrics", "metric_params", "compare", "report", "protocol", "plugins"});
   Experiment e;
   e.raw = j;
   if (!j.contains("scanbench_experiment")) {

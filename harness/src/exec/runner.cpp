@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "scanbench/core/errors.h"
+#include "scanbench/harness/plugins.h"
 #include "scanbench/harness/records.h"
 
 namespace scanbench::harness {
@@ -360,6 +361,7 @@ void run_jobs(const std::vector<const Job*>& jobs, const RunOptions& opts, RunSu
       c.result = out / "tmp" / (c.job->id + ".result.json");
       c.log = out / "logs" / (c.job->id + ".log");
       Json spec = {{"job", c.job->to_json()}, {"out", fs::absolute(out).string()}};
+      if (!loaded_plugins().empty()) spec["plugins"] = plugins_json();  // the child loads them
       write_file_atomic(c.spec, spec.dump());
       fs::remove(c.result);
       if (hooks.started) hooks.started(*c.job);
@@ -448,6 +450,7 @@ int run_job_file(const fs::path& spec_path, const fs::path& result_path) {
   Json result = Json::object();
   try {
     const Json spec = read_json_file(spec_path);
+    if (spec.contains("plugins")) load_spec_plugins(spec["plugins"]);
     const Job job = Job::from_json(spec.at("job"));
     result = execute_job(job, spec.at("out").get<std::string>());
     result["status"] = "ok";

@@ -19,6 +19,7 @@
 #include <sstream>
 #include <thread>
 
+#include "scanbench/harness/plugins.h"
 #include "scanbench/harness/records.h"
 #include "scanbench/harness/report.h"
 #include "scanbench/harness/table.h"
@@ -413,14 +414,18 @@ SlurmSubmission submit_slurm(const Experiment& e, const RunOptions& opts, const 
   const fs::path sub = dir / "slurm" / s.id;
   fs::create_directories(sub / "started");
   const fs::path exe = opts.exe.empty() ? fs::read_symlink("/proc/self/exe") : opts.exe;
+  // The tasks load the plugins this process loaded (and a job's child checks their hashes).
+  std::string with_plugins = shell_quote(exe.string());
+  for (const auto& p : loaded_plugins())
+    with_plugins += " --plugin " + shell_quote(p.path.string());
   write_file_atomic(sub / "task.sh",
                     fmt::format("#!/bin/sh\n# scanbench: array task $SLURM_ARRAY_TASK_ID of "
                                 "submission {} (see submission.json)\nexec {} slurm-task {} {}\n",
-                                s.id, shell_quote(exe.string()), shell_quote(dir.string()), s.id));
+                                s.id, with_plugins, shell_quote(dir.string()), s.id));
   write_file_atomic(sub / "merge.sh",
                     fmt::format("#!/bin/sh\n# scanbench: merge of submission {}\nexec {} merge "
                                 "{} --submission {}\n",
-                                s.id, shell_quote(exe.string()), shell_quote(dir.string()), s.id));
+                                s.id, with_plugins, shell_quote(dir.string()), s.id));
 
   Json record = Json::object();
   record["id"] = s.id;

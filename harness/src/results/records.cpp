@@ -27,6 +27,7 @@
 #include "scanbench/core/errors.h"
 #include "scanbench/core/simd.h"
 #include "scanbench/core/version.h"
+#include "scanbench/harness/plugins.h"
 
 namespace scanbench::harness {
 
@@ -67,6 +68,8 @@ Json run_context_json() {
       {"open3d", algorithms::open3d_version()},
       {"pcl_tools", algorithms::pcl_tools_version()},
   };
+  // The plugins loaded (path and SHA-256 of each file): which build of a user's method ran.
+  if (!loaded_plugins().empty()) c["plugins"] = plugins_json();
   char host[256] = {0};
   if (gethostname(host, sizeof(host) - 1) != 0) host[0] = 0;
   c["host"] = host;

@@ -52,6 +52,9 @@ using AlgorithmOutput = StageData;
 
 /// Every registered algorithm, in one explicit list (algorithms/src/registry.cpp).
 const AlgorithmRegistry& registry();
+/// Adds a plugin's entry to registry() (the harness's plugin loader, scanbench/plugin.h), before
+/// any step runs; not thread-safe. Throws Error on a duplicate name.
+void add_plugin_entry(AlgorithmRegistry::Entry e);
 
 /// Builds an entry from a free function and its declared parameter struct P. The function takes
 /// `const PointCloud&` (the input's points) or `const StageData&` (everything), and returns a

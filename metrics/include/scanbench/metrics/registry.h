@@ -113,6 +113,9 @@ using MetricRegistry = Registry<Metric>;
 
 /// Every registered metric, in one explicit list (metrics/src/registry.cpp).
 const MetricRegistry& registry();
+/// Adds a plugin's entry to registry() (the harness's plugin loader, scanbench/plugin.h), before
+/// any metric runs; not thread-safe. Throws Error on a duplicate name.
+void add_plugin_entry(MetricRegistry::Entry e);
 
 /// Keys evaluate() adds to every record besides the metrics' own (output_points, gt_diagonal,
 /// gt_closed, output_mesh_samples; gt_points for a point-cloud ground truth), all Better::None.
