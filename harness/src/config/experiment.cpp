@@ -43,7 +43,7 @@ void expect_object(const Json& j, const Where& w) {
   if (!j.is_object()) fail(w, "expected an object, got " + describe(j));
 }
 
-void check_keys(const Json& j, const Where& w, std::initializer_list<const char*> allowed) {
+void check_keys_at(const Json& j, const Where& w, std::initializer_list<const char*> allowed) {
   expect_object(j, w);
   for (const auto& [k, v] : j.items()) {
     bool ok = false;
@@ -103,7 +103,7 @@ std::vector<Json> expand_values(const Json& spec, const Where& w) {
     fail(w, "expected a list of values or a range {\"from\", \"to\", \"step\"|\"count\"}, got " +
                 describe(spec));
   }
-  check_keys(spec, w, {"from", "to", "step", "count"});
+  check_keys_at(spec, w, {"from", "to", "step", "count"});
   if (!spec.contains("from") || !spec.contains("to")) fail(w, "a range needs \"from\" and \"to\"");
   if (spec.contains("step") == spec.contains("count")) {
     fail(w, "a range needs exactly one of \"step\" and \"count\"");
@@ -165,7 +165,7 @@ ScannerSpec parse_scanner(const Json& j, const Where& w) {
   if (j.is_string()) {
     s.preset = get_string(j, w);
   } else {
-    check_keys(j, w, {"preset", "label", "params"});
+    check_keys_at(j, w, {"preset", "label", "params"});
     if (!j.contains("preset")) fail(w, "missing key \"preset\"");
     s.preset = get_string(j["preset"], w / "preset");
     if (j.contains("label")) s.label = get_string(j["label"], w / "label");
@@ -210,7 +210,7 @@ DatasetSpec parse_dataset(const Json& j, const Where& w) {
   if (j.is_string()) {
     d.name = get_string(j, w);
   } else {
-    check_keys(j, w, {"name", "label", "params", "optional", "scanners"});
+    check_keys_at(j, w, {"name", "label", "params", "optional", "scanners"});
     if (!j.contains("name")) fail(w, "missing key \"name\" (a dataset name or a mesh path)");
     d.name = get_string(j["name"], w / "name");
     if (j.contains("label")) d.label = get_string(j["label"], w / "label");
@@ -249,7 +249,7 @@ StepSpec parse_step(const Json& j, const Where& w) {
   if (j.is_string()) {
     s.algorithm = get_string(j, w);
   } else {
-    check_keys(j, w, {"algorithm", "label", "params"});
+    check_keys_at(j, w, {"algorithm", "label", "params"});
     if (!j.contains("algorithm")) fail(w, "missing key \"algorithm\"");
     s.algorithm = get_string(j["algorithm"], w / "algorithm");
     if (j.contains("label")) s.label = get_string(j["label"], w / "label");
@@ -267,7 +267,7 @@ StepSpec parse_step(const Json& j, const Where& w) {
 }
 
 VariantSpec parse_variant(const Json& j, const Where& w) {
-  check_keys(j, w,
+  check_keys_at(j, w,
              {"label", "algorithm", "params", "chain", "sweep", "timeout_s", "memory_limit_mb",
               "datasets"});
   VariantSpec v;
@@ -428,7 +428,7 @@ Experiment load_experiment(const fs::path& file) {
 
 Experiment parse_experiment(const Json& j, const std::string& where) {
   const Where w{where, ""};
-  check_keys(j, w,
+  check_keys_at(j, w,
              {"scanbench_experiment", "name", "description", "seed", "seeds", "repeats", "threads",
               "timeout_s", "memory_limit_mb", "save_outputs", "datasets", "scanners", "variants",
               "sweep", "metrics", "metric_params", "compare", "report", "protocol"});
