@@ -69,17 +69,7 @@ std::vector<std::pair<DataKind, std::filesystem::path>> write_stage_data(
 }
 
 std::string_view kind_suffix(DataKind kind) {
-  switch (kind) {
-    case DataKind::Points:
-      return "points";
-    case DataKind::Mixture:
-      return "mixture";
-    case DataKind::Mesh:
-      return "mesh";
-    case DataKind::CovarianceMesh:
-      return "covmesh";
-  }
-  return "data";
+  return kind == DataKind::CovarianceMesh ? std::string_view("covmesh") : kind_name(kind);
 }
 
 }  // namespace scanbench::harness

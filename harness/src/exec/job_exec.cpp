@@ -307,9 +307,7 @@ void outputs_pass(const Job& job, const metrics::GroundTruth& gt, const StageDat
   // The record's names: output (the points; none when the chain started from the ground truth
   // and holds no points), mixture, mesh, covariance_mesh.
   for (const auto& [kind, path] : write_stage_data(out, out.kinds(), file_of)) {
-    const std::string key = kind == DataKind::Points           ? "output"
-                            : kind == DataKind::CovarianceMesh ? "covariance_mesh"
-                                                               : std::string(kind_suffix(kind));
+    const std::string key = kind == DataKind::Points ? "output" : std::string(kind_name(kind));
     artifacts[key] = "outputs/" + path.filename().string();
   }
   const std::string heatmap = write_job_heatmap(job, gt, out, scored_mesh, mesh_samples, base, ctx);

@@ -42,7 +42,7 @@ ChainRun run_chain(const Json& chain, StageData input, RunContext& ctx, bool mea
 std::vector<std::pair<DataKind, std::filesystem::path>> write_stage_data(
     const StageData& data, DataKinds kinds,
     const std::function<std::filesystem::path(DataKind)>& path_of);
-/// The word a kind's file carries: points, mixture, mesh, covmesh (out.mixture.ply).
+/// The word a kind's file carries: its kind_name, covmesh for a covariance mesh (out.covmesh.ply).
 std::string_view kind_suffix(DataKind kind);
 
 }  // namespace scanbench::harness
