@@ -236,12 +236,12 @@ void output_sizes(const StageData& out, DataKind primary, const TriangleMesh* sc
 }
 
 /// Pass 3, the metrics (metrics::evaluate on the primary kind): res.metrics (the flat numbers),
-/// histograms, metric_params, skipped, timing.metrics_s and metric_phases. Returns what evaluate
-/// returned less the moved keys.
+/// histograms, metric_params, skipped, timing.metrics_s (since `t_metrics`, when the pass began
+/// with the ground truth's oracles) and metric_phases. Returns what evaluate returned less the
+/// moved keys.
 Json metrics_pass(const Job& job, const metrics::GroundTruth& gt, const StageData& out,
-                  DataKind primary, const PointCloud* scan, JobParts& r, RunContext& ctx) {
-  ctx.clear_phases();
-  const double t_metrics = wall_seconds();
+                  DataKind primary, const PointCloud* scan, double t_metrics, JobParts& r,
+                  RunContext& ctx) {
   Json m = metrics::evaluate(gt, out, primary, scan, job.metrics, job.metric_params, ctx);
   r.timing["metrics_s"] = wall_seconds() - t_metrics;
   Json metric_phases = Json::object();
@@ -351,9 +351,11 @@ Json execute_job(const Job& job, const fs::path& out) {
   r.res["output_kind"] = kind_name(primary);
   output_sizes(final_out, primary, scored, r.sizes);
 
+  ctx.clear_phases();
+  const double t_metrics = wall_seconds();
   const metrics::GroundTruth gt(mesh, ctx.stream_seed("ground_truth"));
   const PointCloud* scan = job.scanner_preset == kGroundTruthInput ? nullptr : &in.cloud;
-  const Json m = metrics_pass(job, gt, final_out, primary, scan, r, ctx);
+  const Json m = metrics_pass(job, gt, final_out, primary, scan, t_metrics, r, ctx);
   if (job.save_outputs) {
     outputs_pass(job, gt, final_out, scored, m.value("output_mesh_samples", Eigen::Index{100000}),
                  in.mesh_hash, out, r.artifacts, ctx);
