@@ -159,6 +159,34 @@ void check_camera(const Camera& c, const std::string& name, const std::string& r
     check_finite(p, name, record, "a camera parameter");
 }
 
+/// The records of a binary model file: the count (each record takes at least `record_bytes`),
+/// each record read by `read(cursor, index, record)`, nothing left after the last.
+template <class T, class F>
+std::vector<T> bin_records(std::string_view data, const std::string& name,
+                           std::uint64_t record_bytes, F&& read) {
+  Cursor c(data, name);
+  const std::uint64_t n = c.count("header", record_bytes);
+  std::vector<T> out(n);
+  for (std::uint64_t i = 0; i < n; ++i)
+    read(c, i, out[i]);
+  c.expect_end();
+  return out;
+}
+
+/// The records of a text model file, one a line (comments and blank lines skipped), each parsed
+/// by `parse(tokens, line number)`.
+template <class T, class F>
+std::vector<T> text_records(std::string_view text, F&& parse) {
+  io_detail::Lines lines(text);
+  std::string_view line;
+  std::vector<T> out;
+  while (lines.next(line)) {
+    io_detail::Tokens t(line);
+    out.push_back(parse(t, lines.number()));
+  }
+  return out;
+}
+
 std::string slurp_model_file(const fs::path& dir, const std::string& file) {
   const fs::path p = dir / file;
   if (!fs::exists(p))
@@ -181,12 +209,8 @@ int camera_model_params(const std::string& model) {
 namespace detail {
 
 std::vector<Camera> parse_cameras_bin(std::string_view data, const std::string& name) {
-  Cursor c(data, name);
-  const std::uint64_t n = c.count("header", 24);
-  std::vector<Camera> cams(n);
-  for (std::uint64_t i = 0; i < n; ++i) {
+  return bin_records<Camera>(data, name, 24, [&](Cursor& c, std::uint64_t i, Camera& cam) {
     const std::string rec = fmt::format("camera {}", i);
-    Camera& cam = cams[i];
     cam.id = c.get<std::uint32_t>(rec);
     const auto model_id = c.get<std::int32_t>(rec);
     if (model_id < 0 || model_id >= static_cast<int>(kModels.size()))
@@ -198,18 +222,11 @@ std::vector<Camera> parse_cameras_bin(std::string_view data, const std::string& 
     for (double& p : cam.params)
       p = c.get<double>(rec);
     check_camera(cam, name, rec);
-  }
-  c.expect_end();
-  return cams;
+  });
 }
 
 std::vector<Camera> parse_cameras_txt(std::string_view text, const std::string& name) {
-  io_detail::Lines lines(text);
-  std::string_view line;
-  std::vector<Camera> cams;
-  while (lines.next(line)) {
-    io_detail::Tokens t(line);
-    const std::size_t ln = lines.number();
+  return text_records<Camera>(text, [&](io_detail::Tokens& t, std::size_t ln) {
     Camera cam;
     cam.id = token<std::uint32_t>(t, name, ln, "CAMERA_ID");
     std::string_view tok;
@@ -225,39 +242,33 @@ std::vector<Camera> parse_cameras_txt(std::string_view text, const std::string& 
       cam.params.push_back(p);
     }
     check_camera(cam, name, fmt::format("line {}", ln));
-    cams.push_back(std::move(cam));
-  }
-  return cams;
+    return cam;
+  });
 }
 
 std::vector<Image> parse_images_bin(std::string_view data, const std::string& name) {
-  Cursor c(data, name);
-  const std::uint64_t n = c.count("header", 4 + 7 * 8 + 4 + 1 + 8);
-  std::vector<Image> images(n);
-  for (std::uint64_t i = 0; i < n; ++i) {
-    const std::string rec = fmt::format("image {}", i);
-    Image& im = images[i];
-    im.id = c.get<std::uint32_t>(rec);
-    std::array<double, 7> pose{};
-    for (double& v : pose)
-      v = c.get<double>(rec);
-    im.rotation = checked_rotation(pose[0], pose[1], pose[2], pose[3], name, rec);
-    im.translation = Eigen::Vector3d(pose[4], pose[5], pose[6]);
-    for (double v : {pose[4], pose[5], pose[6]})
-      check_finite(v, name, rec, "tvec");
-    im.camera_id = c.get<std::uint32_t>(rec);
-    im.name = c.cstring(rec);
-    const std::uint64_t m = c.count(rec, 24);
-    im.xy.resize(m);
-    im.point3d_ids.resize(m);
-    for (std::uint64_t k = 0; k < m; ++k) {
-      im.xy[k].x() = c.get<double>(rec);
-      im.xy[k].y() = c.get<double>(rec);
-      im.point3d_ids[k] = c.get<std::int64_t>(rec);
-    }
-  }
-  c.expect_end();
-  return images;
+  return bin_records<Image>(
+      data, name, 4 + 7 * 8 + 4 + 1 + 8, [&](Cursor& c, std::uint64_t i, Image& im) {
+        const std::string rec = fmt::format("image {}", i);
+        im.id = c.get<std::uint32_t>(rec);
+        std::array<double, 7> pose{};
+        for (double& v : pose)
+          v = c.get<double>(rec);
+        im.rotation = checked_rotation(pose[0], pose[1], pose[2], pose[3], name, rec);
+        im.translation = Eigen::Vector3d(pose[4], pose[5], pose[6]);
+        for (double v : {pose[4], pose[5], pose[6]})
+          check_finite(v, name, rec, "tvec");
+        im.camera_id = c.get<std::uint32_t>(rec);
+        im.name = c.cstring(rec);
+        const std::uint64_t m = c.count(rec, 24);
+        im.xy.resize(m);
+        im.point3d_ids.resize(m);
+        for (std::uint64_t k = 0; k < m; ++k) {
+          im.xy[k].x() = c.get<double>(rec);
+          im.xy[k].y() = c.get<double>(rec);
+          im.point3d_ids[k] = c.get<std::int64_t>(rec);
+        }
+      });
 }
 
 std::vector<Image> parse_images_txt(std::string_view text, const std::string& name) {
@@ -303,39 +314,29 @@ std::vector<Image> parse_images_txt(std::string_view text, const std::string& na
 }
 
 std::vector<Point> parse_points_bin(std::string_view data, const std::string& name) {
-  Cursor c(data, name);
-  const std::uint64_t n = c.count("header", 8 + 24 + 3 + 8 + 8);
-  std::vector<Point> points(n);
-  for (std::uint64_t i = 0; i < n; ++i) {
-    Point& p = points[i];
-    p.id = c.get<std::uint64_t>(fmt::format("point {}", i));
-    const std::string rec = fmt::format("point {} (id {})", i, p.id);
-    for (int k = 0; k < 3; ++k) {
-      p.xyz[k] = c.get<double>(rec);
-      check_finite(p.xyz[k], name, rec, "xyz");
-    }
-    for (std::uint8_t& v : p.rgb)
-      v = c.get<std::uint8_t>(rec);
-    p.error = c.get<double>(rec);
-    check_finite(p.error, name, rec, "error");
-    const std::uint64_t m = c.count(rec, 8);
-    p.track.resize(m);
-    for (auto& [image, idx] : p.track) {
-      image = c.get<std::uint32_t>(rec);
-      idx = c.get<std::uint32_t>(rec);
-    }
-  }
-  c.expect_end();
-  return points;
+  return bin_records<Point>(data, name, 8 + 24 + 3 + 8 + 8,
+                            [&](Cursor& c, std::uint64_t i, Point& p) {
+                              p.id = c.get<std::uint64_t>(fmt::format("point {}", i));
+                              const std::string rec = fmt::format("point {} (id {})", i, p.id);
+                              for (int k = 0; k < 3; ++k) {
+                                p.xyz[k] = c.get<double>(rec);
+                                check_finite(p.xyz[k], name, rec, "xyz");
+                              }
+                              for (std::uint8_t& v : p.rgb)
+                                v = c.get<std::uint8_t>(rec);
+                              p.error = c.get<double>(rec);
+                              check_finite(p.error, name, rec, "error");
+                              const std::uint64_t m = c.count(rec, 8);
+                              p.track.resize(m);
+                              for (auto& [image, idx] : p.track) {
+                                image = c.get<std::uint32_t>(rec);
+                                idx = c.get<std::uint32_t>(rec);
+                              }
+                            });
 }
 
 std::vector<Point> parse_points_txt(std::string_view text, const std::string& name) {
-  io_detail::Lines lines(text);
-  std::string_view line;
-  std::vector<Point> points;
-  while (lines.next(line)) {
-    io_detail::Tokens t(line);
-    const std::size_t ln = lines.number();
+  return text_records<Point>(text, [&](io_detail::Tokens& t, std::size_t ln) {
     Point p;
     p.id = token<std::uint64_t>(t, name, ln, "POINT3D_ID");
     for (int k = 0; k < 3; ++k)
@@ -354,9 +355,8 @@ std::vector<Point> parse_points_txt(std::string_view text, const std::string& na
             fmt::format("{}: line {}: TRACK image '{}' is not an id", name, ln, tok.substr(0, 40)));
       p.track.emplace_back(image, token<std::uint32_t>(t, name, ln, "TRACK point2D index"));
     }
-    points.push_back(std::move(p));
-  }
-  return points;
+    return p;
+  });
 }
 
 std::vector<std::vector<std::uint32_t>> parse_vis(std::string_view data, const std::string& name) {

@@ -135,4 +135,23 @@ Json evaluate_covariance_mesh(const GroundTruth& gt, const CovarianceMesh& outpu
   return run_mesh(gt, mean, &output, scan, metric_names, metric_params, ctx, samples);
 }
 
+Json evaluate(const GroundTruth& gt, const StageData& output, DataKind primary,
+              const PointCloud* scan, const std::vector<std::string>& metric_names,
+              const Json& metric_params, RunContext& ctx, Eigen::Index samples) {
+  switch (primary) {
+    case DataKind::CovarianceMesh:
+      return evaluate_covariance_mesh(gt, output.require_covariance_mesh("evaluate"), scan,
+                                      metric_names, metric_params, ctx, samples);
+    case DataKind::Mesh:
+      return evaluate_mesh(gt, output.require_mesh("evaluate"), scan, metric_names, metric_params,
+                           ctx, samples);
+    case DataKind::Mixture:
+      return evaluate(gt, output.require_mixture("evaluate").component_points(), scan, metric_names,
+                      metric_params, ctx);
+    case DataKind::Points:
+      break;
+  }
+  return evaluate(gt, output.points, scan, metric_names, metric_params, ctx);
+}
+
 }  // namespace scanbench::metrics

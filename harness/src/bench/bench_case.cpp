@@ -10,7 +10,7 @@
 #include "scanbench/core/paths.h"
 #include "scanbench/core/run_context.h"
 #include "scanbench/harness/bench.h"
-#include "scanbench/harness/claims.h"
+#include "scanbench/harness/claim_file.h"
 #include "scanbench/harness/experiment.h"
 #include "scanbench/harness/protocol.h"
 #include "scanbench/harness/records.h"
@@ -118,6 +118,53 @@ Json single_step_chain(const std::string& algorithm, const Json& given) {
   return Json::array({{{"algorithm", algorithm},
                        {"label", algorithm},
                        {"params", entry.params.validate(declared, "bench " + algorithm)}}});
+}
+
+TimedCase timed_case(ChainCase& c, std::uint64_t seed) {
+  return {c.name, [&c, seed] {
+            RunContext ctx(seed, c.threads);
+            StageData in;
+            in.points = *c.input;
+            c.last = run_chain(c.chain, std::move(in), ctx, false);
+            return Sample{c.last.wall_s, c.last.cpu_s};
+          }};
+}
+
+void print_round(int round) {
+  fmt::print("  round {}{}\n", round < 0 ? "warm-up " : "", round < 0 ? -round : round + 1);
+  std::fflush(stdout);
+}
+
+Json paper_case_json(const std::string& benchmark, const PaperCase& pc, const BenchOptions& o) {
+  return {{"benchmark", benchmark},        {"claim", pc.claim},
+          {"context", run_context_json()}, {"dataset", pc.dataset},
+          {"scan_points", pc.scan.size()}, {"scanner_params", pc.scanner_params},
+          {"threads", o.threads},          {"seed", o.seed}};
+}
+
+void BenchTable::print_header() const {
+  std::string line;
+  for (const Column& c : columns)
+    line += fmt::format("{}{:>{}}", line.empty() ? "" : " ", c.header, c.width);
+  fmt::print("{}\n", line);
+}
+
+void BenchTable::print_row(const std::vector<Json>& cells) const {
+  std::string line;
+  for (std::size_t i = 0; i < columns.size() && i < cells.size(); ++i) {
+    const Column& c = columns[i];
+    const Json& v = cells[i];
+    std::string text;
+    if (v.is_string()) {
+      text = fmt::format("{:>{}}", v.get<std::string>(), c.width);
+    } else if (c.decimals >= 0) {
+      text = fmt::format("{:>{}.{}f}", v.get<double>(), c.width, c.decimals);
+    } else {
+      text = fmt::format("{:>{}}", v.dump(), c.width);
+    }
+    line += (i == 0 ? "" : " ") + text;
+  }
+  fmt::print("{}\n", line);
 }
 
 }  // namespace scanbench::harness

@@ -15,13 +15,6 @@ namespace scanbench::harness {
 
 namespace {
 
-struct Step {
-  std::string name;
-  Json chain;
-  const PointCloud* input = nullptr;
-  ChainRun last;
-};
-
 Json prefix(const Json& chain) {
   Json p = chain;
   p.erase(p.size() - 1);
@@ -62,28 +55,18 @@ Json bench_filter(const FilterBenchOptions& opts) {
       shared_normals ? PointCloud() : run_once(prefix(ear), pc.scan, o.seed, o.threads);
   Json fixed = last_step(gpf);
   fixed[0]["params"]["s2_update"] = "fixed";
-  std::vector<Step> steps = {
-      {"normals", prefix(gpf), &pc.scan, {}},
-      {"gpf_only", last_step(gpf), &normals, {}},
-      {"gpf_s2_fixed", fixed, &normals, {}},
-      {"wlop", pc.chains.at("wlop"), &pc.scan, {}},
-      {"clop", pc.chains.at("clop"), &pc.scan, {}},
-      {"cgal_ear", last_step(ear), shared_normals ? &normals : &ear_normals, {}}};
-  if (!shared_normals) steps.push_back({"ear_normals", prefix(ear), &pc.scan, {}});
+  std::vector<ChainCase> steps = {
+      {"normals", prefix(gpf), &pc.scan, o.threads, {}},
+      {"gpf_only", last_step(gpf), &normals, o.threads, {}},
+      {"gpf_s2_fixed", fixed, &normals, o.threads, {}},
+      {"wlop", pc.chains.at("wlop"), &pc.scan, o.threads, {}},
+      {"clop", pc.chains.at("clop"), &pc.scan, o.threads, {}},
+      {"cgal_ear", last_step(ear), shared_normals ? &normals : &ear_normals, o.threads, {}}};
+  if (!shared_normals) steps.push_back({"ear_normals", prefix(ear), &pc.scan, o.threads, {}});
   std::vector<TimedCase> timed;
-  for (Step& s : steps) {
-    timed.push_back({s.name, [&s, &o] {
-                       RunContext ctx(o.seed, o.threads);
-                       StageData in;
-                       in.points = *s.input;
-                       s.last = run_chain(s.chain, std::move(in), ctx, false);
-                       return Sample{s.last.wall_s, s.last.cpu_s};
-                     }});
-  }
-  const Rounds rounds = run_rounds(timed, o.rounds, o.warmup, [](int r) {
-    fmt::print("  round {}{}\n", r < 0 ? "warm-up " : "", r < 0 ? -r : r + 1);
-    std::fflush(stdout);
-  });
+  for (ChainCase& s : steps)
+    timed.push_back(timed_case(s, o.seed));
+  const Rounds rounds = run_rounds(timed, o.rounds, o.warmup, print_round);
 
   const metrics::GroundTruth gt(pc.mesh, o.seed);
   auto measure = [&](const PointCloud& p) {
@@ -92,13 +75,18 @@ Json bench_filter(const FilterBenchOptions& opts) {
                              mctx);
   };
   const std::vector<std::string> ear_pre = {shared_normals ? "normals" : "ear_normals"};
-  fmt::print("{:>12} {:>9} {:>9} {:>9} {:>13} {:>13}\n", "method", "median_s", "cpu_s", "points",
-             "p2plane_mean", "p2plane_edge");
+  const BenchTable table{{{"method", 12},
+                          {"median_s", 9, 3},
+                          {"cpu_s", 9, 3},
+                          {"points", 9},
+                          {"p2plane_mean", 13, 6},
+                          {"p2plane_edge", 13, 6}}};
+  table.print_header();
   const Json in_m = measure(pc.scan);
-  fmt::print("{:>12} {:>9} {:>9} {:>9} {:>13.6f} {:>13.6f}\n", "input", "-", "-", pc.scan.size(),
-             in_m.value("p2plane_mean_rel", 0.0), in_m.value("edge_p2plane_mean_rel", 0.0));
+  table.print_row({"input", "-", "-", pc.scan.size(), in_m.value("p2plane_mean_rel", 0.0),
+                   in_m.value("edge_p2plane_mean_rel", 0.0)});
   Json cases = Json::array();
-  for (const Step& s : steps) {
+  for (const ChainCase& s : steps) {
     // Totals count the normals for GPF and EAR (Table 1).
     std::vector<std::string> plus;
     if (s.name == "gpf_only" || s.name == "gpf_s2_fixed") plus = {"normals"};
@@ -106,9 +94,8 @@ Json bench_filter(const FilterBenchOptions& opts) {
     const Sample med = median_sample(rounds, s.name, plus);
     const Json m = measure(s.last.output.points);
     const std::string shown = s.name == "gpf_only" ? "gpf" : s.name;
-    fmt::print("{:>12} {:>9.3f} {:>9.3f} {:>9} {:>13.6f} {:>13.6f}\n", shown, med.wall_s, med.cpu_s,
-               s.last.output.points.size(), m.value("p2plane_mean_rel", 0.0),
-               m.value("edge_p2plane_mean_rel", 0.0));
+    table.print_row({shown, med.wall_s, med.cpu_s, s.last.output.points.size(),
+                     m.value("p2plane_mean_rel", 0.0), m.value("edge_p2plane_mean_rel", 0.0)});
     cases.push_back({{"name", s.name},
                      {"chain", s.chain},
                      {"total_includes", plus},
@@ -130,20 +117,13 @@ Json bench_filter(const FilterBenchOptions& opts) {
                    {})};
   for (const PairedRatio& r : ratios)
     fmt::print("{}\n", describe(r));
-  return {{"benchmark", "filter"},
-          {"claim", pc.claim},
-          {"context", run_context_json()},
-          {"dataset", pc.dataset},
-          {"scan_points", pc.scan.size()},
-          {"scanner_params", pc.scanner_params},
-          {"threads", o.threads},
-          {"seed", o.seed},
-          {"input",
-           {{"p2plane_mean", in_m.value("p2plane_mean_rel", 0.0)},
-            {"p2plane_edge", in_m.value("edge_p2plane_mean_rel", 0.0)}}},
-          {"cases", cases},
-          {"rounds", to_json(rounds)},
-          {"ratios", ratios_json(ratios)}};
+  Json out = paper_case_json("filter", pc, o);
+  out["input"] = {{"p2plane_mean", in_m.value("p2plane_mean_rel", 0.0)},
+                  {"p2plane_edge", in_m.value("edge_p2plane_mean_rel", 0.0)}};
+  out["cases"] = cases;
+  out["rounds"] = to_json(rounds);
+  out["ratios"] = ratios_json(ratios);
+  return out;
 }
 
 }  // namespace scanbench::harness

@@ -20,25 +20,6 @@ namespace scanbench::harness {
 
 namespace {
 
-// A case of the rounds: `chain` on `input`, its last output kept for the accuracy table.
-struct ChainCase {
-  std::string name;
-  Json chain;
-  const PointCloud* input = nullptr;
-  int threads = 0;
-  ChainRun last;
-};
-
-TimedCase timed_case(ChainCase& c, std::uint64_t seed) {
-  return {c.name, [&c, seed] {
-            RunContext ctx(seed, c.threads);
-            StageData in;
-            in.points = *c.input;
-            c.last = run_chain(c.chain, std::move(in), ctx, false);
-            return Sample{c.last.wall_s, c.last.cpu_s};
-          }};
-}
-
 double phase(const ChainRun& r, const std::string& suffix) {
   double s = 0.0;
   for (const auto& [k, v] : r.phases) {
@@ -48,9 +29,130 @@ double phase(const ChainRun& r, const std::string& suffix) {
   return s;
 }
 
-void print_progress(int round) {
-  fmt::print("  round {}{}\n", round < 0 ? "warm-up " : "", round < 0 ? -round : round + 1);
-  std::fflush(stdout);
+/// The accuracy table: the input and each case's last output (p2plane_mean, nn_dist_cv) with the
+/// medians of the rounds. Returns the JSON of the input and of the cases.
+std::pair<Json, Json> accuracy_table(const std::vector<ChainCase>& cases, const Rounds& rounds,
+                                     const PaperCase& pc, const ResampleBenchOptions& o) {
+  const metrics::GroundTruth gt(pc.mesh, o.seed);
+  auto measure = [&](const PointCloud& p) {
+    RunContext mctx(o.seed, o.threads);
+    return metrics::evaluate(gt, p, &pc.scan, {"accuracy.p2plane", "regularity.nn_dist"},
+                             Json::object(), mctx);
+  };
+  const BenchTable table{{{"method", 19},
+                          {"median_s", 10, 3},
+                          {"cpu_s", 10, 3},
+                          {"particles", 10},
+                          {"p2plane_mean", 14, 6},
+                          {"nn_dist_cv", 11, 4}}};
+  const Json in_m = measure(pc.scan);
+  table.print_header();
+  table.print_row({"input", "-", "-", pc.scan.size(), in_m.value("p2plane_mean_rel", 0.0),
+                   in_m.value("nn_dist_cv", 0.0)});
+  Json cases_j = Json::array();
+  for (const ChainCase& c : cases) {
+    const Json m = measure(c.last.output.points);
+    const Sample med = median_sample(rounds, c.name);
+    Json j = {{"name", c.name},
+              {"chain", c.chain},
+              {"median_s", med.wall_s},
+              {"cpu_s", med.cpu_s},
+              {"p2plane_mean", m.value("p2plane_mean_rel", 0.0)},
+              {"p2plane_mean_abs", m.value("p2plane_mean", 0.0)},
+              {"p2plane_rms", m.value("p2plane_rms_rel", 0.0)},
+              {"nn_dist_cv", m.value("nn_dist_cv", 0.0)},
+              {"particles", c.last.output.points.size()},
+              {"phases", c.last.phases}};
+    if (c.last.output.mixture) j["mixture_components"] = c.last.output.mixture->size();
+    table.print_row({c.name, med.wall_s, med.cpu_s, c.last.output.points.size(), j["p2plane_mean"],
+                     j["nn_dist_cv"]});
+    cases_j.push_back(std::move(j));
+  }
+  const Json input = {{"p2plane_mean", in_m.value("p2plane_mean_rel", 0.0)},
+                      {"nn_dist_cv", in_m.value("nn_dist_cv", 0.0)}};
+  return {input, cases_j};
+}
+
+/// Phase by phase (wall seconds of the last round), beside the CLOP paper's Fig. 9 Camel
+/// speedups (GPU): WLOP's attraction includes its L2 first iteration (phase init), as CLOP's
+/// includes its continuous first iteration; repulsion includes the densities w_i.
+Json phase_ratios(const ChainRun& cl, const ChainRun& wl) {
+  Json by_phase = {{"attraction_wlop_over_clop",
+                    (phase(wl, ":init") + phase(wl, ":attraction")) / phase(cl, ":attraction")},
+                   {"repulsion_wlop_over_clop", phase(wl, ":repulsion") / phase(cl, ":repulsion")},
+                   {"hem_share_of_clop", phase(cl, ":hem") / cl.wall_s}};
+  fmt::print(
+      "  by phase (last round): attraction {:.2f} (paper Fig. 9 Camel F1: 7.15), repulsion {:.2f} "
+      "(F2: 7.80); HEM is {:.0f}% of CLOP (paper: 20%)\n",
+      by_phase["attraction_wlop_over_clop"].get<double>(),
+      by_phase["repulsion_wlop_over_clop"].get<double>(),
+      100.0 * by_phase["hem_share_of_clop"].get<double>());
+  return by_phase;
+}
+
+/// --scaling, threads: CLOP and WLOP on 1 and 2 threads, interleaved; adds the 2-over-1 ratios.
+/// Returns the rounds.
+Json thread_scaling(const Json& clop_chain, const Json& wlop_chain, const PaperCase& pc,
+                    const ResampleBenchOptions& o, std::vector<PairedRatio>& ratios) {
+  std::vector<ChainCase> th = {{"clop_1t", clop_chain, &pc.scan, 1, {}},
+                               {"clop_2t", clop_chain, &pc.scan, 2, {}},
+                               {"wlop_1t", wlop_chain, &pc.scan, 1, {}},
+                               {"wlop_2t", wlop_chain, &pc.scan, 2, {}}};
+  std::vector<TimedCase> tt;
+  for (ChainCase& c : th)
+    tt.push_back(timed_case(c, o.seed));
+  const Rounds tr = run_rounds(tt, o.rounds, o.warmup, print_round);
+  for (const char* m : {"clop", "wlop"}) {
+    ratios.push_back(paired_ratio(tr, fmt::format("{}_threads_2_over_1", m),
+                                  fmt::format("{}_1t", m), fmt::format("{}_2t", m), Target{1.8},
+                                  o.seed));
+    fmt::print("{}\n", describe(ratios.back()));
+  }
+  return to_json(tr);
+}
+
+/// --scaling, growth: one CLOP run per size (medians of `rounds`), h scaled as 1/sqrt(N) to keep
+/// the neighbourhoods; peak memory per point; the growth exponent of the time.
+Json growth_run(const Json& clop_chain, const PaperCase& pc, const ResampleBenchOptions& o) {
+  Json growth = Json::array();
+  std::vector<double> ns, ts;
+  double per_point = -1.0;
+  for (long size : o.sizes) {
+    const PaperCase big = load_paper_case("clop-fig9-speed", o.dataset, o.quick, size, o.seed);
+    Json chain = clop_chain;
+    const double h =
+        chain[0]["params"]["h"].get<double>() *
+        std::sqrt(static_cast<double>(pc.scan.size()) / static_cast<double>(big.scan.size()));
+    chain[0]["params"]["h"] = h;
+    ChainCase c{"clop", chain, &big.scan, o.threads, {}};
+    const bool mem_ok = reset_peak_rss();
+    const long rss0 = status_kb("VmRSS");
+    const Rounds g = run_rounds({timed_case(c, o.seed)}, o.quick ? 1 : 3, 0);
+    const long hwm = status_kb("VmHWM");
+    const Sample med = median_sample(g, "clop");
+    per_point = mem_ok && rss0 >= 0 && hwm >= 0
+                    ? 1024.0 * static_cast<double>(std::max(hwm - rss0, 0L)) /
+                          static_cast<double>(big.scan.size())
+                    : -1.0;
+    ns.push_back(static_cast<double>(big.scan.size()));
+    ts.push_back(med.wall_s);
+    growth.push_back({{"points", big.scan.size()},
+                      {"h", h},
+                      {"median_s", med.wall_s},
+                      {"cpu_s", med.cpu_s},
+                      {"peak_bytes_per_point", per_point}});
+    fmt::print("clop at {:>9} points, h {:.4f}: {:8.3f} s ({:.3f} CPU s), peak {:.0f} B/point\n",
+               big.scan.size(), h, med.wall_s, med.cpu_s, per_point);
+  }
+  Json sc = {{"growth", growth}};
+  if (ns.size() >= 2) {
+    sc["clop_growth_exponent"] =
+        std::log(ts.back() / ts.front()) / std::log(ns.back() / ns.front());
+    sc["clop_peak_bytes_per_point_largest"] = per_point;
+    fmt::print("clop growth exponent {:.3f} (target <= 1.1), peak {:.0f} B/point at {}\n",
+               sc["clop_growth_exponent"].get<double>(), per_point, static_cast<long>(ns.back()));
+  }
+  return sc;
 }
 
 }  // namespace
@@ -85,39 +187,8 @@ Json bench_resample(const ResampleBenchOptions& opts) {
   std::vector<TimedCase> timed;
   for (ChainCase& c : cases)
     timed.push_back(timed_case(c, o.seed));
-  const Rounds rounds = run_rounds(timed, o.rounds, o.warmup, print_progress);
-
-  const metrics::GroundTruth gt(pc.mesh, o.seed);
-  auto measure = [&](const PointCloud& p) {
-    RunContext mctx(o.seed, o.threads);
-    return metrics::evaluate(gt, p, &pc.scan, {"accuracy.p2plane", "regularity.nn_dist"},
-                             Json::object(), mctx);
-  };
-  const Json in_m = measure(pc.scan);
-  fmt::print("{:>19} {:>10} {:>10} {:>10} {:>14} {:>11}\n", "method", "median_s", "cpu_s",
-             "particles", "p2plane_mean", "nn_dist_cv");
-  fmt::print("{:>19} {:>10} {:>10} {:>10} {:>14.6f} {:>11.4f}\n", "input", "-", "-", pc.scan.size(),
-             in_m.value("p2plane_mean_rel", 0.0), in_m.value("nn_dist_cv", 0.0));
-  Json cases_j = Json::array();
-  for (const ChainCase& c : cases) {
-    const Json m = measure(c.last.output.points);
-    const Sample med = median_sample(rounds, c.name);
-    Json j = {{"name", c.name},
-              {"chain", c.chain},
-              {"median_s", med.wall_s},
-              {"cpu_s", med.cpu_s},
-              {"p2plane_mean", m.value("p2plane_mean_rel", 0.0)},
-              {"p2plane_mean_abs", m.value("p2plane_mean", 0.0)},
-              {"p2plane_rms", m.value("p2plane_rms_rel", 0.0)},
-              {"nn_dist_cv", m.value("nn_dist_cv", 0.0)},
-              {"particles", c.last.output.points.size()},
-              {"phases", c.last.phases}};
-    if (c.last.output.mixture) j["mixture_components"] = c.last.output.mixture->size();
-    fmt::print("{:>19} {:>10.3f} {:>10.3f} {:>10} {:>14.6f} {:>11.4f}\n", c.name, med.wall_s,
-               med.cpu_s, c.last.output.points.size(), j["p2plane_mean"].get<double>(),
-               j["nn_dist_cv"].get<double>());
-    cases_j.push_back(std::move(j));
-  }
+  const Rounds rounds = run_rounds(timed, o.rounds, o.warmup, print_round);
+  const auto [input, cases_j] = accuracy_table(cases, rounds, pc, o);
 
   std::vector<PairedRatio> ratios;
   ratios.push_back(paired_ratio(rounds, "wlop_over_clop", "wlop", "clop", Target{6.0}, o.seed));
@@ -131,98 +202,20 @@ Json bench_resample(const ResampleBenchOptions& opts) {
   }
   for (const PairedRatio& r : ratios)
     fmt::print("{}\n", describe(r));
-  // Phase by phase (wall seconds of the last round), beside the CLOP paper's Fig. 9 Camel
-  // speedups (GPU): WLOP's attraction includes its L2 first iteration (phase init), as CLOP's
-  // includes its continuous first iteration; repulsion includes the densities w_i.
-  const ChainRun& wl = cases[1].last;
-  const ChainRun& cl = cases[0].last;
-  Json by_phase = {{"attraction_wlop_over_clop",
-                    (phase(wl, ":init") + phase(wl, ":attraction")) / phase(cl, ":attraction")},
-                   {"repulsion_wlop_over_clop", phase(wl, ":repulsion") / phase(cl, ":repulsion")},
-                   {"hem_share_of_clop", phase(cl, ":hem") / cl.wall_s}};
-  fmt::print(
-      "  by phase (last round): attraction {:.2f} (paper Fig. 9 Camel F1: 7.15), repulsion {:.2f} "
-      "(F2: 7.80); HEM is {:.0f}% of CLOP (paper: 20%)\n",
-      by_phase["attraction_wlop_over_clop"].get<double>(),
-      by_phase["repulsion_wlop_over_clop"].get<double>(),
-      100.0 * by_phase["hem_share_of_clop"].get<double>());
+  const Json by_phase = phase_ratios(cases[0].last, cases[1].last);
 
-  Json out = {{"benchmark", "resample"},
-              {"claim", pc.claim},
-              {"context", run_context_json()},
-              {"dataset", pc.dataset},
-              {"scan_points", pc.scan.size()},
-              {"scanner_params", pc.scanner_params},
-              {"threads", o.threads},
-              {"seed", o.seed},
-              {"input",
-               {{"p2plane_mean", in_m.value("p2plane_mean_rel", 0.0)},
-                {"nn_dist_cv", in_m.value("nn_dist_cv", 0.0)}}},
-              {"cases", cases_j},
-              {"rounds", to_json(rounds)},
-              {"by_phase", by_phase}};
+  Json out = paper_case_json("resample", pc, o);
+  out["input"] = input;
+  out["cases"] = cases_j;
+  out["rounds"] = to_json(rounds);
+  out["by_phase"] = by_phase;
   // Like for like: CGAL's WLOP (header-only, instantiated in algorithms/) is compiled with the
   // flags of the whole build, the same as our widest kernels.
   out["cgal_peers_compiled_with"] = {{"isa", std::string(simd::name(simd::compiled()))},
                                      {"flags", std::string(simd::compile_flags())}};
-
   if (o.scaling) {
-    // 1 vs 2 threads, interleaved.
-    std::vector<ChainCase> th = {{"clop_1t", clop_chain, &pc.scan, 1, {}},
-                                 {"clop_2t", clop_chain, &pc.scan, 2, {}},
-                                 {"wlop_1t", wlop_chain, &pc.scan, 1, {}},
-                                 {"wlop_2t", wlop_chain, &pc.scan, 2, {}}};
-    std::vector<TimedCase> tt;
-    for (ChainCase& c : th)
-      tt.push_back(timed_case(c, o.seed));
-    const Rounds tr = run_rounds(tt, o.rounds, o.warmup, print_progress);
-    for (const char* m : {"clop", "wlop"}) {
-      ratios.push_back(paired_ratio(tr, fmt::format("{}_threads_2_over_1", m),
-                                    fmt::format("{}_1t", m), fmt::format("{}_2t", m), Target{1.8},
-                                    o.seed));
-      fmt::print("{}\n", describe(ratios.back()));
-    }
-    out["thread_rounds"] = to_json(tr);
-    // Growth: one run per size (medians of `rounds`), h scaled to keep the neighbourhoods.
-    Json growth = Json::array();
-    std::vector<double> ns, ts;
-    double per_point = -1.0;
-    for (long size : o.sizes) {
-      const PaperCase big = load_paper_case("clop-fig9-speed", o.dataset, o.quick, size, o.seed);
-      Json chain = clop_chain;
-      const double h =
-          chain[0]["params"]["h"].get<double>() *
-          std::sqrt(static_cast<double>(pc.scan.size()) / static_cast<double>(big.scan.size()));
-      chain[0]["params"]["h"] = h;
-      ChainCase c{"clop", chain, &big.scan, o.threads, {}};
-      const bool mem_ok = reset_peak_rss();
-      const long rss0 = status_kb("VmRSS");
-      const Rounds g = run_rounds({timed_case(c, o.seed)}, o.quick ? 1 : 3, 0);
-      const long hwm = status_kb("VmHWM");
-      const Sample med = median_sample(g, "clop");
-      per_point = mem_ok && rss0 >= 0 && hwm >= 0
-                      ? 1024.0 * static_cast<double>(std::max(hwm - rss0, 0L)) /
-                            static_cast<double>(big.scan.size())
-                      : -1.0;
-      ns.push_back(static_cast<double>(big.scan.size()));
-      ts.push_back(med.wall_s);
-      growth.push_back({{"points", big.scan.size()},
-                        {"h", h},
-                        {"median_s", med.wall_s},
-                        {"cpu_s", med.cpu_s},
-                        {"peak_bytes_per_point", per_point}});
-      fmt::print("clop at {:>9} points, h {:.4f}: {:8.3f} s ({:.3f} CPU s), peak {:.0f} B/point\n",
-                 big.scan.size(), h, med.wall_s, med.cpu_s, per_point);
-    }
-    Json sc = {{"growth", growth}};
-    if (ns.size() >= 2) {
-      sc["clop_growth_exponent"] =
-          std::log(ts.back() / ts.front()) / std::log(ns.back() / ns.front());
-      sc["clop_peak_bytes_per_point_largest"] = per_point;
-      fmt::print("clop growth exponent {:.3f} (target <= 1.1), peak {:.0f} B/point at {}\n",
-                 sc["clop_growth_exponent"].get<double>(), per_point, static_cast<long>(ns.back()));
-    }
-    out["scaling"] = sc;
+    out["thread_rounds"] = thread_scaling(clop_chain, wlop_chain, pc, o, ratios);
+    out["scaling"] = growth_run(clop_chain, pc, o);
   }
   out["ratios"] = ratios_json(ratios);
   return out;

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -15,6 +16,7 @@
 #include "scanbench/core/errors.h"
 #include "scanbench/core/io.h"
 #include "scanbench/core/run_context.h"
+#include "scanbench/harness/chain.h"
 #include "scanbench/harness/records.h"
 
 namespace scanbench::harness {
@@ -122,23 +124,20 @@ void add_algo_command(Cli& cli) {
           std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 
       out.set_origin(origin);
-      write_stage_kind(out, io.primary, opts->output);
-      std::string extra;
-      const std::pair<DataKind, std::string> others[] = {
-          {DataKind::Points, ""},
+      const std::map<DataKind, std::string> named = {
           {DataKind::Mixture, opts->mixture},
           {DataKind::Mesh, opts->mesh},
           {DataKind::CovarianceMesh, opts->covariance_mesh}};
-      for (const auto& [kind, given] : others) {
-        if (kind == io.primary || !io.produces.has(kind)) continue;
-        const std::string suffix = kind == DataKind::Points    ? "points"
-                                   : kind == DataKind::Mixture ? "mixture"
-                                   : kind == DataKind::Mesh    ? "mesh"
-                                                               : "covmesh";
-        const auto path =
-            given.empty() ? sibling(opts->output, suffix) : std::filesystem::path(given);
-        write_stage_kind(out, kind, path);
-        extra += fmt::format(", {} -> {}", kind_name(kind), path.string());
+      const auto path_of = [&](DataKind kind) {
+        if (kind == io.primary) return std::filesystem::path(opts->output);
+        const auto it = named.find(kind);
+        return it == named.end() || it->second.empty()
+                   ? sibling(opts->output, std::string(kind_suffix(kind)))
+                   : std::filesystem::path(it->second);
+      };
+      std::string extra;
+      for (const auto& [kind, path] : write_stage_data(out, io.produces | io.primary, path_of)) {
+        if (kind != io.primary) extra += fmt::format(", {} -> {}", kind_name(kind), path.string());
       }
       if (!opts->timings.empty()) {
         Json record = Json::object();
@@ -163,7 +162,7 @@ void add_algo_command(Cli& cli) {
           cpu[name] = seconds;
         record["phases_cpu"] = cpu;
         record["total_s"] = total;
-        write_file_atomic(opts->timings, record.dump(2) + "\n");
+        write_json_file(opts->timings, record, 2);
       }
       fmt::print("{}: {} -> {} in {:.3f} s -> {}{}\n", entry.name, kinds_names(input.kinds()),
                  kind_name(io.primary), total, opts->output, extra);

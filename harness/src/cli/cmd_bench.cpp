@@ -26,13 +26,20 @@ void add_common(CLI::App* sub, BenchOptions& o, std::string& json, const char* q
   sub->add_option("--seed", o.seed, "Seed of the scan, the methods and the bootstrap");
 }
 
+// The paper case's scan: its size and dataset.
+void add_case_options(CLI::App* sub, long& points, std::string& dataset, long max_points) {
+  sub->add_option("--points", points, "Rescale the claim's scan to about this many points")
+      ->check(CLI::Range(1000L, max_points));
+  sub->add_option("--dataset", dataset, "Dataset name or mesh file (default: the claim's)");
+}
+
 template <class Opts>
 void set_action(CLI::App* sub, Cli& cli, std::shared_ptr<Opts> o, std::shared_ptr<std::string> json,
                 Json (*run)(const Opts&)) {
   sub->callback([&cli, o, json, run] {
     cli.action = [o, json, run] {
       const Json out = run(*o);
-      if (!json->empty()) write_file_atomic(*json, out.dump(2) + "\n");
+      if (!json->empty()) write_json_file(*json, out, 2);
       return 0;
     };
   });
@@ -50,9 +57,7 @@ void add_bench_resample(CLI::App* bench, Cli& cli) {
   sub->add_flag("--scaling", o->scaling,
                 "Also 1 vs 2 threads, CLOP time over --sizes and peak memory per point");
   sub->add_flag("--no-cgal", o->no_cgal, "Skip CGAL's WLOP (slow)");
-  sub->add_option("--points", o->points, "Rescale the claim's scan to about this many points")
-      ->check(CLI::Range(1000L, 50000000L));
-  sub->add_option("--dataset", o->dataset, "Dataset name or mesh file (default: the claim's)");
+  add_case_options(sub, o->points, o->dataset, 50000000L);
   sub->add_option("--sizes", o->sizes, "Scan sizes of the --scaling growth run")
       ->delimiter(',')
       ->check(CLI::Range(1000L, 50000000L));
@@ -68,9 +73,7 @@ void add_bench_filter(CLI::App* bench, Cli& cli) {
       "the EAR chain in interleaved rounds (median ratios with 95% intervals, p2plane near sharp "
       "edges)");
   add_common(sub, *o, *json, "About 10K points and 3 rounds (a smoke run)");
-  sub->add_option("--points", o->points, "Rescale the claim's scan to about this many points")
-      ->check(CLI::Range(1000L, 10000000L));
-  sub->add_option("--dataset", o->dataset, "Dataset name or mesh file (default: the claim's)");
+  add_case_options(sub, o->points, o->dataset, 10000000L);
   set_action(sub, cli, o, json, &bench_filter);
 }
 

@@ -6,12 +6,12 @@
 #include <fmt/format.h>
 
 #include <algorithm>
-#include <fstream>
 #include <memory>
 
 #include "cli/commands.h"
 #include "scanbench/core/datasets.h"
 #include "scanbench/core/errors.h"
+#include "scanbench/core/files.h"
 #include "scanbench/core/io.h"
 #include "scanbench/core/run_context.h"
 #include "scanbench/harness/records.h"
@@ -138,10 +138,7 @@ void add_bench_distance(CLI::App* bench, Cli& cli) {
         out["field_mean_deviation_in_band_voxels"] = r.mean_deviation_in_band_voxels;
         out["field_max_deviation_voxels"] = r.max_deviation_voxels;
         out["targets"] = {{"exact_over_field_min", 5.0}, {"field_mean_deviation_voxels_max", 0.05}};
-        std::ofstream f(opts->json, std::ios::binary | std::ios::trunc);
-        f << out.dump(2) << "\n";
-        f.flush();
-        if (!f) throw IoError(fmt::format("{}: cannot write", opts->json));
+        write_json_file(opts->json, out, 2);
       }
       return 0;
     };

@@ -7,13 +7,13 @@
 #include <fmt/format.h>
 
 #include <algorithm>
-#include <fstream>
 #include <memory>
 #include <vector>
 
 #include "cli/commands.h"
 #include "scanbench/core/allocator.h"
 #include "scanbench/core/errors.h"
+#include "scanbench/core/files.h"
 #include "scanbench/core/run_context.h"
 #include "scanbench/harness/records.h"
 #include "scanbench/scanner/throughput.h"
@@ -114,10 +114,7 @@ void add_bench_scanner(CLI::App* bench, Cli& cli) {
             "process-CPU medians";
         out["target"] = 0.8;
         out["allocator"] = std::string(allocator_policy());
-        std::ofstream f(opts->json, std::ios::binary | std::ios::trunc);
-        f << out.dump(2) << "\n";
-        f.flush();
-        if (!f) throw IoError(fmt::format("{}: cannot write", opts->json));
+        write_json_file(opts->json, out, 2);
       }
       return 0;
     };

@@ -18,11 +18,12 @@
 #include "scanbench/core/errors.h"
 #include "scanbench/core/paths.h"
 #include "scanbench/harness/claims.h"
+#include "scanbench/harness/claims_render.h"
 #include "scanbench/harness/experiment.h"
+#include "scanbench/harness/finish.h"
 #include "scanbench/harness/history.h"
 #include "scanbench/harness/protocol.h"
 #include "scanbench/harness/records.h"
-#include "scanbench/harness/report.h"
 #include "scanbench/harness/runner.h"
 #include "scanbench/harness/table.h"
 
@@ -95,7 +96,7 @@ Json run_claims(const ClaimsOptions& o) {
       protocol = resolve_protocol(
           config, parse_protocol(config["protocol"], c.file.string() + ": /experiment/protocol"),
           ro.out, tune);
-      write_file_atomic(ro.out / "protocol.json", protocol_json(protocol).dump(1) + "\n");
+      write_json_file(ro.out / "protocol.json", protocol_json(protocol));
     }
     const Experiment e = parse_experiment(protocol_config(config, protocol, true), c.file.string());
     const RunSummary rs = run_experiment(e, ro);
@@ -112,7 +113,9 @@ Json run_claims(const ClaimsOptions& o) {
       not_ok += r.value("status", std::string()) == "ok" ? 0 : 1;
     j["jobs_failed"] = not_ok;
     j["wall_s"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - tc).count();
-    write_report(ro.out);
+    FinishOptions fo;
+    fo.report = true;
+    finish_run(ro.out, fo);
     if (!o.quiet) {
       fmt::print("  {}: {} ({:.0f} s)\n  measured: {}\n  sensitivity: {}\n", outcome.verdict,
                  outcome.reason, j["wall_s"].get<double>(), j["measured"].get<std::string>(),
@@ -130,7 +133,7 @@ Json run_claims(const ClaimsOptions& o) {
     for (const auto& id : claim_regressions(base, summary))
       summary["regressions"].push_back(id);
   }
-  write_file_atomic(o.out / "claims.json", summary.dump(1) + "\n");
+  write_json_file(o.out / "claims.json", summary);
   write_file_atomic(o.out / "claims.md", claims_markdown(summary));
   write_claims_page(o.out, summary);
   return summary;
@@ -184,7 +187,7 @@ void add_claims_command(Cli& cli) {
         Json b = s;
         b.erase("regressions");
         fs::create_directories(baseline.parent_path());
-        write_file_atomic(baseline, b.dump(1) + "\n");
+        write_json_file(baseline, b);
         fmt::print("baseline updated: {}\n", baseline.string());
         return 0;
       }

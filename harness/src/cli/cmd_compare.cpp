@@ -52,7 +52,7 @@ void add_compare_command(Cli& cli) {
       if (a->no_timing) o.timing = false;
       const CompareResult res = compare_records(load_records(a->base), load_records(a->now), o);
       fmt::print("{}", res.table(a->all));
-      if (!a->json.empty()) write_file_atomic(a->json, res.to_json().dump(1) + "\n");
+      if (!a->json.empty()) write_json_file(a->json, res.to_json());
       return res.regressed() ? 1 : 0;
     };
   });

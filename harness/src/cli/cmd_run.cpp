@@ -11,16 +11,16 @@
 #include "cli/commands.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/paths.h"
-#include "scanbench/harness/claims.h"
+#include "scanbench/harness/claims_render.h"
 #include "scanbench/harness/compare.h"
 #include "scanbench/harness/experiment.h"
+#include "scanbench/harness/finish.h"
 #include "scanbench/harness/history.h"
 #include "scanbench/harness/protocol.h"
 #include "scanbench/harness/records.h"
 #include "scanbench/harness/report.h"
 #include "scanbench/harness/runner.h"
 #include "scanbench/harness/slurm.h"
-#include "scanbench/harness/table.h"
 
 namespace scanbench::harness {
 
@@ -83,25 +83,18 @@ void add_slurm_options(CLI::App* sub, RunArgs& a) {
                 "Wait until the array and the merge job have ended, then print the summary");
 }
 
-/// The summary printed after a run: statuses, the tables, the failed jobs.
-void print_summary(const std::string& name, const RunSummary& s, const fs::path& out) {
-  const std::vector<Json> records = load_job_records(out);
-  std::vector<Json> ok;
-  for (const auto& r : records)
-    if (r.value("status", std::string()) == "ok") ok.push_back(r);
+/// The end of a run, whichever executor ran it: finish_run (DIR/tables.md), then the summary:
+/// statuses, the tables, the failed jobs.
+void finish_and_print(const std::string& name, const RunSummary& s, const fs::path& out) {
+  const FinishedRun f = finish_run(out);
   std::string statuses;
   for (const auto& [k, v] : s.by_status)
     statuses += fmt::format("{}{} {}", statuses.empty() ? "" : ", ", v, k);
   fmt::print("\n{}: {} jobs selected, {} already done, {} ran ({})\n", name, s.planned, s.skipped,
              s.ran, statuses.empty() ? "none" : statuses);
-  if (!records.empty()) {
-    fmt::print("\n{}\n", render_table(build_table(records, TableSpec{}), "md"));
-    TableSpec ts;
-    ts.metric = "time.total";
-    fmt::print("{}\n", render_table(build_table(records, ts), "md"));
-  }
+  if (!f.records.empty()) fmt::print("\n{}\n", f.tables);
   int failed = 0;
-  for (const auto& r : records) {
+  for (const auto& r : f.records) {
     if (r.value("status", std::string()) != "ok") {
       if (failed++ == 0) fmt::print("failed jobs:\n");
       fmt::print("  {:<8} {}: {}\n", r.value("status", std::string()),
@@ -115,12 +108,13 @@ void print_summary(const std::string& name, const RunSummary& s, const fs::path&
 void do_slurm_run(const Experiment& e, const RunOptions& o, const SlurmOptions& so) {
   const SlurmSubmission sub = submit_slurm(e, o, so);
   RunSummary s = sub.prepared.summary;
+  const fs::path dir = fs::absolute(o.out).lexically_normal();
   if (sub.id.empty()) {
+    merge_and_finish(dir, "");
     fmt::print("{}: {} jobs selected, {} already done: nothing to submit (merged {}/runs.jsonl)\n",
                e.name, s.planned, s.skipped, o.out.string());
     return;
   }
-  const fs::path dir = fs::absolute(o.out).lexically_normal();
   fmt::print(
       "{}: {} jobs selected, {} already done, {} submitted as submission {}: Slurm array job {} "
       "({} tasks{}), merge job {} (afterany)\n"
@@ -140,7 +134,7 @@ void do_slurm_run(const Experiment& e, const RunOptions& o, const SlurmOptions& 
     ++s.ran;
     ++s.by_status[read_json_file(rec).value("status", std::string("?"))];
   }
-  print_summary(e.name, s, dir);
+  finish_and_print(e.name, s, dir);
   const FolderStatus st = folder_status(dir);
   if (!st.not_run.empty()) fmt::print("\n{}", render_status(st));
 }
@@ -172,14 +166,14 @@ fs::path do_run(const RunArgs& a, const fs::path& default_config, const std::str
     e = parse_experiment(resolved, config.string());
     e.file = config;
     fs::create_directories(o.out);
-    write_file_atomic(o.out / "protocol.json", protocol_json(p).dump(1) + "\n");
+    write_json_file(o.out / "protocol.json", protocol_json(p));
   }
   if (a.executor == "slurm") {
     do_slurm_run(e, o, a.slurm);
     return o.out;
   }
   const RunSummary s = run_experiment(e, o);
-  print_summary(e.name, s, o.out);
+  finish_and_print(e.name, s, o.out);
   return o.out;
 }
 
@@ -269,11 +263,11 @@ void add_nightly_command(Cli& cli) {
           Json b = cs;
           b.erase("regressions");
           fs::create_directories(baseline);
-          write_file_atomic(baseline / "claims.json", b.dump(1) + "\n");
+          write_json_file(baseline / "claims.json", b);
         }
         for (auto& c : cs["claims"])
           c["folder"] = "claims/" + c.value("folder", std::string());
-        write_file_atomic(out / "claims.json", cs.dump(1) + "\n");
+        write_json_file(out / "claims.json", cs);
       }
       const HistoryAddResult added = add_to_history(a->run.db, out);
       if (a->update_baseline) {
@@ -321,7 +315,7 @@ void add_nightly_command(Cli& cli) {
       if (!a->run.db.empty()) {
         judge_timings_by_history(res, a->run.db, load_records(out), added.identity);
       }
-      write_file_atomic(out / "compare.json", res.to_json().dump(1) + "\n");
+      write_json_file(out / "compare.json", res.to_json());
       write_file_atomic(out / "compare.md", res.table());
       const fs::path page = write_report(out, {}, a->run.db);
       fmt::print("\n{}\nreport: {}\n", res.table(), page.string());

@@ -4,9 +4,22 @@
 #include <fmt/format.h>
 
 #include "cli/commands.h"
+#include "scanbench/harness/finish.h"
 #include "scanbench/harness/slurm.h"
 
 namespace scanbench::harness {
+
+int merge_and_finish(const std::filesystem::path& dir, const std::string& submission) {
+  const MergedFolder m = merge_folder(dir, submission);
+  FinishOptions fo;
+  fo.report = true;
+  const FinishedRun f = finish_run(dir, fo);
+  fmt::print("merged {} records: {}/runs.jsonl, runs.csv{}, {}\n", f.records.size(), dir.string(),
+             f.records.empty() ? "" : ", tables.md", f.report.filename().string());
+  fmt::print("{}", render_missing(m));
+  std::fflush(stdout);
+  return static_cast<int>(m.missing.size());
+}
 
 void add_status_command(Cli& cli) {
   struct Args {
@@ -46,8 +59,9 @@ void add_merge_command(Cli& cli) {
   sub->add_option("--submission", a->submission,
                   "Slurm submission (DIR/slurm/<SUB>): record its jobs that started but left no "
                   "record, and list only its jobs without one");
-  sub->callback(
-      [&cli, a] { cli.action = [a] { return merge_folder(a->dir, a->submission) > 0 ? 1 : 0; }; });
+  sub->callback([&cli, a] {
+    cli.action = [a] { return merge_and_finish(a->dir, a->submission) > 0 ? 1 : 0; };
+  });
 }
 
 void add_slurm_task_command(Cli& cli) {

@@ -48,6 +48,9 @@ void add_nightly_command(Cli& cli);
 void add_status_command(Cli& cli);
 void add_merge_command(Cli& cli);
 void add_slurm_task_command(Cli& cli);
+/// `scanbench merge DIR`: merge_folder (slurm.h), then finish_run with the report (finish.h);
+/// prints what it wrote and the jobs without a record. Returns how many have none.
+int merge_and_finish(const std::filesystem::path& dir, const std::string& submission);
 
 /// `scanbench history` (cmd_history.cpp, history.h): the results database.
 void add_history_command(Cli& cli);

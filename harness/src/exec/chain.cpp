@@ -3,6 +3,7 @@
 #include <algorithm>
 
 #include "exec/proc_memory.h"
+#include "scanbench/core/io.h"
 #include "scanbench/core/timing.h"
 #include "scanbench/harness/test_algorithms.h"
 #include "scanbench/metrics/mesh_facts.h"
@@ -51,6 +52,24 @@ ChainRun run_chain(const Json& chain, StageData input, RunContext& ctx, bool mea
   r.cpu_s = process_cpu_seconds() - cpu0;
   r.output = std::move(cur);
   return r;
+}
+
+std::vector<std::pair<DataKind, std::filesystem::path>> write_stage_data(
+    const StageData& data, DataKinds kinds,
+    const std::function<std::filesystem::path(DataKind)>& path_of) {
+  std::vector<std::pair<DataKind, std::filesystem::path>> written;
+  for (DataKind k :
+       {DataKind::Points, DataKind::Mixture, DataKind::Mesh, DataKind::CovarianceMesh}) {
+    if (!kinds.has(k)) continue;
+    const std::filesystem::path path = path_of(k);
+    write_stage_kind(data, k, path);
+    written.emplace_back(k, path);
+  }
+  return written;
+}
+
+std::string_view kind_suffix(DataKind kind) {
+  return kind == DataKind::CovarianceMesh ? std::string_view("covmesh") : kind_name(kind);
 }
 
 }  // namespace scanbench::harness

@@ -77,34 +77,38 @@ bool same_output(const StageData& a, const StageData& b, DataKind primary) {
   }
 }
 
-}  // namespace
-
-Json execute_job(const Job& job, const fs::path& out) {
+/// The record a job returns, built in parts; execute_job appends timing, sizes and artifacts
+/// last, in this order.
+struct JobParts {
   Json res = Json::object();
   Json timing = Json::object();
-  Json artifacts = Json::object();
   Json sizes = Json::object();
-  RunContext ctx(job.seed, job.threads);
+  Json artifacts = Json::object();
+};
 
-  const TriangleMesh mesh = load_dataset(job.dataset, job.dataset_params);
-  // The dataset's local origin (core stage_data.h): zero, except for a mesh file whose coordinates
-  // float32 cannot hold (survey / UTM data). Scan, chain and metrics run in the local frame; the
-  // origin is recorded and restored on every file written.
+/// The job's input: the scan read back from the cache (scanned first when absent), or none
+/// when the chain starts from the ground truth.
+struct ScanInput {
+  PointCloud cloud;
+  std::string mesh_hash;  ///< of the dataset mesh (the distance-field cache key)
+};
+
+/// Pass 1, the scan, cached by content: the mesh bytes, the effective scanner parameters, the
+/// seed and the scan model version. Fills timing.scan_s, scan_cached, the scan artifacts and
+/// the input sizes.
+ScanInput scan_pass(const Job& job, const TriangleMesh& mesh, const fs::path& out, JobParts& r,
+                    RunContext& ctx) {
   const Eigen::Vector3d origin = mesh.origin;
-  const bool has_origin = !origin.isZero(0.0);
-  if (has_origin) res["dataset_origin"] = {origin.x(), origin.y(), origin.z()};
-  // The ground_truth input (experiment.h): no scan, the chain starts from the mesh itself.
   const bool from_ground_truth = job.scanner_preset == kGroundTruthInput;
-
-  // Scan, cached by content: the mesh bytes, the effective scanner parameters, the seed and the
-  // scan model version.
-  Json scan_key = {{"mesh", mesh_hash(mesh)},
+  ScanInput in;
+  in.mesh_hash = mesh_hash(mesh);
+  Json scan_key = {{"mesh", in.mesh_hash},
                    {"scanner", job.scanner_params},
                    {"seed", job.seed},
                    {"scan_model", scanner::kScanModelVersion}};
   // The local vertices of a mesh and of its translate can be equal bit for bit; the scan file
   // (world coordinates) differs. Absent at origin zero, so earlier caches stay valid.
-  if (has_origin) scan_key["origin"] = res["dataset_origin"];
+  if (r.res.contains("dataset_origin")) scan_key["origin"] = r.res["dataset_origin"];
   const std::string scan_hash = content_hash(scan_key.dump());
   const fs::path ply = out / "scans" / (scan_hash + ".ply");
   const double t_scan = wall_seconds();
@@ -132,52 +136,53 @@ Json execute_job(const Job& job, const fs::path& out) {
   }
   // Every job reads the scan back from the cache, so a cached and a fresh scan give the same
   // input bit for bit.
-  PointCloud cloud = from_ground_truth ? PointCloud() : read_point_cloud(ply);
-  if (!from_ground_truth && cloud.origin != origin) {
+  if (!from_ground_truth) in.cloud = read_point_cloud(ply);
+  if (!from_ground_truth && in.cloud.origin != origin) {
     throw IoError(fmt::format("{}: the scan's local origin ({} {} {}) is not its mesh's ({} {} {})",
-                              ply.string(), cloud.origin.x(), cloud.origin.y(), cloud.origin.z(),
-                              origin.x(), origin.y(), origin.z()));
+                              ply.string(), in.cloud.origin.x(), in.cloud.origin.y(),
+                              in.cloud.origin.z(), origin.x(), origin.y(), origin.z()));
   }
-  timing["scan_s"] = wall_seconds() - t_scan;
-  timing["scan_cached"] = cached;
+  r.timing["scan_s"] = wall_seconds() - t_scan;
+  r.timing["scan_cached"] = cached;
   if (from_ground_truth) {
-    sizes["input_mesh_vertices"] = mesh.num_vertices();
-    sizes["input_mesh_faces"] = mesh.num_faces();
+    r.sizes["input_mesh_vertices"] = mesh.num_vertices();
+    r.sizes["input_mesh_faces"] = mesh.num_faces();
   } else {
-    artifacts["scan"] = "scans/" + scan_hash + ".ply";
-    artifacts["scan_record"] = "scans/" + scan_hash + ".ply.json";
-    sizes["scan_points"] = cloud.size();
+    r.artifacts["scan"] = "scans/" + scan_hash + ".ply";
+    r.artifacts["scan_record"] = "scans/" + scan_hash + ".ply.json";
+    r.sizes["scan_points"] = in.cloud.size();
   }
-  if (cloud.has_property("outlier")) {
-    sizes["scan_outliers"] = cloud.properties.at("outlier").sum();
+  if (in.cloud.has_property("outlier")) {
+    r.sizes["scan_outliers"] = in.cloud.properties.at("outlier").sum();
   }
+  return in;
+}
 
-  // The chain, `repeats` times; every sample of every phase is kept.
+/// Pass 2, the chain, `repeats` times; every sample of every phase is kept (timing.total_s,
+/// cpu_s, phases). Memory of each step (first repeat; Linux /proc, else absent):
+/// step_peak_rss_mb = the job's peak RSS while the step ran (the peak is reset before it),
+/// step_work_mb = that peak minus the RSS before the step, plus the peak RSS of a program the
+/// step ran (reconstruct.poisson's colmap, measured alone: RunContext::program_peak_rss_kb, also
+/// recorded as step_program_peak_rss_mb): the working memory the step needed on top of its input
+/// (the GPS paper's "build MB" of Fig. 13c and 14). Returns the first repeat's output; sets
+/// repeat_outputs_identical (what the chain is scored on, bit for bit, in every repeat).
+StageData chain_pass(const Job& job, const TriangleMesh& mesh, const ScanInput& in,
+                     DataKind primary, JobParts& r, RunContext& ctx) {
   std::map<std::string, std::vector<double>> phases;
   std::vector<double> total, cpu;
-  // Memory of each step (first repeat; Linux /proc, else absent): step_peak_rss_mb = the job's
-  // peak RSS while the step ran (the peak is reset before it), step_work_mb = that peak minus the
-  // RSS before the step, plus the peak RSS of a program the step ran (reconstruct.poisson's
-  // colmap, measured alone: RunContext::program_peak_rss_kb, also recorded as
-  // step_program_peak_rss_mb): the working memory the step needed on top of its input (the GPS
-  // paper's "build MB" of Fig. 13c and 14).
   Json step_peak = Json::object(), step_work = Json::object(), step_program = Json::object();
   StageData final_out;
   bool identical = true;
-  // What the chain is scored on: the primary kind of its last step (a mesh for a reconstruction,
-  // the mean mesh of a covariance mesh, else the points).
-  const DataKind primary =
-      algorithm_entry(job.chain.back().at("algorithm").get<std::string>()).fn.io.primary;
   for (int rep = 0; rep < job.repeats; ++rep) {
     StageData cur;
-    if (from_ground_truth) {
+    if (job.scanner_preset == kGroundTruthInput) {
       cur.mesh = mesh;
     } else {
-      cur.points = cloud;
+      cur.points = in.cloud;
     }
     // Every step sees its input in the local frame with origin zero, as data at the world origin
     // (an external program is handed float32 local coordinates); the origin goes back on the
-    // chain's result below, whatever each step did with it.
+    // chain's result (execute_job), whatever each step did with it.
     cur.set_origin(Eigen::Vector3d::Zero());
     ChainRun run = run_chain(job.chain, std::move(cur), ctx, rep == 0);
     for (const auto& [k, v] : run.step_peak_mb)
@@ -187,7 +192,7 @@ Json execute_job(const Job& job, const fs::path& out) {
     for (const auto& [k, v] : run.step_program_mb)
       step_program[k] = v;
     for (const auto& [k, v] : run.covmesh_sizes.items())
-      sizes[k] = v;
+      r.sizes[k] = v;
     cur = std::move(run.output);
     cpu.push_back(run.cpu_s);
     total.push_back(run.wall_s);
@@ -199,6 +204,7 @@ Json execute_job(const Job& job, const fs::path& out) {
       identical = identical && same_output(final_out, cur, primary);
     }
   }
+  Json& timing = r.timing;
   timing["total_s"] = total;
   timing["cpu_s"] = cpu;
   Json ph = Json::object();
@@ -208,47 +214,43 @@ Json execute_job(const Job& job, const fs::path& out) {
   timing["step_peak_rss_mb"] = step_peak;
   timing["step_work_mb"] = step_work;
   timing["step_program_peak_rss_mb"] = step_program;
-  res["repeat_outputs_identical"] = identical;
-  final_out.set_origin(origin);  // written outputs restore world coordinates
-  // The scored mesh (mean mesh of a covariance mesh); sizes describe the scored output (a mesh
-  // output's points are the input carried through, not an output).
-  // A chain ending in a mixture is scored on its components as points.
-  if (primary == DataKind::Mixture) final_out.points = final_out.mixture->component_points();
-  std::optional<TriangleMesh> scored_mesh;
-  if (primary == DataKind::Mesh) scored_mesh = final_out.mesh;
-  if (primary == DataKind::CovarianceMesh) scored_mesh = final_out.covariance_mesh->mean_mesh();
-  res["output_kind"] = kind_name(primary);
+  r.res["repeat_outputs_identical"] = identical;
+  return final_out;
+}
+
+/// The sizes of the scored output: a mesh output's vertices and faces (a covariance mesh's own
+/// polygons), else the output points (a mesh output's points are the input carried through, not
+/// an output); the mixture's components.
+void output_sizes(const StageData& out, DataKind primary, const TriangleMesh* scored_mesh,
+                  Json& sizes) {
   if (scored_mesh) {
     sizes["mesh_vertices"] = primary == DataKind::CovarianceMesh
-                                 ? final_out.covariance_mesh->num_vertices()
+                                 ? out.covariance_mesh->num_vertices()
                                  : scored_mesh->num_vertices();
-    sizes["mesh_faces"] = primary == DataKind::CovarianceMesh
-                              ? final_out.covariance_mesh->num_faces()
-                              : scored_mesh->num_faces();
+    sizes["mesh_faces"] = primary == DataKind::CovarianceMesh ? out.covariance_mesh->num_faces()
+                                                              : scored_mesh->num_faces();
   } else {
-    sizes["output_points"] = final_out.points.size();
+    sizes["output_points"] = out.points.size();
   }
-  if (final_out.mixture) sizes["mixture_components"] = final_out.mixture->size();
+  if (out.mixture) sizes["mixture_components"] = out.mixture->size();
+}
 
-  // Metrics.
-  ctx.clear_phases();
-  const double t_metrics = wall_seconds();
-  const metrics::GroundTruth gt(mesh, ctx.stream_seed("ground_truth"));
-  const PointCloud* scan = from_ground_truth ? nullptr : &cloud;
-  Json m = primary == DataKind::CovarianceMesh
-               ? metrics::evaluate_covariance_mesh(gt, *final_out.covariance_mesh, scan,
-                                                   job.metrics, job.metric_params, ctx)
-           : scored_mesh
-               ? metrics::evaluate_mesh(gt, *scored_mesh, scan, job.metrics, job.metric_params, ctx)
-               : metrics::evaluate(gt, final_out.points, scan, job.metrics, job.metric_params, ctx);
-  timing["metrics_s"] = wall_seconds() - t_metrics;
+/// Pass 3, the metrics (metrics::evaluate on the primary kind): res.metrics (the flat numbers),
+/// histograms, metric_params, skipped, timing.metrics_s (since `t_metrics`, when the pass began
+/// with the ground truth's oracles) and metric_phases. Returns what evaluate returned less the
+/// moved keys.
+Json metrics_pass(const Job& job, const metrics::GroundTruth& gt, const StageData& out,
+                  DataKind primary, const PointCloud* scan, double t_metrics, JobParts& r,
+                  RunContext& ctx) {
+  Json m = metrics::evaluate(gt, out, primary, scan, job.metrics, job.metric_params, ctx);
+  r.timing["metrics_s"] = wall_seconds() - t_metrics;
   Json metric_phases = Json::object();
   for (const auto& [k, v] : ctx.phase_seconds())
     metric_phases[k] = v;
-  timing["metric_phases"] = metric_phases;
+  r.timing["metric_phases"] = metric_phases;
   for (const char* k : {"histograms", "metric_params", "skipped"}) {
     if (m.contains(k)) {
-      res[k] = m[k];
+      r.res[k] = m[k];
       m.erase(k);
     }
   }
@@ -256,66 +258,112 @@ Json execute_job(const Job& job, const fs::path& out) {
   for (const auto& [k, v] : m.items()) {
     if (v.is_number() || v.is_boolean()) flat[k] = v;
   }
-  res["metrics"] = flat;
+  r.res["metrics"] = flat;
+  return m;
+}
 
-  if (job.save_outputs) {
-    const fs::path base = out / "outputs" / job.id;
-    if (final_out.points.size() > 0) {  // none when the chain started from the ground truth
-      write_point_cloud(final_out.points, base.string() + ".ply");
-      artifacts["output"] = "outputs/" + job.id + ".ply";
+/// Heatmap on four views. Points: the point-to-plane error E(q) = <q - p, N_p> (CLOP paper
+/// sec. 10.2) of every output point. Mesh outputs: the distance to the ground truth of the same
+/// seeded samples of the output surface the metrics scored (metrics::output_surface_samples).
+/// Returns the file written (relative to the results folder); empty when there is nothing to draw.
+std::string write_job_heatmap(const Job& job, const metrics::GroundTruth& gt, const StageData& out,
+                              const TriangleMesh* scored_mesh, Eigen::Index mesh_samples,
+                              const fs::path& base, RunContext& ctx) {
+  metrics::HeatmapParams hp;
+  hp.width = hp.height = 256;
+  const std::string title = fmt::format("{} / {} / {} {}", job.dataset_label, job.scanner_label,
+                                        job.variant, job.point_label);
+  const std::string png = base.string() + ".heatmap.png";
+  if (scored_mesh) {
+    const PointCloud samples = metrics::output_surface_samples(*scored_mesh, mesh_samples, ctx);
+    const Eigen::VectorXf d = gt.distances(samples.positions, metrics::DistancePath::Exact);
+    metrics::write_heatmap(samples, d, gt.bbox(), gt.diagonal(), hp, png, title + ": surface |d|");
+  } else if (out.points.size() > 0) {
+    const auto cps = gt.closest_points(out.points.positions);
+    Eigen::VectorXf err(out.points.size());
+    for (Eigen::Index i = 0; i < err.size(); ++i) {
+      const auto& c = cps[static_cast<std::size_t>(i)];
+      err[i] = (out.points.positions.col(i) - c.point).dot(c.normal);
     }
-    if (final_out.mixture) {
-      write_mixture(*final_out.mixture, base.string() + ".mixture.ply");
-      artifacts["mixture"] = "outputs/" + job.id + ".mixture.ply";
-    }
-    if (final_out.mesh) {
-      write_mesh(*final_out.mesh, base.string() + ".mesh.ply");
-      artifacts["mesh"] = "outputs/" + job.id + ".mesh.ply";
-    }
-    if (final_out.covariance_mesh) {
-      write_covariance_mesh(*final_out.covariance_mesh, base.string() + ".covmesh.ply");
-      artifacts["covariance_mesh"] = "outputs/" + job.id + ".covmesh.ply";
-    }
-    // Heatmap on four views. Points: the point-to-plane error E(q) = <q - p, N_p> (CLOP paper
-    // sec. 10.2) of every output point. Mesh outputs: the distance to the ground truth of the same
-    // seeded samples of the output surface the metrics scored (metrics::output_surface_samples).
-    metrics::HeatmapParams hp;
-    hp.width = hp.height = 256;
-    const std::string title = fmt::format("{} / {} / {} {}", job.dataset_label, job.scanner_label,
-                                          job.variant, job.point_label);
-    if (scored_mesh) {
-      const PointCloud samples = metrics::output_surface_samples(
-          *scored_mesh, m.value("output_mesh_samples", Eigen::Index{100000}), ctx);
-      const Eigen::VectorXf d = gt.distances(samples.positions, metrics::DistancePath::Exact);
-      metrics::write_heatmap(samples, d, gt.bbox(), gt.diagonal(), hp,
-                             base.string() + ".heatmap.png", title + ": surface |d|");
-      artifacts["heatmap"] = "outputs/" + job.id + ".heatmap.png";
-    } else if (final_out.points.size() > 0) {
-      const auto cps = gt.closest_points(final_out.points.positions);
-      Eigen::VectorXf err(final_out.points.size());
-      for (Eigen::Index i = 0; i < err.size(); ++i) {
-        const auto& c = cps[static_cast<std::size_t>(i)];
-        err[i] = (final_out.points.positions.col(i) - c.point).dot(c.normal);
-      }
-      metrics::write_heatmap(final_out.points, err, gt.bbox(), gt.diagonal(), hp,
-                             base.string() + ".heatmap.png", title + ": |E|");
-      artifacts["heatmap"] = "outputs/" + job.id + ".heatmap.png";
-    }
-    // The ground truth's distance field, once per mesh.
-    const fs::path vdb = out / "fields" / (scan_key["mesh"].get<std::string>() + ".vdb");
-    if (!fs::exists(vdb)) {
-      fs::create_directories(vdb.parent_path());
-      const fs::path tmp =
-          vdb.parent_path() / fmt::format(".{}.{}", private_tag(), vdb.filename().string());
-      gt.field().write_vdb(tmp, "distance");
-      fs::rename(tmp, vdb);
-    }
-    artifacts["field"] = "fields/" + vdb.filename().string();
+    metrics::write_heatmap(out.points, err, gt.bbox(), gt.diagonal(), hp, png, title + ": |E|");
+  } else {
+    return "";
   }
-  res["timing"] = timing;
-  res["sizes"] = sizes;
-  res["artifacts"] = artifacts;
-  return res;
+  return "outputs/" + job.id + ".heatmap.png";
+}
+
+/// Pass 4 (save_outputs): the output's files (write_stage_data: outputs/<id>.ply,
+/// .mixture.ply, .mesh.ply, .covmesh.ply), the heatmap and the ground truth's distance field,
+/// once per mesh (fields/<mesh hash>.vdb).
+void outputs_pass(const Job& job, const metrics::GroundTruth& gt, const StageData& out,
+                  const TriangleMesh* scored_mesh, Eigen::Index mesh_samples,
+                  const std::string& mesh_key, const fs::path& dir, Json& artifacts,
+                  RunContext& ctx) {
+  const fs::path base = dir / "outputs" / job.id;
+  const auto file_of = [&](DataKind k) {
+    return fs::path(base.string() +
+                    (k == DataKind::Points ? ".ply" : "." + std::string(kind_suffix(k)) + ".ply"));
+  };
+  // The record's names: output (the points; none when the chain started from the ground truth
+  // and holds no points), mixture, mesh, covariance_mesh.
+  for (const auto& [kind, path] : write_stage_data(out, out.kinds(), file_of)) {
+    const std::string key = kind == DataKind::Points ? "output" : std::string(kind_name(kind));
+    artifacts[key] = "outputs/" + path.filename().string();
+  }
+  const std::string heatmap = write_job_heatmap(job, gt, out, scored_mesh, mesh_samples, base, ctx);
+  if (!heatmap.empty()) artifacts["heatmap"] = heatmap;
+  const fs::path vdb = dir / "fields" / (mesh_key + ".vdb");
+  if (!fs::exists(vdb)) {
+    fs::create_directories(vdb.parent_path());
+    const fs::path tmp =
+        vdb.parent_path() / fmt::format(".{}.{}", private_tag(), vdb.filename().string());
+    gt.field().write_vdb(tmp, "distance");
+    fs::rename(tmp, vdb);
+  }
+  artifacts["field"] = "fields/" + vdb.filename().string();
+}
+
+}  // namespace
+
+Json execute_job(const Job& job, const fs::path& out) {
+  JobParts r;
+  RunContext ctx(job.seed, job.threads);
+
+  const TriangleMesh mesh = load_dataset(job.dataset, job.dataset_params);
+  // The dataset's local origin (core stage_data.h): zero, except for a mesh file whose coordinates
+  // float32 cannot hold (survey / UTM data). Scan, chain and metrics run in the local frame; the
+  // origin is recorded and restored on every file written.
+  const Eigen::Vector3d origin = mesh.origin;
+  if (!origin.isZero(0.0)) r.res["dataset_origin"] = {origin.x(), origin.y(), origin.z()};
+  const ScanInput in = scan_pass(job, mesh, out, r, ctx);
+
+  // What the chain is scored on: the primary kind of its last step (a mesh for a reconstruction,
+  // the mean mesh of a covariance mesh, a mixture's components as points, else the points).
+  const DataKind primary =
+      algorithm_entry(job.chain.back().at("algorithm").get<std::string>()).fn.io.primary;
+  StageData final_out = chain_pass(job, mesh, in, primary, r, ctx);
+  final_out.set_origin(origin);  // written outputs restore world coordinates
+  if (primary == DataKind::Mixture) final_out.points = final_out.mixture->component_points();
+  std::optional<TriangleMesh> scored_mesh;
+  if (primary == DataKind::Mesh) scored_mesh = final_out.mesh;
+  if (primary == DataKind::CovarianceMesh) scored_mesh = final_out.covariance_mesh->mean_mesh();
+  const TriangleMesh* scored = scored_mesh ? &*scored_mesh : nullptr;
+  r.res["output_kind"] = kind_name(primary);
+  output_sizes(final_out, primary, scored, r.sizes);
+
+  ctx.clear_phases();
+  const double t_metrics = wall_seconds();
+  const metrics::GroundTruth gt(mesh, ctx.stream_seed("ground_truth"));
+  const PointCloud* scan = job.scanner_preset == kGroundTruthInput ? nullptr : &in.cloud;
+  const Json m = metrics_pass(job, gt, final_out, primary, scan, t_metrics, r, ctx);
+  if (job.save_outputs) {
+    outputs_pass(job, gt, final_out, scored, m.value("output_mesh_samples", Eigen::Index{100000}),
+                 in.mesh_hash, out, r.artifacts, ctx);
+  }
+  r.res["timing"] = r.timing;
+  r.res["sizes"] = r.sizes;
+  r.res["artifacts"] = r.artifacts;
+  return r.res;
 }
 
 }  // namespace scanbench::harness

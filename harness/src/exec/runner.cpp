@@ -301,7 +301,7 @@ PreparedRun prepare_run(const Experiment& e, const RunOptions& opts) {
   Json config = Json::object();
   config["source"] = e.file.empty() ? Json(nullptr) : Json(fs::absolute(e.file).string());
   config["config"] = e.raw;
-  write_file_atomic(out / "config.json", config.dump(2) + "\n");
+  write_json_file(out / "config.json", config, 2);
   Json plan_json = Json::object();
   plan_json["experiment"] = e.name;
   plan_json["notes"] = plan.notes;
@@ -309,7 +309,7 @@ PreparedRun prepare_run(const Experiment& e, const RunOptions& opts) {
   for (const auto& j : plan.jobs)
     jobs_json.push_back(j.to_json());
   plan_json["jobs"] = std::move(jobs_json);
-  write_file_atomic(out / "plan.json", plan_json.dump(1) + "\n");
+  write_json_file(out / "plan.json", plan_json);
 
   if (!opts.quiet) {
     for (const auto& n : plan.notes)
@@ -378,7 +378,7 @@ void run_jobs(const std::vector<const Job*>& jobs, const RunOptions& opts, RunSu
       if (r == it->pid) {
         Json record = finish_record(*it, wstatus, ru, context);
         if (hooks.amend) hooks.amend(*it->job, record);
-        write_file_atomic(out / "jobs" / (it->job->id + ".json"), record.dump(1) + "\n");
+        write_json_file(out / "jobs" / (it->job->id + ".json"), record);
         const std::string status = record["status"].get<std::string>();
         ++summary.ran;
         ++summary.by_status[status];

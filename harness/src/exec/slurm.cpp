@@ -21,8 +21,6 @@
 
 #include "scanbench/harness/plugins.h"
 #include "scanbench/harness/records.h"
-#include "scanbench/harness/report.h"
-#include "scanbench/harness/table.h"
 
 namespace scanbench::harness {
 
@@ -385,10 +383,7 @@ SlurmSubmission submit_slurm(const Experiment& e, const RunOptions& opts, const 
   s.prepared = prepare_run(e, o);
   const PreparedRun& prep = s.prepared;
   const std::size_t n = prep.todo.size();
-  if (n == 0) {
-    merge_folder(dir, "");
-    return s;
-  }
+  if (n == 0) return s;  // nothing to submit: the caller merges and presents the folder
 
   const std::size_t chunk = static_cast<std::size_t>(so.chunk);
   s.tasks = static_cast<int>((n + chunk - 1) / chunk);
@@ -440,7 +435,7 @@ SlurmSubmission submit_slurm(const Experiment& e, const RunOptions& opts, const 
   record["array_job"] = "";
   record["merge_job"] = "";
   // The tasks read "jobs" and "chunk": written before the array exists.
-  write_file_atomic(sub / "submission.json", record.dump(1) + "\n");
+  write_json_file(sub / "submission.json", record);
 
   std::vector<std::string> common;
   if (!so.partition.empty()) common.push_back("--partition=" + so.partition);
@@ -494,7 +489,7 @@ SlurmSubmission submit_slurm(const Experiment& e, const RunOptions& opts, const 
   record["array_job"] = s.array_job;
   record["merge_job"] = s.merge_job;
   record["sbatch"] = {array, merge};
-  write_file_atomic(sub / "submission.json", record.dump(1) + "\n");
+  write_json_file(sub / "submission.json", record);
   return s;
 }
 
@@ -576,7 +571,7 @@ int run_slurm_task(const fs::path& dir, const std::string& submission) {
   hooks.started = [&](const Job& job) {
     const Json m = {{"task", task}, {"array_job", array_job}, {"slurm_job", slurm_job},
                     {"host", host}, {"pid", getpid()},        {"date", utc_now()}};
-    write_file_atomic(sub / "started" / job.id, m.dump() + "\n");
+    write_json_file(sub / "started" / job.id, m, -1);
   };
   hooks.stop = [] { return g_stop_requested != 0; };
   hooks.amend = [&](const Job&, Json& r) {
@@ -615,7 +610,7 @@ int run_slurm_task(const fs::path& dir, const std::string& submission) {
 
 // ---- merge ------------------------------------------------------------------------------------
 
-int merge_folder(const fs::path& dir, const std::string& submission) {
+MergedFolder merge_folder(const fs::path& dir, const std::string& submission) {
   if (!fs::exists(dir / "plan.json")) {
     throw IoError(fmt::format("{}: no plan.json (not a results folder)", dir.string()));
   }
@@ -647,34 +642,28 @@ int merge_folder(const fs::path& dir, const std::string& submission) {
                         : "in state " + state +
                               (reason.empty() || reason == "None" ? "" : " (" + reason + ")"),
           line.empty() ? "" : ": " + line);
-      write_file_atomic(rec, failure_record(it->second, status, error, dir).dump(1) + "\n");
+      write_json_file(rec, failure_record(it->second, status, error, dir));
       fmt::print("recorded {} as {}: {}\n", it->second.key, status, error);
     }
   }
-  const std::vector<Json> records = merge_records(dir);
-  if (!records.empty()) {
-    std::string md = render_table(build_table(records, TableSpec{}), "md");
-    TableSpec ts;
-    ts.metric = "time.total";
-    md += "\n" + render_table(build_table(records, ts), "md");
-    write_file_atomic(dir / "tables.md", md);
+  merge_records(dir);
+  MergedFolder m;
+  for (const auto& id : scope) {
+    if (fs::exists(dir / "jobs" / (id + ".json"))) continue;
+    const auto it = jobs.find(id);
+    m.missing.push_back({id, it == jobs.end() ? std::string("?") : it->second.key});
   }
-  const fs::path page = write_report(dir);
-  fmt::print("merged {} records: {}/runs.jsonl, runs.csv{}, {}\n", records.size(), dir.string(),
-             records.empty() ? "" : ", tables.md", page.filename().string());
-  std::vector<std::string> missing;
-  for (const auto& id : scope)
-    if (!fs::exists(dir / "jobs" / (id + ".json"))) missing.push_back(id);
-  if (!missing.empty()) {
-    fmt::print("{} job{} without a record:\n", missing.size(), missing.size() == 1 ? "" : "s");
-    for (const auto& id : missing) {
-      const auto it = jobs.find(id);
-      fmt::print("  {}  {}\n", id, it == jobs.end() ? std::string("?") : it->second.key);
-    }
-    fmt::print("resubmit them with: {}\n", resume_hint(dir));
-  }
-  std::fflush(stdout);
-  return static_cast<int>(missing.size());
+  if (!m.missing.empty()) m.resume_hint = resume_hint(dir);
+  return m;
+}
+
+std::string render_missing(const MergedFolder& m) {
+  if (m.missing.empty()) return {};
+  std::string out = fmt::format("{} job{} without a record:\n", m.missing.size(),
+                                m.missing.size() == 1 ? "" : "s");
+  for (const auto& [id, key] : m.missing)
+    out += fmt::format("  {}  {}\n", id, key);
+  return out + fmt::format("resubmit them with: {}\n", m.resume_hint);
 }
 
 // ---- status -----------------------------------------------------------------------------------

@@ -1,6 +1,5 @@
 #include "scanbench/harness/records.h"
 
-#include <fcntl.h>
 #include <fmt/format.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -92,28 +91,6 @@ Json run_context_json() {
   c["allocator"] = std::string(allocator_policy());
   c["date"] = utc_now();
   return c;
-}
-
-void write_file_atomic(const fs::path& path, const std::string& text) {
-  const fs::path tmp =
-      path.parent_path() / fmt::format(".{}.tmp.{}", path.filename().string(), ::getpid());
-  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) throw IoError(fmt::format("{}: cannot write", tmp.string()));
-  std::size_t done = 0;
-  while (done < text.size()) {
-    const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
-    if (n <= 0) {
-      ::close(fd);
-      throw IoError(fmt::format("{}: write failed", tmp.string()));
-    }
-    done += static_cast<std::size_t>(n);
-  }
-  if (::fsync(fd) != 0 || ::close(fd) != 0) {
-    throw IoError(fmt::format("{}: write failed", tmp.string()));
-  }
-  std::error_code ec;
-  fs::rename(tmp, path, ec);
-  if (ec) throw IoError(fmt::format("{}: rename failed: {}", path.string(), ec.message()));
 }
 
 std::string utc_now(const char* format) {

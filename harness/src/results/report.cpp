@@ -12,7 +12,7 @@
 #include "scanbench/core/errors.h"
 #include "scanbench/core/paths.h"
 #include "scanbench/core/timing.h"
-#include "scanbench/harness/claims.h"
+#include "scanbench/harness/claims_render.h"
 #include "scanbench/harness/history.h"
 #include "scanbench/harness/records.h"
 #include "scanbench/harness/table.h"
@@ -499,44 +499,40 @@ std::string winners_section(const std::vector<Json>& records,
 
 }  // namespace
 
-fs::path write_report(const fs::path& dir, const fs::path& out_arg, const fs::path& history_db) {
-  const std::vector<Json> records = load_records(dir);
-  const fs::path out = out_arg.empty() ? dir / "index.html" : out_arg;
-  Json config = Json::object();
-  if (fs::exists(dir / "config.json")) config = read_json_file(dir / "config.json");
-  const Json cfg = config.value("config", Json::object());
-  const Json report_cfg = cfg.value("report", Json::object());
-  const std::string name = cfg.value("name", dir.filename().string());
+namespace {
 
-  std::vector<const Json*> ok;
-  std::map<std::string, int> status_counts;
-  for (const auto& r : records) {
-    ++status_counts[r.value("status", std::string("?"))];
-    if (is_ok(r)) ok.push_back(&r);
-  }
-  // Quantities to show: configured, else the main ones present.
+/// The quantities the report shows: "report": {"metrics": [...]} of the config, else the main
+/// ones present among the ok records (point outputs, then the surface metrics of mesh outputs:
+/// surface.h, mesh_facts.h), else the records' default metric unless it is time.total.
+std::vector<std::string> report_metrics(const Json& report_cfg, const std::vector<Json>& records,
+                                        const std::vector<const Json*>& ok) {
   std::vector<std::string> metrics;
   if (report_cfg.contains("metrics") && report_cfg["metrics"].is_array()) {
     for (const auto& m : report_cfg["metrics"])
       if (m.is_string()) metrics.push_back(m.get<std::string>());
-  } else {
-    // Point outputs, then the surface metrics of mesh outputs (surface.h, mesh_facts.h).
-    for (const char* m : {"p2plane_mean_rel", "nn_dist_cv", "chamfer_rel", "fscore",
-                          "normal_angle_mean_deg", "outlier_residue", "input_distance_rms_rel",
-                          "volume_iou", "mesh_boundary_edges", "mesh_bytes"}) {
-      for (const Json* r : ok) {
-        if (!std::isnan(record_value(*r, m))) {
-          metrics.push_back(m);
-          break;
-        }
+    return metrics;
+  }
+  for (const char* m : {"p2plane_mean_rel", "nn_dist_cv", "chamfer_rel", "fscore",
+                        "normal_angle_mean_deg", "outlier_residue", "input_distance_rms_rel",
+                        "volume_iou", "mesh_boundary_edges", "mesh_bytes"}) {
+    for (const Json* r : ok) {
+      if (!std::isnan(record_value(*r, m))) {
+        metrics.push_back(m);
+        break;
       }
     }
-    if (metrics.empty() && !records.empty()) {
-      const std::string d = default_metric(records);
-      if (d != "time.total") metrics.push_back(d);
-    }
   }
+  if (metrics.empty() && !records.empty()) {
+    const std::string d = default_metric(records);
+    if (d != "time.total") metrics.push_back(d);
+  }
+  return metrics;
+}
 
+/// The page's head and first lines: the title, the config's description, the run context and
+/// the status counts with links to the records.
+std::string head_section(const std::string& name, const Json& cfg,
+                         const std::vector<Json>& records) {
   std::string h;
   h += "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>scanbench: " +
        html_escape(name) +
@@ -562,6 +558,9 @@ fs::path write_report(const fs::path& dir, const fs::path& out_arg, const fs::pa
         html_escape(c.value("cpu", "")), c.value("hardware_threads", 0), c.value("threads", 0),
         html_escape(c.value("date", "")));
   }
+  std::map<std::string, int> status_counts;
+  for (const auto& r : records)
+    ++status_counts[r.value("status", std::string("?"))];
   std::string counts;
   for (const auto& [s, n] : status_counts)
     counts += fmt::format("{}{} {}", counts.empty() ? "" : ", ", n, s);
@@ -569,37 +568,38 @@ fs::path write_report(const fs::path& dir, const fs::path& out_arg, const fs::pa
       "<p id=\"summary\">{} jobs: {}. Records: <a href=\"runs.jsonl\">runs.jsonl</a>, "
       "<a href=\"runs.csv\">runs.csv</a>, <a href=\"config.json\">config.json</a>.</p>\n",
       records.size(), html_escape(counts));
-  h += winners_section(records, metrics);
+  return h;
+}
 
-  // Nightly verdicts.
-  if (fs::exists(dir / "compare.json")) {
-    const Json cmp = read_json_file(dir / "compare.json");
-    h += fmt::format("<h2>Comparison with the baseline: <span class=\"{}\">{}</span></h2>\n",
-                     cmp.value("regressions", 0) > 0 ? "regression" : "",
-                     html_escape(cmp.value("verdict", std::string("?"))));
-    h += "<table id=\"verdicts\"><tr><th>job</th><th>quantity</th><th>base</th><th>new</th>"
-         "<th>change</th><th>p</th><th>verdict</th></tr>\n";
-    for (const auto& v : cmp.value("comparisons", Json::array())) {
-      const std::string verdict = v.value("verdict", std::string());
-      if (verdict != "regression" && verdict != "improvement") continue;
-      auto num = [&](const char* k) {
-        return v.contains(k) && v[k].is_number() ? format_number(v[k].get<double>()) : "";
-      };
-      h += fmt::format(
-          "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>"
-          "<td class=\"{}\">{}</td></tr>\n",
-          html_escape(v.value("key", "")), html_escape(v.value("quantity", "")), num("base"),
-          num("new"), num("change"), num("p"), verdict == "regression" ? "regression" : "",
-          html_escape(verdict));
-    }
-    h += "</table>\n";
+/// The nightly verdicts of DIR/compare.json (regressions and improvements); empty without it.
+std::string baseline_section(const fs::path& dir) {
+  if (!fs::exists(dir / "compare.json")) return "";
+  const Json cmp = read_json_file(dir / "compare.json");
+  std::string h =
+      fmt::format("<h2>Comparison with the baseline: <span class=\"{}\">{}</span></h2>\n",
+                  cmp.value("regressions", 0) > 0 ? "regression" : "",
+                  html_escape(cmp.value("verdict", std::string("?"))));
+  h += "<table id=\"verdicts\"><tr><th>job</th><th>quantity</th><th>base</th><th>new</th>"
+       "<th>change</th><th>p</th><th>verdict</th></tr>\n";
+  for (const auto& v : cmp.value("comparisons", Json::array())) {
+    const std::string verdict = v.value("verdict", std::string());
+    if (verdict != "regression" && verdict != "improvement") continue;
+    auto num = [&](const char* k) {
+      return v.contains(k) && v[k].is_number() ? format_number(v[k].get<double>()) : "";
+    };
+    h += fmt::format(
+        "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>"
+        "<td class=\"{}\">{}</td></tr>\n",
+        html_escape(v.value("key", "")), html_escape(v.value("quantity", "")), num("base"),
+        num("new"), num("change"), num("p"), verdict == "regression" ? "regression" : "",
+        html_escape(verdict));
   }
+  return h + "</table>\n";
+}
 
-  // The papers' claims (`scanbench claims`, or nightly's quick set).
-  if (fs::exists(dir / "claims.json"))
-    h += claims_html_section(read_json_file(dir / "claims.json"));
-
-  // Failures.
+/// The jobs that failed, with their reasons and logs; empty when none did.
+std::string failures_section(const fs::path& dir, const std::vector<Json>& records) {
+  std::string h;
   bool any_failed = false;
   for (const auto& r : records) {
     if (is_ok(r)) continue;
@@ -616,9 +616,13 @@ fs::path write_report(const fs::path& dir, const fs::path& out_arg, const fs::pa
         html_escape(r.value("error", "")), link(dir, art.value("log", ""), "log"));
   }
   if (any_failed) h += "</table>\n";
+  return h;
+}
 
-  // Tables.
-  h += "<h2>Tables</h2>\n";
+/// One comparison table (table.h) per shown quantity, time.total and peak_rss_mb.
+std::string tables_section(const std::vector<Json>& records,
+                           const std::vector<std::string>& metrics) {
+  std::string h = "<h2>Tables</h2>\n";
   std::vector<std::string> table_quantities = metrics;
   table_quantities.push_back("time.total");
   table_quantities.push_back("peak_rss_mb");
@@ -627,99 +631,133 @@ fs::path write_report(const fs::path& dir, const fs::path& out_arg, const fs::pa
     spec.metric = q;
     h += render_table(build_table(records, spec), "html");
   }
+  return h;
+}
 
-  // Sweep plots, compression plots and heatmaps, per variant and dataset/scanner group.
+/// The ok records of one variant on one dataset/scanner group and one set of swept keys.
+struct SweepGroup {
+  std::string variant, group;
+  std::vector<const Json*> records;
+  std::vector<std::string> keys;  ///< numeric swept keys, the plotted x first (report "x")
+};
+
+/// The ok records by variant (in record order), then dataset/scanner group and swept keys:
+/// records of different sweeps (e.g. alpha x levels, then h alone) are plotted separately.
+std::vector<SweepGroup> sweep_groups(const std::vector<const Json*>& ok, const Json& report_cfg) {
   std::map<std::string, std::map<std::string, std::vector<const Json*>>> by_variant;
   std::vector<std::string> variant_order;
   for (const Json* r : ok) {
     const std::string v = field_value(*r, "variant");
     if (!by_variant.count(v)) variant_order.push_back(v);
-    // Records of different sweeps (e.g. alpha x levels, then h alone) are plotted separately.
     std::string swept;
     const Json point = r->value("point", Json::object());
     for (const auto& [k, val] : point.items())
       swept += "," + k;
     by_variant[v][group_of(*r) + "\x1f" + swept].push_back(r);
   }
-  std::string sweep_html, heat_html, comp_html;
+  std::vector<SweepGroup> groups;
   for (const auto& v : variant_order) {
     for (const auto& [group_key, rs] : by_variant[v]) {
-      const std::string group = group_key.substr(0, group_key.find('\x1f'));
-      std::vector<std::string> keys = numeric_point_keys(rs);
+      SweepGroup g{v, group_key.substr(0, group_key.find('\x1f')), rs, numeric_point_keys(rs)};
       if (report_cfg.contains("x") && report_cfg["x"].is_string()) {
         const std::string x = report_cfg["x"].get<std::string>();
-        auto it = std::find(keys.begin(), keys.end(), x);
-        if (it != keys.end()) std::rotate(keys.begin(), it, it + 1);
+        auto it = std::find(g.keys.begin(), g.keys.end(), x);
+        if (it != g.keys.end()) std::rotate(g.keys.begin(), it, it + 1);
       }
-      std::vector<std::string> plot_metrics = metrics;
-      plot_metrics.push_back("time.total");
-      if (!keys.empty()) {
-        const std::string xkey = keys.front();
-        std::vector<std::string> skeys;
-        const Json first = rs.front()->value("point", Json::object());
-        for (const auto& [k, val] : first.items())
-          if (k != xkey) skeys.push_back(k);
-        for (const auto& m : plot_metrics) {
-          const auto series = build_series(rs, xkey, skeys, m, false);
-          const std::string svg = line_plot(
-              fmt::format("{}: {} vs {} ({})", v, m, short_key(xkey), group), xkey, m, series);
-          if (!svg.empty()) sweep_html += svg + "\n";
-        }
-        if (keys.size() == 2 && !metrics.empty()) {
-          // Heatmap of the first metric over the two swept parameters (median over seeds).
-          std::set<double> xs_set, ys_set;
-          for (const Json* r : rs) {
-            xs_set.insert(point_num(*r, keys[0]));
-            ys_set.insert(point_num(*r, keys[1]));
-          }
-          const std::vector<double> xs(xs_set.begin(), xs_set.end()),
-              ys(ys_set.begin(), ys_set.end());
-          for (const auto& m : metrics) {
-            std::vector<std::vector<std::vector<double>>> acc(
-                ys.size(), std::vector<std::vector<double>>(xs.size()));
-            for (const Json* r : rs) {
-              const auto xi =
-                  std::lower_bound(xs.begin(), xs.end(), point_num(*r, keys[0])) - xs.begin();
-              const auto yi =
-                  std::lower_bound(ys.begin(), ys.end(), point_num(*r, keys[1])) - ys.begin();
-              acc[yi][xi].push_back(record_value(*r, m));
-            }
-            std::vector<std::vector<double>> vals(ys.size(), std::vector<double>(xs.size(), NAN));
-            for (std::size_t a = 0; a < ys.size(); ++a)
-              for (std::size_t b = 0; b < xs.size(); ++b)
-                vals[a][b] = median(acc[a][b]);
-            std::vector<std::string> xl, yl;
-            for (double x : xs)
-              xl.push_back(format_number(x));
-            for (double y : ys)
-              yl.push_back(format_number(y));
-            heat_html += heatmap(fmt::format("{}: {} over {} x {} ({})", v, m, short_key(keys[0]),
-                                             short_key(keys[1]), group),
-                                 keys[0], keys[1], xl, yl, vals) +
-                         "\n";
-          }
-        }
-      }
-      // Error against compression (CLOP paper Fig. 13) for mixture producers.
-      bool has_mixture = false;
-      for (const Json* r : rs)
-        has_mixture = has_mixture || !std::isnan(record_value(*r, "sizes.mixture_components"));
-      if (has_mixture && !metrics.empty()) {
-        std::vector<std::string> skeys;
-        if (keys.size() > 1) skeys.assign(keys.begin() + 1, keys.end());
-        const auto series = build_series(rs, "", skeys, metrics.front(), true);
-        std::size_t points = 0;
-        for (const auto& ser : series)
-          points += ser.pts.size();
-        const std::string svg =
-            points < 2
-                ? std::string()  // one point is no curve
-                : line_plot(fmt::format("{}: {} vs compression ({})", v, metrics.front(), group),
-                            "compression = scan points / Gaussians", metrics.front(), series);
-        if (!svg.empty()) comp_html += svg + "\n";
-      }
+      groups.push_back(std::move(g));
     }
   }
+  return groups;
+}
+
+/// Each shown quantity and time.total against the group's first swept key, one line per value
+/// of the other swept keys.
+std::string sweep_plots(const SweepGroup& g, const std::vector<std::string>& metrics) {
+  std::string html;
+  const std::string& xkey = g.keys.front();
+  std::vector<std::string> skeys;
+  const Json first = g.records.front()->value("point", Json::object());
+  for (const auto& [k, val] : first.items())
+    if (k != xkey) skeys.push_back(k);
+  std::vector<std::string> plot_metrics = metrics;
+  plot_metrics.push_back("time.total");
+  for (const auto& m : plot_metrics) {
+    const auto series = build_series(g.records, xkey, skeys, m, false);
+    const std::string svg = line_plot(
+        fmt::format("{}: {} vs {} ({})", g.variant, m, short_key(xkey), g.group), xkey, m, series);
+    if (!svg.empty()) html += svg + "\n";
+  }
+  return html;
+}
+
+/// A group swept over exactly two keys: a heatmap of each shown quantity over them (median over
+/// seeds).
+std::string sweep_heatmaps(const SweepGroup& g, const std::vector<std::string>& metrics) {
+  std::string html;
+  const std::vector<std::string>& keys = g.keys;
+  std::set<double> xs_set, ys_set;
+  for (const Json* r : g.records) {
+    xs_set.insert(point_num(*r, keys[0]));
+    ys_set.insert(point_num(*r, keys[1]));
+  }
+  const std::vector<double> xs(xs_set.begin(), xs_set.end()), ys(ys_set.begin(), ys_set.end());
+  for (const auto& m : metrics) {
+    std::vector<std::vector<std::vector<double>>> acc(ys.size(),
+                                                      std::vector<std::vector<double>>(xs.size()));
+    for (const Json* r : g.records) {
+      const auto xi = std::lower_bound(xs.begin(), xs.end(), point_num(*r, keys[0])) - xs.begin();
+      const auto yi = std::lower_bound(ys.begin(), ys.end(), point_num(*r, keys[1])) - ys.begin();
+      acc[yi][xi].push_back(record_value(*r, m));
+    }
+    std::vector<std::vector<double>> vals(ys.size(), std::vector<double>(xs.size(), NAN));
+    for (std::size_t a = 0; a < ys.size(); ++a)
+      for (std::size_t b = 0; b < xs.size(); ++b)
+        vals[a][b] = median(acc[a][b]);
+    std::vector<std::string> xl, yl;
+    for (double x : xs)
+      xl.push_back(format_number(x));
+    for (double y : ys)
+      yl.push_back(format_number(y));
+    html += heatmap(fmt::format("{}: {} over {} x {} ({})", g.variant, m, short_key(keys[0]),
+                                short_key(keys[1]), g.group),
+                    keys[0], keys[1], xl, yl, vals) +
+            "\n";
+  }
+  return html;
+}
+
+/// Error against compression (CLOP paper Fig. 13) when the group's variant makes a mixture;
+/// empty otherwise, and for a single point (no curve).
+std::string compression_plot(const SweepGroup& g, const std::vector<std::string>& metrics) {
+  bool has_mixture = false;
+  for (const Json* r : g.records)
+    has_mixture = has_mixture || !std::isnan(record_value(*r, "sizes.mixture_components"));
+  if (!has_mixture || metrics.empty()) return "";
+  std::vector<std::string> skeys;
+  if (g.keys.size() > 1) skeys.assign(g.keys.begin() + 1, g.keys.end());
+  const auto series = build_series(g.records, "", skeys, metrics.front(), true);
+  std::size_t points = 0;
+  for (const auto& ser : series)
+    points += ser.pts.size();
+  if (points < 2) return "";
+  const std::string svg =
+      line_plot(fmt::format("{}: {} vs compression ({})", g.variant, metrics.front(), g.group),
+                "compression = scan points / Gaussians", metrics.front(), series);
+  return svg.empty() ? "" : svg + "\n";
+}
+
+/// Sweep plots, error against compression and heatmaps, per variant and dataset/scanner group.
+std::string sweep_sections(const std::vector<const Json*>& ok, const Json& report_cfg,
+                           const std::vector<std::string>& metrics) {
+  std::string sweep_html, heat_html, comp_html;
+  for (const SweepGroup& g : sweep_groups(ok, report_cfg)) {
+    if (!g.keys.empty()) {
+      sweep_html += sweep_plots(g, metrics);
+      if (g.keys.size() == 2 && !metrics.empty()) heat_html += sweep_heatmaps(g, metrics);
+    }
+    comp_html += compression_plot(g, metrics);
+  }
+  std::string h;
   if (!sweep_html.empty()) {
     h += "<h2>Sweeps</h2>\n<div class=\"plots\" id=\"sweeps\">\n" + sweep_html + "</div>\n";
   }
@@ -729,243 +767,266 @@ fs::path write_report(const fs::path& dir, const fs::path& out_arg, const fs::pa
   if (!heat_html.empty()) {
     h += "<h2>Heatmaps</h2>\n<div class=\"plots\" id=\"heatmaps\">\n" + heat_html + "</div>\n";
   }
+  return h;
+}
 
-  // Per-job error heatmaps (PNG images written next to the outputs), inline.
-  {
-    std::string imgs;
-    int shown = 0;
-    for (const Json* r : ok) {
-      const Json art = r->value("artifacts", Json::object());
-      const std::string rel = art.value("heatmap", std::string());
-      if (rel.empty() || !fs::exists(dir / rel)) continue;
-      if (++shown > 40) break;
-      imgs += fmt::format(
-          "<figure><a href=\"{0}\"><img src=\"{0}\" width=\"560\" alt=\"{1}\">"
-          "</a><figcaption>{1}</figcaption></figure>\n",
-          html_escape(rel), html_escape(r->value("key", std::string())));
-    }
-    if (!imgs.empty()) {
-      h += "<h2>Error heatmaps (four views: |point-to-plane error| of output points; for mesh "
-           "outputs the distance to the ground truth of samples of the output surface)</h2>\n"
-           "<div class=\"plots\" "
-           "id=\"error-heatmaps\">\n" +
-           imgs + "</div>\n";
-    }
+/// Per-job error heatmaps (PNG images written next to the outputs), inline; at most 40.
+std::string error_heatmaps_section(const fs::path& dir, const std::vector<const Json*>& ok) {
+  std::string imgs;
+  int shown = 0;
+  for (const Json* r : ok) {
+    const Json art = r->value("artifacts", Json::object());
+    const std::string rel = art.value("heatmap", std::string());
+    if (rel.empty() || !fs::exists(dir / rel)) continue;
+    if (++shown > 40) break;
+    imgs += fmt::format(
+        "<figure><a href=\"{0}\"><img src=\"{0}\" width=\"560\" alt=\"{1}\">"
+        "</a><figcaption>{1}</figcaption></figure>\n",
+        html_escape(rel), html_escape(r->value("key", std::string())));
   }
+  if (imgs.empty()) return "";
+  return "<h2>Error heatmaps (four views: |point-to-plane error| of output points; for mesh "
+         "outputs the distance to the ground truth of samples of the output surface)</h2>\n"
+         "<div class=\"plots\" "
+         "id=\"error-heatmaps\">\n" +
+         imgs + "</div>\n";
+}
 
-  // Time per phase: medians of the repeat samples, sub-phases of each step stacked.
-  {
-    std::vector<std::string> labels, parts;
-    std::map<std::string, std::size_t> part_index;
-    std::vector<std::map<std::string, double>> rows;
-    for (const Json* r : ok) {
-      if (rows.size() >= 60) break;
-      const Json phases = (*r)["timing"].value("phases", Json::object());
-      std::map<std::string, double> row;
-      for (const auto& step : (*r)["variant"]["chain"]) {
-        const std::string label = step.value("label", std::string());
-        double sub = 0;
-        for (const auto& [k, v] : phases.items()) {
-          if (k.rfind(label + ":", 0) != 0) continue;
-          const double m = record_value(*r, "time." + k);
-          row[k] += m;
-          sub += m;
-        }
-        const double total = record_value(*r, "time." + label);
-        if (std::isfinite(total) && total - sub > 0.02 * total)
-          row[label + ":other"] += total - sub;
-      }
-      for (const auto& [k, v] : row)
-        if (!part_index.count(k)) {
-          part_index[k] = parts.size();
-          parts.push_back(k);
-        }
-      labels.push_back(field_value(*r, "dataset") + " " + field_value(*r, "variant") + " " +
-                       field_value(*r, "point"));
-      rows.push_back(std::move(row));
-    }
-    if (!rows.empty()) {
-      std::vector<std::vector<double>> vals(rows.size(), std::vector<double>(parts.size(), 0.0));
-      for (std::size_t i = 0; i < rows.size(); ++i)
-        for (const auto& [k, v] : rows[i])
-          vals[i][part_index[k]] = v;
-      h += "<h2>Time per phase</h2>\n<div class=\"plots\" id=\"phases\">\n" +
-           stacked_bars("median wall seconds per phase", labels, parts, vals) + "\n</div>\n";
-    }
-  }
-
-  // Reconstruction cost (GPS paper sec. 7.2): the table of Fig. 13c and the trade-off plots of
-  // Fig. 14, per dataset/scanner group, when the config asks for it with
-  //   "report": {"cost": {"exclude_steps": ["clop"]}}
-  // (steps left out of seconds and memory: preprocessing both methods share). Per job: sec = the
-  // summed median wall seconds of the other steps (timing.phases), build MB = the largest of their
-  // working memories (timing.step_work_mb), vertices, faces and bytes of the representation (the
-  // control covariance mesh, sizes.covmesh_*, when the chain made one: 6 more floats per vertex;
-  // else the output mesh), the error of the input points to the surface and the ground-truth
-  // surface metrics; the input-distance histograms of every job; RMSE against sec and build MB.
-  if (report_cfg.contains("cost") && report_cfg["cost"].is_object()) {
-    std::set<std::string> excluded;
-    for (const auto& e : report_cfg["cost"].value("exclude_steps", Json::array()))
-      if (e.is_string()) excluded.insert(e.get<std::string>());
-    auto cost_sec = [&](const Json& r) {
-      double sum = 0.0;
-      bool any = false;
-      const Json timing = r.value("timing", Json::object());
-      const Json phases = timing.value("phases", Json::object());
+/// Time per phase: medians of the repeat samples, sub-phases of each step stacked (the rest of
+/// a step's time as "<step>:other" when over 2 %); at most 60 jobs.
+std::string phases_section(const std::vector<const Json*>& ok) {
+  std::vector<std::string> labels, parts;
+  std::map<std::string, std::size_t> part_index;
+  std::vector<std::map<std::string, double>> rows;
+  for (const Json* r : ok) {
+    if (rows.size() >= 60) break;
+    const Json phases = (*r)["timing"].value("phases", Json::object());
+    std::map<std::string, double> row;
+    for (const auto& step : (*r)["variant"]["chain"]) {
+      const std::string label = step.value("label", std::string());
+      double sub = 0;
       for (const auto& [k, v] : phases.items()) {
-        if (k.find(':') != std::string::npos || excluded.count(k)) continue;
-        std::vector<double> xs;
-        for (const auto& x : v)
-          if (x.is_number()) xs.push_back(x.get<double>());
-        if (xs.empty()) continue;
-        sum += median(xs);
-        any = true;
+        if (k.rfind(label + ":", 0) != 0) continue;
+        const double m = record_value(*r, "time." + k);
+        row[k] += m;
+        sub += m;
       }
-      return any ? sum : NAN;
-    };
-    auto cost_mb = [&](const Json& r) {
-      double mb = NAN;
-      const Json timing = r.value("timing", Json::object());
-      const Json work = timing.value("step_work_mb", Json::object());
-      for (const auto& [k, v] : work.items()) {
-        if (excluded.count(k) || !v.is_number()) continue;
-        mb = std::isnan(mb) ? v.get<double>() : std::max(mb, v.get<double>());
-      }
-      return mb;
-    };
-    auto size_of = [&](const Json& r, const char* what) {
-      const double c = record_value(r, std::string("sizes.covmesh_") + what);
-      if (!std::isnan(c)) return c;
-      return std::string(what) == "bytes" ? record_value(r, "mesh_bytes")
-                                          : record_value(r, std::string("sizes.mesh_") + what);
-    };
-    std::map<std::string, std::vector<const Json*>> by_group;
-    for (const Json* r : ok)
-      by_group[group_of(*r)].push_back(r);
-    std::string cost_html, plots;
-    const std::vector<std::pair<const char*, const char*>> cols = {
-        {"input_distance_rms_rel", "input RMSE"}, {"input_distance_mean_rel", "input mean"},
-        {"input_distance_max_rel", "input max"},  {"chamfer_rel", "Chamfer"},
-        {"hausdorff_rel", "Hausdorff"},           {"fscore", "F-score"}};
-    for (const auto& [group, rs] : by_group) {
-      cost_html += "<table class=\"cost\"><caption>" + html_escape(group) +
-                   ": lengths relative to the bbox diagonal; sec and build MB without " +
-                   html_escape(fmt::format("{}", fmt::join(excluded, ", "))) +
-                   "</caption>\n<tr><th>job</th><th>sec</th><th>build MB</th><th>vertices</th>"
-                   "<th>faces</th><th>bytes</th>";
-      for (const auto& c : cols)
-        cost_html += std::string("<th>") + c.second + "</th>";
-      cost_html += "</tr>\n";
-      std::map<std::string, Series> vs_sec, vs_mb;
-      std::vector<Series> hists;
-      for (const Json* r : rs) {
-        const std::string name =
-            field_value(*r, "variant") + (r->value("point_label", std::string()).empty()
-                                              ? ""
-                                              : " " + r->value("point_label", std::string()));
-        const double sec = cost_sec(*r), mb = cost_mb(*r);
-        cost_html += "<tr><td style=\"text-align:left\">" + html_escape(name) + "</td><td>" +
-                     format_number(sec) + "</td><td>" + format_number(mb) + "</td><td>" +
-                     format_number(size_of(*r, "vertices")) + "</td><td>" +
-                     format_number(size_of(*r, "faces")) + "</td><td>" +
-                     format_number(size_of(*r, "bytes")) + "</td>";
-        for (const auto& c : cols)
-          cost_html += "<td>" + format_number(record_value(*r, c.first)) + "</td>";
-        cost_html += "</tr>\n";
-        const double rmse = record_value(*r, "input_distance_rms_rel");
-        const std::string v = field_value(*r, "variant");
-        vs_sec[v].name = v;
-        vs_sec[v].pts.push_back({sec, rmse});
-        vs_mb[v].name = v;
-        vs_mb[v].pts.push_back({mb, rmse});
-        const Json all_hists = r->value("histograms", Json::object());
-        const Json hj = all_hists.value("input_distance", Json::object());
-        if (hj.contains("counts") && hj["counts"].is_array() && !hj["counts"].empty()) {
-          const double lo = hj.value("min", 0.0), hi = hj.value("max", 1.0);
-          const double n = std::max(1.0, hj.value("count", 1.0));
-          const double w = (hi - lo) / static_cast<double>(hj["counts"].size());
-          Series hs{name, {}};
-          for (std::size_t b = 0; b < hj["counts"].size(); ++b)
-            hs.pts.push_back(
-                {lo + (static_cast<double>(b) + 0.5) * w, hj["counts"][b].get<double>() / n});
-          hists.push_back(std::move(hs));
-        }
-      }
-      cost_html += "</table>\n";
-      auto sorted = [](std::map<std::string, Series>& m) {
-        std::vector<Series> out;
-        for (auto& [k, ser] : m) {
-          std::sort(ser.pts.begin(), ser.pts.end());
-          out.push_back(ser);
-        }
-        return out;
-      };
-      plots += line_plot(fmt::format("input RMSE vs seconds ({})", group), "sec",
-                         "input_distance_rms_rel", sorted(vs_sec)) +
-               "\n";
-      plots += line_plot(fmt::format("input RMSE vs working memory ({})", group), "build MB",
-                         "input_distance_rms_rel", sorted(vs_mb)) +
-               "\n";
-      plots += line_plot(fmt::format("input distance histogram ({})", group), "input_distance",
-                         "fraction of points", hists) +
-               "\n";
+      const double total = record_value(*r, "time." + label);
+      if (std::isfinite(total) && total - sub > 0.02 * total) row[label + ":other"] += total - sub;
     }
-    if (!cost_html.empty()) {
-      h += "<h2>Reconstruction cost (GPS paper Fig. 13c, 14)</h2>\n<div id=\"cost\">\n" +
-           cost_html + "</div>\n<div class=\"plots\" id=\"cost-plots\">\n" + plots + "</div>\n";
+    for (const auto& [k, v] : row)
+      if (!part_index.count(k)) {
+        part_index[k] = parts.size();
+        parts.push_back(k);
+      }
+    labels.push_back(field_value(*r, "dataset") + " " + field_value(*r, "variant") + " " +
+                     field_value(*r, "point"));
+    rows.push_back(std::move(row));
+  }
+  if (rows.empty()) return "";
+  std::vector<std::vector<double>> vals(rows.size(), std::vector<double>(parts.size(), 0.0));
+  for (std::size_t i = 0; i < rows.size(); ++i)
+    for (const auto& [k, v] : rows[i])
+      vals[i][part_index[k]] = v;
+  return "<h2>Time per phase</h2>\n<div class=\"plots\" id=\"phases\">\n" +
+         stacked_bars("median wall seconds per phase", labels, parts, vals) + "\n</div>\n";
+}
+
+/// A histogram record {"counts", "min", "max", "count"} as fractions of the points at the bin
+/// centres.
+Series histogram_series(const std::string& name, const Json& hj) {
+  const double lo = hj.value("min", 0.0), hi = hj.value("max", 1.0);
+  const auto& counts = hj["counts"];
+  const double n = std::max(1.0, hj.value("count", 1.0));
+  Series s{name, {}};
+  const double w = (hi - lo) / static_cast<double>(std::max<std::size_t>(1, counts.size()));
+  for (std::size_t b = 0; b < counts.size(); ++b)
+    s.pts.push_back({lo + (static_cast<double>(b) + 0.5) * w, counts[b].get<double>() / n});
+  return s;
+}
+
+/// Reconstruction cost per job (report "cost"): seconds and working memory without the excluded
+/// steps, and the size of the representation.
+struct CostMeasure {
+  std::set<std::string> excluded;  ///< steps left out of seconds and memory
+
+  /// The summed median wall seconds of the steps not excluded (timing.phases); NaN when none.
+  double seconds(const Json& r) const {
+    double sum = 0.0;
+    bool any = false;
+    const Json timing = r.value("timing", Json::object());
+    const Json phases = timing.value("phases", Json::object());
+    for (const auto& [k, v] : phases.items()) {
+      if (k.find(':') != std::string::npos || excluded.count(k)) continue;
+      std::vector<double> xs;
+      for (const auto& x : v)
+        if (x.is_number()) xs.push_back(x.get<double>());
+      if (xs.empty()) continue;
+      sum += median(xs);
+      any = true;
+    }
+    return any ? sum : NAN;
+  }
+  /// The largest working memory of the steps not excluded (timing.step_work_mb); NaN when none.
+  double build_mb(const Json& r) const {
+    double mb = NAN;
+    const Json timing = r.value("timing", Json::object());
+    const Json work = timing.value("step_work_mb", Json::object());
+    for (const auto& [k, v] : work.items()) {
+      if (excluded.count(k) || !v.is_number()) continue;
+      mb = std::isnan(mb) ? v.get<double>() : std::max(mb, v.get<double>());
+    }
+    return mb;
+  }
+  /// vertices, faces or bytes of the control covariance mesh when the chain made one, else of
+  /// the output mesh.
+  static double size_of(const Json& r, const char* what) {
+    const double c = record_value(r, std::string("sizes.covmesh_") + what);
+    if (!std::isnan(c)) return c;
+    return std::string(what) == "bytes" ? record_value(r, "mesh_bytes")
+                                        : record_value(r, std::string("sizes.mesh_") + what);
+  }
+};
+
+/// The cost table of one dataset/scanner group and its three plots (RMSE against seconds and
+/// against working memory, the input-distance histograms).
+std::pair<std::string, std::string> cost_group(const std::string& group,
+                                               const std::vector<const Json*>& rs,
+                                               const CostMeasure& cost) {
+  const std::vector<std::pair<const char*, const char*>> cols = {
+      {"input_distance_rms_rel", "input RMSE"}, {"input_distance_mean_rel", "input mean"},
+      {"input_distance_max_rel", "input max"},  {"chamfer_rel", "Chamfer"},
+      {"hausdorff_rel", "Hausdorff"},           {"fscore", "F-score"}};
+  std::string html = "<table class=\"cost\"><caption>" + html_escape(group) +
+                     ": lengths relative to the bbox diagonal; sec and build MB without " +
+                     html_escape(fmt::format("{}", fmt::join(cost.excluded, ", "))) +
+                     "</caption>\n<tr><th>job</th><th>sec</th><th>build MB</th><th>vertices</th>"
+                     "<th>faces</th><th>bytes</th>";
+  for (const auto& c : cols)
+    html += std::string("<th>") + c.second + "</th>";
+  html += "</tr>\n";
+  std::map<std::string, Series> vs_sec, vs_mb;
+  std::vector<Series> hists;
+  for (const Json* r : rs) {
+    const std::string name =
+        field_value(*r, "variant") + (r->value("point_label", std::string()).empty()
+                                          ? ""
+                                          : " " + r->value("point_label", std::string()));
+    const double sec = cost.seconds(*r), mb = cost.build_mb(*r);
+    html += "<tr><td style=\"text-align:left\">" + html_escape(name) + "</td><td>" +
+            format_number(sec) + "</td><td>" + format_number(mb) + "</td><td>" +
+            format_number(CostMeasure::size_of(*r, "vertices")) + "</td><td>" +
+            format_number(CostMeasure::size_of(*r, "faces")) + "</td><td>" +
+            format_number(CostMeasure::size_of(*r, "bytes")) + "</td>";
+    for (const auto& c : cols)
+      html += "<td>" + format_number(record_value(*r, c.first)) + "</td>";
+    html += "</tr>\n";
+    const double rmse = record_value(*r, "input_distance_rms_rel");
+    const std::string v = field_value(*r, "variant");
+    vs_sec[v].name = v;
+    vs_sec[v].pts.push_back({sec, rmse});
+    vs_mb[v].name = v;
+    vs_mb[v].pts.push_back({mb, rmse});
+    const Json all_hists = r->value("histograms", Json::object());
+    const Json hj = all_hists.value("input_distance", Json::object());
+    if (hj.contains("counts") && hj["counts"].is_array() && !hj["counts"].empty()) {
+      hists.push_back(histogram_series(name, hj));
     }
   }
+  html += "</table>\n";
+  auto sorted = [](std::map<std::string, Series>& m) {
+    std::vector<Series> out;
+    for (auto& [k, ser] : m) {
+      std::sort(ser.pts.begin(), ser.pts.end());
+      out.push_back(ser);
+    }
+    return out;
+  };
+  std::string plots;
+  plots += line_plot(fmt::format("input RMSE vs seconds ({})", group), "sec",
+                     "input_distance_rms_rel", sorted(vs_sec)) +
+           "\n";
+  plots += line_plot(fmt::format("input RMSE vs working memory ({})", group), "build MB",
+                     "input_distance_rms_rel", sorted(vs_mb)) +
+           "\n";
+  plots += line_plot(fmt::format("input distance histogram ({})", group), "input_distance",
+                     "fraction of points", hists) +
+           "\n";
+  return {html, plots};
+}
 
-  // Error histograms: per dataset/scanner group, one line per variant (first sweep point, first
-  // seed), normalised to fractions of the points.
-  {
-    std::string hist_html;
-    std::map<std::string, std::map<std::string, std::map<std::string, const Json*>>> firsts;
-    std::vector<std::string> hist_names;
-    for (const Json* r : ok) {
-      const Json hists = r->value("histograms", Json::object());
-      for (const auto& [hn, hv] : hists.items()) {
-        if (std::find(hist_names.begin(), hist_names.end(), hn) == hist_names.end()) {
-          hist_names.push_back(hn);
-        }
-        auto& slot = firsts[hn][group_of(*r)];
-        const std::string v = field_value(*r, "variant");
-        if (!slot.count(v)) slot[v] = r;
+// Reconstruction cost (GPS paper sec. 7.2): the table of Fig. 13c and the trade-off plots of
+// Fig. 14, per dataset/scanner group, when the config asks for it with
+//   "report": {"cost": {"exclude_steps": ["clop"]}}
+// (steps left out of seconds and memory: preprocessing both methods share). Per job: sec = the
+// summed median wall seconds of the other steps (timing.phases), build MB = the largest of their
+// working memories (timing.step_work_mb), vertices, faces and bytes of the representation (the
+// control covariance mesh, sizes.covmesh_*, when the chain made one: 6 more floats per vertex;
+// else the output mesh), the error of the input points to the surface and the ground-truth
+// surface metrics; the input-distance histograms of every job; RMSE against sec and build MB.
+std::string cost_section(const std::vector<const Json*>& ok, const Json& report_cfg) {
+  if (!report_cfg.contains("cost") || !report_cfg["cost"].is_object()) return "";
+  CostMeasure cost;
+  for (const auto& e : report_cfg["cost"].value("exclude_steps", Json::array()))
+    if (e.is_string()) cost.excluded.insert(e.get<std::string>());
+  std::map<std::string, std::vector<const Json*>> by_group;
+  for (const Json* r : ok)
+    by_group[group_of(*r)].push_back(r);
+  std::string cost_html, plots;
+  for (const auto& [group, rs] : by_group) {
+    auto [table, group_plots] = cost_group(group, rs, cost);
+    cost_html += table;
+    plots += group_plots;
+  }
+  if (cost_html.empty()) return "";
+  return "<h2>Reconstruction cost (GPS paper Fig. 13c, 14)</h2>\n<div id=\"cost\">\n" + cost_html +
+         "</div>\n<div class=\"plots\" id=\"cost-plots\">\n" + plots + "</div>\n";
+}
+
+/// Error histograms: per dataset/scanner group, one line per variant (first sweep point, first
+/// seed), normalised to fractions of the points.
+std::string histograms_section(const std::vector<const Json*>& ok) {
+  std::string hist_html;
+  std::map<std::string, std::map<std::string, std::map<std::string, const Json*>>> firsts;
+  std::vector<std::string> hist_names;
+  for (const Json* r : ok) {
+    const Json hists = r->value("histograms", Json::object());
+    for (const auto& [hn, hv] : hists.items()) {
+      if (std::find(hist_names.begin(), hist_names.end(), hn) == hist_names.end()) {
+        hist_names.push_back(hn);
       }
-    }
-    for (const auto& hn : hist_names) {
-      for (const auto& [group, by_v] : firsts[hn]) {
-        std::vector<Series> series;
-        std::string unit;
-        for (const auto& [v, r] : by_v) {
-          const Json& hj = (*r)["histograms"][hn];
-          if (!hj.contains("counts") || !hj["counts"].is_array()) continue;
-          const double lo = hj.value("min", 0.0), hi = hj.value("max", 1.0);
-          const auto& counts = hj["counts"];
-          const double n = std::max(1.0, hj.value("count", 1.0));
-          unit = hj.value("unit", std::string());
-          Series s{v, {}};
-          const double w = (hi - lo) / std::max<std::size_t>(1, counts.size());
-          for (std::size_t b = 0; b < counts.size(); ++b)
-            s.pts.push_back({lo + (b + 0.5) * w, counts[b].get<double>() / n});
-          series.push_back(std::move(s));
-        }
-        const std::string svg =
-            line_plot(fmt::format("{} histogram ({})", hn, group),
-                      hn + (unit.empty() ? "" : " [" + unit + "]"), "fraction of points", series);
-        if (!svg.empty()) hist_html += svg + "\n";
-      }
-    }
-    if (!hist_html.empty()) {
-      h += "<h2>Error histograms</h2>\n<div class=\"plots\" id=\"histograms\">\n" + hist_html +
-           "</div>\n";
+      auto& slot = firsts[hn][group_of(*r)];
+      const std::string v = field_value(*r, "variant");
+      if (!slot.count(v)) slot[v] = r;
     }
   }
+  for (const auto& hn : hist_names) {
+    for (const auto& [group, by_v] : firsts[hn]) {
+      std::vector<Series> series;
+      std::string unit;
+      for (const auto& [v, r] : by_v) {
+        const Json& hj = (*r)["histograms"][hn];
+        if (!hj.contains("counts") || !hj["counts"].is_array()) continue;
+        unit = hj.value("unit", std::string());
+        series.push_back(histogram_series(v, hj));
+      }
+      const std::string svg =
+          line_plot(fmt::format("{} histogram ({})", hn, group),
+                    hn + (unit.empty() ? "" : " [" + unit + "]"), "fraction of points", series);
+      if (!svg.empty()) hist_html += svg + "\n";
+    }
+  }
+  if (hist_html.empty()) return "";
+  return "<h2>Error histograms</h2>\n<div class=\"plots\" id=\"histograms\">\n" + hist_html +
+         "</div>\n";
+}
 
-  // Files.
-  if (!history_db.empty()) h += history_section(history_db, records, metrics);
-  h += "<h2>Jobs and files</h2>\n<table id=\"jobs\"><tr><th>job</th><th>status</th>"
-       "<th>points in / output</th><th>files</th></tr>\n";
+/// Every job with its status, sizes and links to its files (artifacts, and any .vdb, .png or
+/// .exr next to its outputs).
+std::string jobs_section(const fs::path& dir, const std::vector<Json>& records) {
+  std::string h =
+      "<h2>Jobs and files</h2>\n<table id=\"jobs\"><tr><th>job</th><th>status</th>"
+      "<th>points in / output</th><th>files</th></tr>\n";
   for (const auto& r : records) {
     const Json art = r.value("artifacts", Json::object());
     std::string files;
@@ -974,7 +1035,6 @@ fs::path write_report(const fs::path& dir, const fs::path& out_arg, const fs::pa
       const std::string l = link(dir, v.get<std::string>(), k);
       if (!l.empty()) files += l + " ";
     }
-    // Any other artifact of this job (distance fields, images) next to its outputs.
     const std::string id = r.value("id", std::string());
     if (fs::is_directory(dir / "outputs")) {
       for (const auto& e : fs::directory_iterator(dir / "outputs")) {
@@ -991,7 +1051,40 @@ fs::path write_report(const fs::path& dir, const fs::path& out_arg, const fs::pa
         html_escape(r.value("key", "")), html_escape(r.value("status", "")),
         format_number(record_value(r, "sizes.scan_points")), output_size(r), files);
   }
-  h += "</table>\n<p>Generated by <code>scanbench report</code>.</p>\n</body></html>\n";
+  return h + "</table>\n";
+}
+
+}  // namespace
+
+fs::path write_report(const fs::path& dir, const fs::path& out_arg, const fs::path& history_db) {
+  const std::vector<Json> records = load_records(dir);
+  const fs::path out = out_arg.empty() ? dir / "index.html" : out_arg;
+  Json config = Json::object();
+  if (fs::exists(dir / "config.json")) config = read_json_file(dir / "config.json");
+  const Json cfg = config.value("config", Json::object());
+  const Json report_cfg = cfg.value("report", Json::object());
+  const std::string name = cfg.value("name", dir.filename().string());
+  std::vector<const Json*> ok;
+  for (const auto& r : records)
+    if (is_ok(r)) ok.push_back(&r);
+  const std::vector<std::string> metrics = report_metrics(report_cfg, records, ok);
+
+  std::string h = head_section(name, cfg, records);
+  h += winners_section(records, metrics);
+  h += baseline_section(dir);
+  // The papers' claims (`scanbench claims`, or nightly's quick set).
+  if (fs::exists(dir / "claims.json"))
+    h += claims_html_section(read_json_file(dir / "claims.json"));
+  h += failures_section(dir, records);
+  h += tables_section(records, metrics);
+  h += sweep_sections(ok, report_cfg, metrics);
+  h += error_heatmaps_section(dir, ok);
+  h += phases_section(ok);
+  h += cost_section(ok, report_cfg);
+  h += histograms_section(ok);
+  if (!history_db.empty()) h += history_section(history_db, records, metrics);
+  h += jobs_section(dir, records);
+  h += "<p>Generated by <code>scanbench report</code>.</p>\n</body></html>\n";
   write_file_atomic(out, h);
   return out;
 }

@@ -13,6 +13,7 @@
 
 #include "scanbench/core/point_cloud.h"
 #include "scanbench/core/triangle_mesh.h"
+#include "scanbench/harness/chain.h"
 #include "scanbench/harness/paired.h"
 #include "scanbench/harness/records.h"
 
@@ -51,6 +52,39 @@ PaperCase load_paper_case(const std::string& claim, const std::string& dataset, 
 /// One effective chain for a single registered algorithm: its declared defaults overridden by the
 /// keys of `given` that it declares (the others are dropped), validated.
 Json single_step_chain(const std::string& algorithm, const Json& given);
+
+/// One case of a bench's rounds: `chain` on `*input` with `threads`, its last run kept for the
+/// accuracy table.
+struct ChainCase {
+  std::string name;
+  Json chain;
+  const PointCloud* input = nullptr;
+  int threads = 0;
+  ChainRun last;
+};
+/// The timing loop's closure of a case (paired.h run_rounds): runs the chain once through the
+/// registry (run_chain) on a copy of its input, keeps the run in c.last, returns its wall and
+/// CPU seconds. `c` must outlive the rounds.
+TimedCase timed_case(ChainCase& c, std::uint64_t seed);
+/// The rounds' progress line: "  round 3", "  round warm-up 1".
+void print_round(int round);
+
+/// The head of a paper-case bench's JSON: benchmark, claim, context, dataset, scan_points,
+/// scanner_params, threads, seed.
+Json paper_case_json(const std::string& benchmark, const PaperCase& pc, const BenchOptions& o);
+
+/// The fixed-width text table a bench prints row by row (method, medians, sizes, metrics).
+struct BenchTable {
+  struct Column {
+    std::string header;
+    int width = 10;
+    int decimals = -1;  ///< a number in fixed notation with this many decimals; < 0: as it is
+  };
+  std::vector<Column> columns;
+  void print_header() const;
+  /// One cell per column: a string right-aligned as it is, a number as its column says.
+  void print_row(const std::vector<Json>& cells) const;
+};
 
 struct ResampleBenchOptions : BenchOptions {
   std::string dataset;   ///< empty: the claim's (camel)

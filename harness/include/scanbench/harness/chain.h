@@ -1,8 +1,13 @@
 #pragma once
 // Running a chain of registered steps once: the one way a job (job_exec.cpp) and a benchmark
 // (`scanbench bench`) run and time methods, so both measure the same thing.
+#include <filesystem>
+#include <functional>
 #include <map>
 #include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
 
 #include "scanbench/core/run_context.h"
 #include "scanbench/core/stage_data.h"
@@ -29,5 +34,15 @@ struct ChainRun {
 /// `input` once, each step through the registry (harness algorithm_entry, so test algorithms too
 /// when enabled). Throws whatever a step throws.
 ChainRun run_chain(const Json& chain, StageData input, RunContext& ctx, bool measure_memory);
+
+/// The one writer of a chain's output (a job's outputs/, `scanbench algo`): each kind of `kinds`
+/// to path_of(kind) (write_stage_kind, core io.h), in the order points, mixture, mesh,
+/// covariance mesh; returns (kind, file) as written. Throws InputError when `data` lacks one of
+/// `kinds`, IoError when a file cannot be written.
+std::vector<std::pair<DataKind, std::filesystem::path>> write_stage_data(
+    const StageData& data, DataKinds kinds,
+    const std::function<std::filesystem::path(DataKind)>& path_of);
+/// The word a kind's file carries: its kind_name, covmesh for a covariance mesh (out.covmesh.ply).
+std::string_view kind_suffix(DataKind kind);
 
 }  // namespace scanbench::harness

@@ -9,6 +9,7 @@
 //   DIR/outputs/<id>*.ply  algorithm outputs (points; .mixture.ply; .mesh.ply)
 //   DIR/runs.jsonl         all records merged, one per line, in plan order
 //   DIR/runs.csv           the same, flattened (params.*, metrics.*, time.* medians)
+//   DIR/tables.md          the accuracy and time tables, written as every run ends (finish.h)
 //
 // A record: {"id","key","experiment","status","error","dataset":{label,name,params},
 // "scanner":{label,preset,params},"variant":{label,chain:[{algorithm,label,params}]},"point",
@@ -21,11 +22,12 @@
 // the job: scancel, node failure, preemption; `run --resume` runs it again, see slurm.h).
 //
 // With --executor slurm the folder also holds DIR/slurm/<NNN>/ per submission (slurm.h) and the
-// merge job writes DIR/tables.md and DIR/index.html.
+// merge job also writes the report DIR/index.html (after a local run: `scanbench report DIR`).
 #include <filesystem>
 #include <string>
 #include <vector>
 
+#include "scanbench/core/files.h"  // write_file_atomic, write_json_file
 #include "scanbench/core/params.h"
 #include "scanbench/core/timing.h"  // median
 
@@ -39,9 +41,6 @@ Json run_context_json();
 /// recorded in run contexts and job records.
 std::string utc_now(const char* format = "%Y-%m-%dT%H:%M:%SZ");
 
-/// Writes `text` to `path` atomically: a temp file in the same folder, fsync, rename. Throws
-/// IoError.
-void write_file_atomic(const std::filesystem::path& path, const std::string& text);
 /// One CSV field: as is, or quoted (RFC 4180, inner quotes doubled) when it holds a comma, quote
 /// or newline; a newline becomes a space so that every row stays on one line.
 std::string csv_field(const std::string& s);

@@ -22,7 +22,8 @@
 //   merge job (scanbench merge DIR --submission SUB)
 //     a job whose task started it but wrote no record (the task was SIGKILLed, its node failed)
 //     is recorded from `scontrol show job` (JobState NODE_FAIL, CANCELLED, TIMEOUT,
-//     OUT_OF_MEMORY, ...); then runs.jsonl, runs.csv, tables.md and index.html are written. Jobs
+//     OUT_OF_MEMORY, ...); then runs.jsonl and runs.csv are merged, and the command presents the
+//     folder as every run ends (finish.h: tables.md and index.html). Jobs
 //     of the submission that still have no record are listed with the command that resubmits
 //     them; the merge then exits 1.
 //   status (scanbench status DIR)
@@ -40,6 +41,7 @@
 // squeue -r -n -o, scontrol ping / show job -o and sinfo -o, all present since Slurm 20.11.
 #include <filesystem>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "scanbench/core/errors.h"
@@ -73,7 +75,7 @@ struct SlurmSubmission {
 /// Submits the jobs selected by prepare_run (see the top of this file). sbatch gets
 /// --time = the largest sum of timeout_s over a task's jobs plus 60 s, in whole minutes;
 /// --mem = the largest memory_limit_mb; --cpus-per-task = the largest positive `threads`.
-/// When no job is left to run, nothing is submitted and the folder is merged here.
+/// When no job is left to run, nothing is submitted (the id stays empty; the caller merges).
 /// Throws SchedulerError, ParamError (records without resume, bad filter), IoError.
 SlurmSubmission submit_slurm(const Experiment& e, const RunOptions& opts, const SlurmOptions& so);
 
@@ -84,11 +86,19 @@ void wait_for_submission(const std::filesystem::path& dir, const SlurmSubmission
 /// Returns 0, or 1 when Slurm stopped it.
 int run_slurm_task(const std::filesystem::path& dir, const std::string& submission);
 
-/// `scanbench merge DIR [--submission SUB]`: records the jobs of SUB that started but left no
-/// record, writes runs.jsonl, runs.csv, tables.md and index.html, prints the jobs without a
-/// record (of SUB, or of the whole plan without SUB) and how to resubmit them. Returns how many
-/// jobs have no record.
-int merge_folder(const std::filesystem::path& dir, const std::string& submission);
+/// The jobs left without a record after a merge, and how to resubmit them.
+struct MergedFolder {
+  std::vector<std::pair<std::string, std::string>> missing;  ///< (job id, key), in plan order
+  std::string resume_hint;  ///< the command that resubmits them; empty when none is missing
+};
+
+/// `scanbench merge DIR [--submission SUB]`, the executor's half: records the jobs of SUB that
+/// started but left no record, writes runs.jsonl and runs.csv (merge_records) and returns the
+/// jobs without a record (of SUB, or of the whole plan without SUB). The command then presents
+/// the folder (finish.h) and prints render_missing.
+MergedFolder merge_folder(const std::filesystem::path& dir, const std::string& submission);
+/// "N jobs without a record:", one line a job, the command that resubmits them; empty when none.
+std::string render_missing(const MergedFolder& m);
 
 /// The state of every job of DIR's plan.
 struct FolderStatus {

@@ -10,7 +10,7 @@
 // Lengths are reported absolute and as fractions of the diagonal (`_rel`); tau is a fraction of
 // the ground-truth diagonal.
 #include "scanbench/metrics/ground_truth.h"
-#include "scanbench/metrics/registry.h"
+#include "scanbench/metrics/metric_input.h"
 
 namespace scanbench::metrics {
 

@@ -16,6 +16,7 @@
 #include "scanbench/core/params.h"
 #include "scanbench/core/point_cloud.h"
 #include "scanbench/core/run_context.h"
+#include "scanbench/core/stage_data.h"
 #include "scanbench/core/triangle_mesh.h"
 #include "scanbench/metrics/ground_truth.h"
 
@@ -44,5 +45,13 @@ Json evaluate_covariance_mesh(const GroundTruth& gt, const CovarianceMesh& outpu
                               const PointCloud* scan, const std::vector<std::string>& metric_names,
                               const Json& metric_params, RunContext& ctx,
                               Eigen::Index samples = 100000);
+
+/// The one entry for a stage's output (a job's chain, `scanbench eval`), scored as its `primary`
+/// kind: a covariance mesh by evaluate_covariance_mesh, a mesh by evaluate_mesh, a mixture by
+/// evaluate on its components as points, points by evaluate. InputError when `output` lacks the
+/// primary kind.
+Json evaluate(const GroundTruth& gt, const StageData& output, DataKind primary,
+              const PointCloud* scan, const std::vector<std::string>& metric_names,
+              const Json& metric_params, RunContext& ctx, Eigen::Index samples = 100000);
 
 }  // namespace scanbench::metrics

@@ -21,7 +21,7 @@
 
 #include "scanbench/core/covariance_mesh.h"
 #include "scanbench/core/triangle_mesh.h"
-#include "scanbench/metrics/registry.h"
+#include "scanbench/metrics/metric_input.h"
 
 namespace scanbench::metrics {
 

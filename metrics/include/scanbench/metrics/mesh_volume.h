@@ -9,7 +9,7 @@
 #include <filesystem>
 
 #include "scanbench/metrics/distance_field.h"
-#include "scanbench/metrics/registry.h"
+#include "scanbench/metrics/metric_input.h"
 
 namespace scanbench::metrics {
 

@@ -4,7 +4,7 @@
 // Reported: normal_angle_mean_deg, normal_angle_rms_deg, normal_pgp5 and normal_pgp10 (share of
 // points with angle < 5 and < 10 degrees), plus a histogram over 0..90 degrees. The output's
 // normals are normalised first; NotApplicable when it has none, InputError for a zero normal.
-#include "scanbench/metrics/registry.h"
+#include "scanbench/metrics/metric_input.h"
 
 namespace scanbench::metrics {
 

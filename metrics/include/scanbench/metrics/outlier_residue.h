@@ -7,7 +7,7 @@
 // outlier_threshold and scan_noise (lengths) and scan_outlier_share, the same share for the scan
 // itself (what the algorithm started from). NotApplicable when noise = 0 and there is no scan
 // with clean positions.
-#include "scanbench/metrics/registry.h"
+#include "scanbench/metrics/metric_input.h"
 
 namespace scanbench::metrics {
 

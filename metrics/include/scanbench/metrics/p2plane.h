@@ -7,7 +7,7 @@
 #include <vector>
 
 #include "scanbench/metrics/ground_truth.h"
-#include "scanbench/metrics/registry.h"
+#include "scanbench/metrics/metric_input.h"
 
 namespace scanbench::metrics {
 

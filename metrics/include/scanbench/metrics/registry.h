@@ -35,43 +35,13 @@
 #include <string_view>
 #include <vector>
 
-#include "scanbench/core/covariance_mesh.h"
-#include "scanbench/core/errors.h"
-#include "scanbench/core/point_cloud.h"
 #include "scanbench/core/registry.h"
 #include "scanbench/core/run_context.h"
-#include "scanbench/core/triangle_mesh.h"
+#include "scanbench/metrics/metric_input.h"
 
 namespace scanbench::metrics {
 
-class GroundTruth;       // metrics/ground_truth.h: the mesh with its distance oracles
 struct PointTruthInput;  // metrics/point_truth.h: a point-cloud ground truth
-struct ClosestPoint;     // metrics/ground_truth.h
-
-struct MetricInput {
-  const GroundTruth& truth;
-  /// The algorithm's output points; for a mesh output, the seeded area-uniform samples of the
-  /// output surface (evaluate_mesh), with the sampled face's unit normal as normal.
-  const PointCloud& output;
-  const PointCloud* scan = nullptr;           ///< the algorithm's input (outliers, input distance)
-  const TriangleMesh* output_mesh = nullptr;  ///< set for mesh outputs
-  /// Set when the output is a covariance mesh (output_mesh is then its mean mesh).
-  const CovarianceMesh* output_covariance_mesh = nullptr;
-  /// The exact closest-point oracle of the output mesh (a GroundTruth built on it), when the
-  /// output is a mesh and a metric declared needs_output_oracle.
-  const GroundTruth* output_oracle = nullptr;
-  /// Exact closest points of every output point on the ground truth, when already computed
-  /// (evaluate() computes them once for all metrics); metrics compute them when null.
-  const std::vector<ClosestPoint>* closest = nullptr;
-};
-
-/// Thrown by a metric that cannot be computed for this input (no normals, no scan, no mesh).
-/// evaluate() records it under "skipped" when running all metrics and rethrows it when the
-/// metric was asked for by name.
-class NotApplicable : public InputError {
- public:
-  using InputError::InputError;
-};
 
 /// What a metric scores: the output points, their normals, or the output surface (mesh).
 enum class Scores { Points, Normals, Mesh };
@@ -131,8 +101,5 @@ std::optional<Better> key_direction(std::string_view key);
 inline bool scores_mesh(Scores s) {
   return s == Scores::Mesh;
 }
-
-/// The exact closest points of in.output (in.closest, or computed now).
-std::vector<ClosestPoint> closest_points_of(const MetricInput& in);
 
 }  // namespace scanbench::metrics

@@ -4,7 +4,7 @@
 // 0). Reported: nn_dist_mean (length), nn_dist_var (population variance, 1/n; `_rel` divides by
 // diagonal^2) and nn_dist_cv = std / mean (scale free; null when the mean is 0). Needs at least 2
 // points.
-#include "scanbench/metrics/registry.h"
+#include "scanbench/metrics/metric_input.h"
 
 namespace scanbench::metrics {
 

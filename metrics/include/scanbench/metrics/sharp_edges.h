@@ -14,7 +14,7 @@
 // means would not be comparable, so a mean over no point is also NotApplicable. The edge search
 // is exact: the sharp edges are cut into pieces no longer than `band`, the pieces' midpoints go
 // into the kd-tree, and every piece within band + band/2 of the closest point is tested.
-#include "scanbench/metrics/registry.h"
+#include "scanbench/metrics/metric_input.h"
 
 namespace scanbench::metrics {
 

@@ -20,7 +20,8 @@
 //    count input_distance_points, and the histogram "input_distance". The paper's input is a
 //    consolidated scan without outliers; the scanner simulator marks its outliers (property
 //    "outlier"), which are left out by default (skip_outliers). NotApplicable without a scan.
-#include "scanbench/metrics/registry.h"
+#include "scanbench/core/run_context.h"
+#include "scanbench/metrics/metric_input.h"
 
 namespace scanbench::metrics {
 
