@@ -59,7 +59,7 @@
 // at the camera (albedo * (0.25 + 0.75 |cos|)), 2 x 2 samples per pixel, background black; then an
 // optional Gaussian blur
 // (`image_blur_px`) and Gaussian grey noise (`image_noise`, stream "scan.photo_noise" per view).
-// The images go to COLMAP (the real program, on the CPU, `colmap_threads` threads):
+// The images go to COLMAP (the real program, on the CPU; `colmap_threads` threads for matching and triangulation):
 // feature_extractor (one PINHOLE camera with the known intrinsics), exhaustive_matcher, and
 // point_triangulator on a text model holding the known poses (intrinsics and poses kept fixed).
 // The output is the sparse model as a scan: positions, scan_id (first view seeing the point),
@@ -67,8 +67,10 @@
 // (unsigned distance to the mesh, mesh units) and "outlier" (surface_distance above
 // `outlier_threshold` diag). The COLMAP workspace (images/, database.db, known/, sparse/) is kept
 // in Scan::workspace and written beside the scan as <ply>.colmap/. COLMAP's random seed is derived
-// from the run seed; results are deterministic for one COLMAP version and colmap_threads (the
-// thread count of the run context plays no part). kind = "photo_dense" asks for COLMAP's
+// from the run seed. At colmap_threads 1 (the presets) a scan is repeatable byte for byte for one
+// COLMAP version, whatever the run context's thread count; above 1 COLMAP 3.8 is not repeatable
+// (its matcher's verification threads each seed their own random stream with 0; photo.cpp), and
+// the record says "colmap_repeatable": false. kind = "photo_dense" asks for COLMAP's
 // patch_match_stereo, which needs CUDA: refused in one line when `colmap help` says "without CUDA".
 #include <cstdint>
 #include <filesystem>
@@ -120,7 +122,7 @@ struct ScannerParams {
   double image_noise = 0.0;
   double image_blur_px = 0.0;
   double outlier_threshold = 0.01;
-  int colmap_threads = 2;
+  int colmap_threads = 1;
   double colmap_timeout_s = 1800.0;
 
   static void declare(ParamDeclarer<ScannerParams>& d);
