@@ -8,10 +8,12 @@
 #include <map>
 #include <optional>
 
+#include "point_dataset.h"
 #include "scanbench/algorithms/registry.h"
 #include "scanbench/core/datasets.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/io.h"
+#include "scanbench/core/stage_data.h"
 #include "scanbench/core/timing.h"
 #include "scanbench/harness/chain.h"
 #include "scanbench/harness/records.h"
@@ -86,11 +88,22 @@ Json execute_job(const Job& job, const fs::path& out) {
   Json sizes = Json::object();
   RunContext ctx(job.seed, job.threads);
 
-  const TriangleMesh mesh = load_dataset(job.dataset, job.dataset_params);
+  // A point dataset (experiment.h): its points instead of a scan, and a mesh or a point cloud
+  // (point_truth) as ground truth.
+  const bool from_points = job.scanner_preset == kPointsInput;
+  std::optional<PointTruth> point_truth;
+  if (job.dataset_params.contains("gt_points")) point_truth = read_point_truth(job.dataset_params);
+  PointCloud input = from_points
+                         ? read_input_points(job.dataset_params.at("points").get<std::string>())
+                         : PointCloud();
+  const TriangleMesh mesh =
+      point_truth ? TriangleMesh()
+                  : load_dataset(job.dataset, from_points ? Json::object() : job.dataset_params);
   // The dataset's local origin (core stage_data.h): zero, except for a mesh file whose coordinates
   // float32 cannot hold (survey / UTM data). Scan, chain and metrics run in the local frame; the
   // origin is recorded and restored on every file written.
-  const Eigen::Vector3d origin = mesh.origin;
+  const Eigen::Vector3d origin = point_truth ? input.origin : mesh.origin;
+  if (from_points) rebase(input, origin);
   const bool has_origin = !origin.isZero(0.0);
   if (has_origin) res["dataset_origin"] = {origin.x(), origin.y(), origin.z()};
   // The ground_truth input (experiment.h): no scan, the chain starts from the mesh itself.
@@ -108,8 +121,8 @@ Json execute_job(const Job& job, const fs::path& out) {
   const std::string scan_hash = content_hash(scan_key.dump());
   const fs::path ply = out / "scans" / (scan_hash + ".ply");
   const double t_scan = wall_seconds();
-  const bool cached =
-      from_ground_truth || (fs::exists(ply) && fs::exists(scanner::sidecar_path(ply)));
+  const bool cached = from_ground_truth || from_points ||
+                      (fs::exists(ply) && fs::exists(scanner::sidecar_path(ply)));
   if (!cached) {
     const auto p = params_from_json<scanner::ScannerParams>(job.scanner_params,
                                                             "scanner " + job.scanner_label);
@@ -132,7 +145,9 @@ Json execute_job(const Job& job, const fs::path& out) {
   }
   // Every job reads the scan back from the cache, so a cached and a fresh scan give the same
   // input bit for bit.
-  PointCloud cloud = from_ground_truth ? PointCloud() : read_point_cloud(ply);
+  PointCloud cloud = from_ground_truth ? PointCloud()
+                     : from_points     ? std::move(input)
+                                       : read_point_cloud(ply);
   if (!from_ground_truth && cloud.origin != origin) {
     throw IoError(fmt::format("{}: the scan's local origin ({} {} {}) is not its mesh's ({} {} {})",
                               ply.string(), cloud.origin.x(), cloud.origin.y(), cloud.origin.z(),
@@ -143,6 +158,9 @@ Json execute_job(const Job& job, const fs::path& out) {
   if (from_ground_truth) {
     sizes["input_mesh_vertices"] = mesh.num_vertices();
     sizes["input_mesh_faces"] = mesh.num_faces();
+  } else if (from_points) {
+    artifacts["input_points"] = job.dataset_params.at("points");
+    sizes["scan_points"] = cloud.size();
   } else {
     artifacts["scan"] = "scans/" + scan_hash + ".ply";
     artifacts["scan_record"] = "scans/" + scan_hash + ".ply.json";
@@ -233,14 +251,19 @@ Json execute_job(const Job& job, const fs::path& out) {
   // Metrics.
   ctx.clear_phases();
   const double t_metrics = wall_seconds();
-  const metrics::GroundTruth gt(mesh, ctx.stream_seed("ground_truth"));
+  std::optional<metrics::GroundTruth> gt_mesh;
+  if (!point_truth) gt_mesh.emplace(mesh, ctx.stream_seed("ground_truth"));
   const PointCloud* scan = from_ground_truth ? nullptr : &cloud;
-  Json m = primary == DataKind::CovarianceMesh
-               ? metrics::evaluate_covariance_mesh(gt, *final_out.covariance_mesh, scan,
+  Json m = point_truth ? evaluate_on_point_truth(*point_truth, final_out.points,
+                                                 scored_mesh ? &*scored_mesh : nullptr, job.metrics,
+                                                 job.metric_params, ctx)
+           : primary == DataKind::CovarianceMesh
+               ? metrics::evaluate_covariance_mesh(*gt_mesh, *final_out.covariance_mesh, scan,
                                                    job.metrics, job.metric_params, ctx)
-           : scored_mesh
-               ? metrics::evaluate_mesh(gt, *scored_mesh, scan, job.metrics, job.metric_params, ctx)
-               : metrics::evaluate(gt, final_out.points, scan, job.metrics, job.metric_params, ctx);
+           : scored_mesh ? metrics::evaluate_mesh(*gt_mesh, *scored_mesh, scan, job.metrics,
+                                                  job.metric_params, ctx)
+                         : metrics::evaluate(*gt_mesh, final_out.points, scan, job.metrics,
+                                             job.metric_params, ctx);
   timing["metrics_s"] = wall_seconds() - t_metrics;
   Json metric_phases = Json::object();
   for (const auto& [k, v] : ctx.phase_seconds())
@@ -276,6 +299,13 @@ Json execute_job(const Job& job, const fs::path& out) {
       write_covariance_mesh(*final_out.covariance_mesh, base.string() + ".covmesh.ply");
       artifacts["covariance_mesh"] = "outputs/" + job.id + ".covmesh.ply";
     }
+    if (!gt_mesh) {  // a point ground truth: no heatmap or distance field
+      res["timing"] = timing;
+      res["sizes"] = sizes;
+      res["artifacts"] = artifacts;
+      return res;
+    }
+    const metrics::GroundTruth& gt = *gt_mesh;
     // Heatmap on four views. Points: the point-to-plane error E(q) = <q - p, N_p> (CLOP paper
     // sec. 10.2) of every output point. Mesh outputs: the distance to the ground truth of the same
     // seeded samples of the output surface the metrics scored (metrics::output_surface_samples).
