@@ -331,13 +331,9 @@ void render_views(const EmbreeScene& scene, const Rig& rig, const ScannerParams&
 }
 
 /// feature_extractor, exhaustive_matcher, point_triangulator (known poses and intrinsics fixed).
-/// Where COLMAP 3.8 draws random numbers: every RANSAC (two-view geometry in the matcher,
-/// triangulation) takes them from a thread_local std::mt19937 (src/util/random.h), which
-/// --random_seed seeds on the main thread only; any other thread seeds its own with 0 at its first
-/// draw. The matcher verifies pairs on SiftMatching.num_threads pool threads, so above one thread
-/// which pairs share a random stream depends on the scheduling: the inlier sets, hence the points,
-/// vary from run to run. At colmap_threads 1 one verifier thread takes the pairs in their fixed
-/// order and the scan is repeatable byte for byte (test_photo.cpp).
+/// Repeatability, measured with COLMAP 3.8 (docs/scanner.md, Determinism): the images, the SIFT
+/// keypoints and descriptors, and point_triangulator on a given database repeat bit for bit at 1
+/// and 2 threads; exhaustive_matcher's descriptor matches do not, even on one thread.
 void run_colmap(const Rig& rig, const ScannerParams& p, const fs::path& ws, RunContext& ctx,
                 Json& timings) {
   const std::string db = (ws / "database.db").string();
@@ -430,8 +426,7 @@ Scan photo_scan(const TriangleMesh& mesh, const ScannerParams& p, RunContext& ct
                 {"height", p.image_height},
                 {"params", {rig.fx, rig.fy, rig.cx, rig.cy}}}},
               {"outlier_threshold_abs", threshold},
-              // run_colmap: COLMAP 3.8 repeats a scan only on one thread.
-              {"colmap_repeatable", p.colmap_threads == 1},
+              {"colmap_seed", std::to_string(ctx.stream_seed("scan.colmap") % 2147483647u)},
               {"timings", timings},
               {"scans", views}};
   return s;

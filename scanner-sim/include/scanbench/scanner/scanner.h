@@ -67,10 +67,10 @@
 // (unsigned distance to the mesh, mesh units) and "outlier" (surface_distance above
 // `outlier_threshold` diag). The COLMAP workspace (images/, database.db, known/, sparse/) is kept
 // in Scan::workspace and written beside the scan as <ply>.colmap/. COLMAP's random seed is derived
-// from the run seed. At colmap_threads 1 (the presets) a scan is repeatable byte for byte for one
-// COLMAP version, whatever the run context's thread count; above 1 COLMAP 3.8 is not repeatable
-// (its matcher's verification threads each seed their own random stream with 0; photo.cpp), and
-// the record says "colmap_repeatable": false. kind = "photo_dense" asks for COLMAP's
+// from the run seed, and the thread count of the run context plays no part. Not repeatable: with
+// COLMAP 3.8 the images, SIFT features and the triangulation of a given database repeat bit for
+// bit, but exhaustive_matcher's descriptor matches vary from run to run even on one thread, so two
+// scans of one seed differ by about 1% of their points (docs/scanner.md, Determinism). kind = "photo_dense" asks for COLMAP's
 // patch_match_stereo, which needs CUDA: refused in one line when `colmap help` says "without CUDA".
 #include <cstdint>
 #include <filesystem>
@@ -122,7 +122,7 @@ struct ScannerParams {
   double image_noise = 0.0;
   double image_blur_px = 0.0;
   double outlier_threshold = 0.01;
-  int colmap_threads = 1;
+  int colmap_threads = 2;
   double colmap_timeout_s = 1800.0;
 
   static void declare(ParamDeclarer<ScannerParams>& d);
