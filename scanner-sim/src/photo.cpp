@@ -331,6 +331,9 @@ void render_views(const EmbreeScene& scene, const Rig& rig, const ScannerParams&
 }
 
 /// feature_extractor, exhaustive_matcher, point_triangulator (known poses and intrinsics fixed).
+/// Repeatability, measured with COLMAP 3.8 (docs/scanner.md, Determinism): the images, the SIFT
+/// keypoints and descriptors, and point_triangulator on a given database repeat bit for bit at 1
+/// and 2 threads; exhaustive_matcher's descriptor matches do not, even on one thread.
 void run_colmap(const Rig& rig, const ScannerParams& p, const fs::path& ws, RunContext& ctx,
                 Json& timings) {
   const std::string db = (ws / "database.db").string();
@@ -423,6 +426,7 @@ Scan photo_scan(const TriangleMesh& mesh, const ScannerParams& p, RunContext& ct
                 {"height", p.image_height},
                 {"params", {rig.fx, rig.fy, rig.cx, rig.cy}}}},
               {"outlier_threshold_abs", threshold},
+              {"colmap_seed", std::to_string(ctx.stream_seed("scan.colmap") % 2147483647u)},
               {"timings", timings},
               {"scans", views}};
   return s;

@@ -12,6 +12,7 @@
 #include "scanbench/harness/plugins.h"
 #include "scanbench/harness/protocol.h"
 #include "scanbench/harness/test_algorithms.h"
+#include "scanbench/metrics/point_truth.h"
 #include "scanbench/metrics/registry.h"
 #include "scanbench/scanner/registry.h"
 
@@ -206,12 +207,48 @@ std::vector<ScannerSpec> parse_scanners(const Json& j, const Where& w) {
   return out;
 }
 
+// A point dataset (DatasetSpec::points): the input points and a mesh ("name", a path or a
+// registered name without parameters) or a point cloud ("gt_points") as ground truth.
+DatasetSpec parse_point_dataset(const Json& j, const Where& w) {
+  DatasetSpec d;
+  d.points = get_string(j["points"], w / "points");
+  for (const char* k : {"scanners", "params", "optional"})
+    if (j.contains(k)) fail(w / k, "a point dataset (\"points\") takes no " + std::string(k));
+  if (j.contains("name") == j.contains("gt_points")) {
+    fail(w,
+         "a point dataset needs exactly one ground truth: \"name\" (a mesh) or "
+         "\"gt_points\" (a point cloud)");
+  }
+  if (j.contains("name")) {
+    d.name = get_string(j["name"], w / "name");
+    if (const auto* e = datasets().find(d.name)) (void)e->params.validate(Json::object(), w.str());
+  } else {
+    d.gt_points = get_string(j["gt_points"], w / "gt_points");
+  }
+  for (const char* k : {"gt_transform", "gt_crop"}) {
+    if (!j.contains(k)) continue;
+    if (d.gt_points.empty()) fail(w / k, "applies to \"gt_points\" only");
+    (std::string(k) == "gt_crop" ? d.gt_crop : d.gt_transform) = get_string(j[k], w / k);
+  }
+  if (!d.gt_crop.empty()) (void)metrics::parse_crop(d.gt_crop, (w / "gt_crop").str());
+  fs::path stem(d.points);
+  if (!stem.has_filename()) stem = stem.parent_path();  // "model/sparse/"
+  d.label = j.contains("label") ? get_string(j["label"], w / "label") : stem.stem().string();
+  d.scanners.push_back({std::string(kPointsInput), std::string(kPointsInput), Json::object()});
+  return d;
+}
+
 DatasetSpec parse_dataset(const Json& j, const Where& w) {
   DatasetSpec d;
   if (j.is_string()) {
     d.name = get_string(j, w);
   } else {
-    check_keys_at(j, w, {"name", "label", "params", "optional", "scanners"});
+    check_keys_at(j, w,
+                  {"name", "label", "params", "optional", "scanners", "points", "gt_points",
+                   "gt_transform", "gt_crop"});
+    if (j.contains("points")) return parse_point_dataset(j, w);
+    for (const char* k : {"gt_points", "gt_transform", "gt_crop"})
+      if (j.contains(k)) fail(w / k, "a point ground truth needs \"points\" (the input)");
     if (!j.contains("name")) fail(w, "missing key \"name\" (a dataset name or a mesh path)");
     d.name = get_string(j["name"], w / "name");
     if (j.contains("label")) d.label = get_string(j["label"], w / "label");
@@ -269,8 +306,8 @@ StepSpec parse_step(const Json& j, const Where& w) {
 
 VariantSpec parse_variant(const Json& j, const Where& w) {
   check_keys_at(j, w,
-             {"label", "algorithm", "params", "chain", "sweep", "timeout_s", "memory_limit_mb",
-              "datasets"});
+                {"label", "algorithm", "params", "chain", "sweep", "timeout_s", "memory_limit_mb",
+                 "datasets"});
   VariantSpec v;
   if (j.contains("algorithm") == j.contains("chain")) {
     fail(w, "expected exactly one of \"algorithm\" (one step) and \"chain\" (a list of steps)");
@@ -419,11 +456,18 @@ Experiment load_experiment(const fs::path& file) {
   load_config_plugins(j, file);  // before parsing: the variants may name plugin algorithms
   Experiment e = parse_experiment(j, file.string());  // errors name the path as given
   e.file = file;
-  // Relative mesh paths are relative to the config's folder.
+  // Relative mesh paths are relative to the config's folder; so are a point dataset's files (a
+  // gt_transform given as 16 numbers stays as it is).
+  const fs::path dir = fs::absolute(file).parent_path();
+  const auto resolve = [&dir](std::string& path) {
+    if (!path.empty() && fs::path(path).is_relative())
+      path = (dir / path).lexically_normal().string();
+  };
   for (auto& d : e.datasets) {
-    if (!datasets().find(d.name) && fs::path(d.name).is_relative()) {
-      d.name = (fs::absolute(file).parent_path() / d.name).lexically_normal().string();
-    }
+    if (!datasets().find(d.name)) resolve(d.name);
+    resolve(d.points);
+    resolve(d.gt_points);
+    if (fs::exists(dir / d.gt_transform)) resolve(d.gt_transform);
   }
   return e;
 }
@@ -431,9 +475,10 @@ Experiment load_experiment(const fs::path& file) {
 Experiment parse_experiment(const Json& j, const std::string& where) {
   const Where w{where, ""};
   check_keys_at(j, w,
-             {"scanbench_experiment", "name", "description", "seed", "seeds", "repeats", "threads",
-              "timeout_s", "memory_limit_mb", "save_outputs", "datasets", "scanners", "variants",
-              "sweep", "metrics", "metric_params", "compare", "report", "protocol", "plugins"});
+                {"scanbench_experiment", "name", "description", "seed", "seeds", "repeats",
+                 "threads", "timeout_s", "memory_limit_mb", "save_outputs", "datasets", "scanners",
+                 "variants", "sweep", "metrics", "metric_params", "compare", "report", "protocol",
+                  "plugins"});
   Experiment e;
   e.raw = j;
   if (!j.contains("scanbench_experiment")) {
@@ -704,7 +749,14 @@ Plan expand(const Experiment& e) {
                                        d.label, dentry->fn.file.string()));
       continue;
     }
-    if (!dentry && !fs::exists(d.name)) {
+    if (!d.points.empty()) {
+      for (const std::string* f : {&d.points, &d.gt_points}) {
+        if (!f->empty() && !fs::exists(*f)) {
+          throw IoError(fmt::format("{}: /datasets/{}: {} does not exist", file, di, *f));
+        }
+      }
+    }
+    if (!dentry && !fs::exists(d.name) && d.gt_points.empty()) {
       if (d.optional) {
         plan.notes.push_back(fmt::format("dataset '{}' skipped: {} is absent", d.label, d.name));
         continue;
@@ -713,7 +765,8 @@ Plan expand(const Experiment& e) {
     }
     for (const ScannerSpec& sc : d.scanners) {
       const bool ground_truth = sc.preset == kGroundTruthInput;
-      const auto* preset = ground_truth ? nullptr : &scanner::presets().at(sc.preset);
+      const bool no_scan = ground_truth || sc.preset == kPointsInput;
+      const auto* preset = no_scan ? nullptr : &scanner::presets().at(sc.preset);
       for (std::size_t vi = 0; vi < e.variants.size(); ++vi) {
         const VariantSpec& v = e.variants[vi];
         if (!v.applies_to(d.label)) continue;
@@ -740,7 +793,9 @@ Plan expand(const Experiment& e) {
             if (target == "scanner") {
               sparams[param] = val;
             } else if (target == "dataset") {
-              if (!dentry) throw ParamError(where + ": a mesh path has no parameters");
+              if (!dentry || !d.points.empty()) {
+                throw ParamError(where + ": a mesh path or a point dataset has no parameters");
+              }
               dparams[param] = val;
             } else {
               bool found = false;
@@ -764,16 +819,21 @@ Plan expand(const Experiment& e) {
           job.dataset_params = dentry
                                    ? dentry->params.validate(dparams, file + ": dataset " + d.label)
                                    : Json::object();
+          if (!d.points.empty()) {
+            job.dataset_params = {{"points", d.points}};
+            if (!d.gt_points.empty()) job.dataset_params["gt_points"] = d.gt_points;
+            if (!d.gt_transform.empty()) job.dataset_params["gt_transform"] = d.gt_transform;
+            if (!d.gt_crop.empty()) job.dataset_params["gt_crop"] = d.gt_crop;
+          }
           job.scanner_label = sc.label;
           job.scanner_preset = sc.preset;
-          if (ground_truth && !sparams.empty()) {
+          if (no_scan && !sparams.empty()) {
             throw ParamError(
-                fmt::format("{}: scanner {}: the ground_truth input takes no "
-                            "parameters (got {})",
-                            file, sc.label, sparams.dump()));
+                fmt::format("{}: scanner {}: the {} input takes no parameters (got {})", file,
+                            sc.label, sc.preset, sparams.dump()));
           }
           job.scanner_params =
-              ground_truth
+              no_scan
                   ? Json::object()
                   : preset->params.validate(sparams, file + ": scanner " + sc.label + " " + plabel);
           job.variant = v.label;

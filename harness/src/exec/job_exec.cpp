@@ -8,10 +8,12 @@
 #include <map>
 #include <optional>
 
+#include "exec/point_dataset.h"
 #include "scanbench/algorithms/registry.h"
 #include "scanbench/core/datasets.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/io.h"
+#include "scanbench/core/stage_data.h"
 #include "scanbench/core/timing.h"
 #include "scanbench/harness/chain.h"
 #include "scanbench/harness/records.h"
@@ -86,8 +88,8 @@ struct JobParts {
   Json artifacts = Json::object();
 };
 
-/// The job's input: the scan read back from the cache (scanned first when absent), or none
-/// when the chain starts from the ground truth.
+/// The job's input: the scan read back from the cache (scanned first when absent), a point
+/// dataset's points, or none when the chain starts from the ground truth.
 struct ScanInput {
   PointCloud cloud;
   std::string mesh_hash;  ///< of the dataset mesh (the distance-field cache key)
@@ -96,10 +98,10 @@ struct ScanInput {
 /// Pass 1, the scan, cached by content: the mesh bytes, the effective scanner parameters, the
 /// seed and the scan model version. Fills timing.scan_s, scan_cached, the scan artifacts and
 /// the input sizes.
-ScanInput scan_pass(const Job& job, const TriangleMesh& mesh, const fs::path& out, JobParts& r,
-                    RunContext& ctx) {
-  const Eigen::Vector3d origin = mesh.origin;
+ScanInput scan_pass(const Job& job, const TriangleMesh& mesh, const Eigen::Vector3d& origin,
+                    PointCloud points, const fs::path& out, JobParts& r, RunContext& ctx) {
   const bool from_ground_truth = job.scanner_preset == kGroundTruthInput;
+  const bool from_points = job.scanner_preset == kPointsInput;
   ScanInput in;
   in.mesh_hash = mesh_hash(mesh);
   Json scan_key = {{"mesh", in.mesh_hash},
@@ -112,8 +114,8 @@ ScanInput scan_pass(const Job& job, const TriangleMesh& mesh, const fs::path& ou
   const std::string scan_hash = content_hash(scan_key.dump());
   const fs::path ply = out / "scans" / (scan_hash + ".ply");
   const double t_scan = wall_seconds();
-  const bool cached =
-      from_ground_truth || (fs::exists(ply) && fs::exists(scanner::sidecar_path(ply)));
+  const bool cached = from_ground_truth || from_points ||
+                      (fs::exists(ply) && fs::exists(scanner::sidecar_path(ply)));
   if (!cached) {
     const auto p = params_from_json<scanner::ScannerParams>(job.scanner_params,
                                                             "scanner " + job.scanner_label);
@@ -136,7 +138,11 @@ ScanInput scan_pass(const Job& job, const TriangleMesh& mesh, const fs::path& ou
   }
   // Every job reads the scan back from the cache, so a cached and a fresh scan give the same
   // input bit for bit.
-  if (!from_ground_truth) in.cloud = read_point_cloud(ply);
+  if (from_points) {
+    in.cloud = std::move(points);
+  } else if (!from_ground_truth) {
+    in.cloud = read_point_cloud(ply);
+  }
   if (!from_ground_truth && in.cloud.origin != origin) {
     throw IoError(fmt::format("{}: the scan's local origin ({} {} {}) is not its mesh's ({} {} {})",
                               ply.string(), in.cloud.origin.x(), in.cloud.origin.y(),
@@ -147,6 +153,9 @@ ScanInput scan_pass(const Job& job, const TriangleMesh& mesh, const fs::path& ou
   if (from_ground_truth) {
     r.sizes["input_mesh_vertices"] = mesh.num_vertices();
     r.sizes["input_mesh_faces"] = mesh.num_faces();
+  } else if (from_points) {
+    r.artifacts["input_points"] = job.dataset_params.at("points");
+    r.sizes["scan_points"] = in.cloud.size();
   } else {
     r.artifacts["scan"] = "scans/" + scan_hash + ".ply";
     r.artifacts["scan_record"] = "scans/" + scan_hash + ".ply.json";
@@ -235,14 +244,17 @@ void output_sizes(const StageData& out, DataKind primary, const TriangleMesh* sc
   if (out.mixture) sizes["mixture_components"] = out.mixture->size();
 }
 
-/// Pass 3, the metrics (metrics::evaluate on the primary kind): res.metrics (the flat numbers),
-/// histograms, metric_params, skipped, timing.metrics_s (since `t_metrics`, when the pass began
-/// with the ground truth's oracles) and metric_phases. Returns what evaluate returned less the
-/// moved keys.
-Json metrics_pass(const Job& job, const metrics::GroundTruth& gt, const StageData& out,
-                  DataKind primary, const PointCloud* scan, double t_metrics, JobParts& r,
-                  RunContext& ctx) {
-  Json m = metrics::evaluate(gt, out, primary, scan, job.metrics, job.metric_params, ctx);
+/// Pass 3, the metrics (metrics::evaluate on the primary kind against a mesh ground truth, or
+/// evaluate_on_point_truth against a point one): res.metrics (the flat numbers), histograms,
+/// metric_params, skipped, timing.metrics_s (since `t_metrics`, when the pass began with the
+/// ground truth's oracles) and metric_phases. Returns what evaluate returned less the moved keys.
+Json metrics_pass(const Job& job, const metrics::GroundTruth* gt, const PointTruth* point_truth,
+                  const StageData& out, DataKind primary, const TriangleMesh* scored_mesh,
+                  const PointCloud* scan, double t_metrics, JobParts& r, RunContext& ctx) {
+  Json m = point_truth ? evaluate_on_point_truth(*point_truth, out.points, scored_mesh, job.metrics,
+                                                 job.metric_params, ctx)
+                       : metrics::evaluate(*gt, out, primary, scan, job.metrics,
+                                           job.metric_params, ctx);
   r.timing["metrics_s"] = wall_seconds() - t_metrics;
   Json metric_phases = Json::object();
   for (const auto& [k, v] : ctx.phase_seconds())
@@ -293,9 +305,9 @@ std::string write_job_heatmap(const Job& job, const metrics::GroundTruth& gt, co
 }
 
 /// Pass 4 (save_outputs): the output's files (write_stage_data: outputs/<id>.ply,
-/// .mixture.ply, .mesh.ply, .covmesh.ply), the heatmap and the ground truth's distance field,
-/// once per mesh (fields/<mesh hash>.vdb).
-void outputs_pass(const Job& job, const metrics::GroundTruth& gt, const StageData& out,
+/// .mixture.ply, .mesh.ply, .covmesh.ply) and, with a mesh ground truth, the heatmap and its
+/// distance field, once per mesh (fields/<mesh hash>.vdb).
+void outputs_pass(const Job& job, const metrics::GroundTruth* gt, const StageData& out,
                   const TriangleMesh* scored_mesh, Eigen::Index mesh_samples,
                   const std::string& mesh_key, const fs::path& dir, Json& artifacts,
                   RunContext& ctx) {
@@ -310,14 +322,16 @@ void outputs_pass(const Job& job, const metrics::GroundTruth& gt, const StageDat
     const std::string key = kind == DataKind::Points ? "output" : std::string(kind_name(kind));
     artifacts[key] = "outputs/" + path.filename().string();
   }
-  const std::string heatmap = write_job_heatmap(job, gt, out, scored_mesh, mesh_samples, base, ctx);
+  if (!gt) return;  // a point ground truth: no heatmap or distance field
+  const std::string heatmap =
+      write_job_heatmap(job, *gt, out, scored_mesh, mesh_samples, base, ctx);
   if (!heatmap.empty()) artifacts["heatmap"] = heatmap;
   const fs::path vdb = dir / "fields" / (mesh_key + ".vdb");
   if (!fs::exists(vdb)) {
     fs::create_directories(vdb.parent_path());
     const fs::path tmp =
         vdb.parent_path() / fmt::format(".{}.{}", private_tag(), vdb.filename().string());
-    gt.field().write_vdb(tmp, "distance");
+    gt->field().write_vdb(tmp, "distance");
     fs::rename(tmp, vdb);
   }
   artifacts["field"] = "fields/" + vdb.filename().string();
@@ -329,13 +343,24 @@ Json execute_job(const Job& job, const fs::path& out) {
   JobParts r;
   RunContext ctx(job.seed, job.threads);
 
-  const TriangleMesh mesh = load_dataset(job.dataset, job.dataset_params);
+  // A point dataset (experiment.h): its points instead of a scan, and a mesh or a point cloud
+  // (point_dataset.h) as ground truth.
+  const bool from_points = job.scanner_preset == kPointsInput;
+  std::optional<PointTruth> point_truth;
+  if (job.dataset_params.contains("gt_points")) point_truth = read_point_truth(job.dataset_params);
+  PointCloud points = from_points
+                          ? read_input_points(job.dataset_params.at("points").get<std::string>())
+                          : PointCloud();
+  const TriangleMesh mesh =
+      point_truth ? TriangleMesh()
+                  : load_dataset(job.dataset, from_points ? Json::object() : job.dataset_params);
   // The dataset's local origin (core stage_data.h): zero, except for a mesh file whose coordinates
   // float32 cannot hold (survey / UTM data). Scan, chain and metrics run in the local frame; the
   // origin is recorded and restored on every file written.
-  const Eigen::Vector3d origin = mesh.origin;
+  const Eigen::Vector3d origin = point_truth ? points.origin : mesh.origin;
+  if (from_points) rebase(points, origin);
   if (!origin.isZero(0.0)) r.res["dataset_origin"] = {origin.x(), origin.y(), origin.z()};
-  const ScanInput in = scan_pass(job, mesh, out, r, ctx);
+  const ScanInput in = scan_pass(job, mesh, origin, std::move(points), out, r, ctx);
 
   // What the chain is scored on: the primary kind of its last step (a mesh for a reconstruction,
   // the mean mesh of a covariance mesh, a mixture's components as points, else the points).
@@ -353,12 +378,17 @@ Json execute_job(const Job& job, const fs::path& out) {
 
   ctx.clear_phases();
   const double t_metrics = wall_seconds();
-  const metrics::GroundTruth gt(mesh, ctx.stream_seed("ground_truth"));
+  std::optional<metrics::GroundTruth> gt;
+  if (!point_truth) gt.emplace(mesh, ctx.stream_seed("ground_truth"));
   const PointCloud* scan = job.scanner_preset == kGroundTruthInput ? nullptr : &in.cloud;
-  const Json m = metrics_pass(job, gt, final_out, primary, scan, t_metrics, r, ctx);
+  const metrics::GroundTruth* gt_mesh = gt ? &*gt : nullptr;
+  const PointTruth* gt_points = point_truth ? &*point_truth : nullptr;
+  const Json m =
+      metrics_pass(job, gt_mesh, gt_points, final_out, primary, scored, scan, t_metrics, r, ctx);
   if (job.save_outputs) {
-    outputs_pass(job, gt, final_out, scored, m.value("output_mesh_samples", Eigen::Index{100000}),
-                 in.mesh_hash, out, r.artifacts, ctx);
+    outputs_pass(job, gt_mesh, final_out, scored,
+                 m.value("output_mesh_samples", Eigen::Index{100000}), in.mesh_hash, out,
+                 r.artifacts, ctx);
   }
   r.res["timing"] = r.timing;
   r.res["sizes"] = r.sizes;

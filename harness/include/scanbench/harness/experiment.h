@@ -38,6 +38,11 @@ inline constexpr int kExperimentVersion = 1;
 /// (a scan's points, or this mesh): the chain type check names the step that does not.
 inline constexpr std::string_view kGroundTruthInput = "ground_truth";
 
+/// The scanner entry of a point dataset (DatasetSpec::points): the chain starts from the dataset's
+/// points as read (a COLMAP model or a point-cloud file), without a scan. Set by the loader; a
+/// config does not name it.
+inline constexpr std::string_view kPointsInput = "points";
+
 struct ScannerSpec {
   std::string label;   ///< shown in tables; defaults to the preset name
   std::string preset;  ///< a registered scanner preset
@@ -50,6 +55,13 @@ struct DatasetSpec {
   Json params = Json::object();
   bool optional = false;  ///< a missing mesh file is skipped with a note instead of an error
   std::vector<ScannerSpec> scanners;
+  /// A point dataset ("points" in the config): its input instead of a scan, a COLMAP model
+  /// folder (sparse .bin/.txt, or a dense workspace with fused.ply; colmap::import_dir) or a
+  /// point-cloud file (.ply, .xyz); its one scanner is kPointsInput. The ground truth is then the
+  /// mesh `name`, or the point cloud `gt_points` (PLY or .xyz) with an optional 4 x 4
+  /// `gt_transform` and crop box `gt_crop` (metrics/point_truth.h: only the point-capable
+  /// metrics run). Jobs carry these four in dataset_params under the same keys.
+  std::string points, gt_points, gt_transform, gt_crop;
 };
 
 struct StepSpec {

@@ -59,7 +59,7 @@
 // at the camera (albedo * (0.25 + 0.75 |cos|)), 2 x 2 samples per pixel, background black; then an
 // optional Gaussian blur
 // (`image_blur_px`) and Gaussian grey noise (`image_noise`, stream "scan.photo_noise" per view).
-// The images go to COLMAP (the real program, on the CPU, `colmap_threads` threads):
+// The images go to COLMAP (the real program, on the CPU; `colmap_threads` threads for matching and triangulation):
 // feature_extractor (one PINHOLE camera with the known intrinsics), exhaustive_matcher, and
 // point_triangulator on a text model holding the known poses (intrinsics and poses kept fixed).
 // The output is the sparse model as a scan: positions, scan_id (first view seeing the point),
@@ -67,8 +67,10 @@
 // (unsigned distance to the mesh, mesh units) and "outlier" (surface_distance above
 // `outlier_threshold` diag). The COLMAP workspace (images/, database.db, known/, sparse/) is kept
 // in Scan::workspace and written beside the scan as <ply>.colmap/. COLMAP's random seed is derived
-// from the run seed; results are deterministic for one COLMAP version and colmap_threads (the
-// thread count of the run context plays no part). kind = "photo_dense" asks for COLMAP's
+// from the run seed, and the thread count of the run context plays no part. Not repeatable: with
+// COLMAP 3.8 the images, SIFT features and the triangulation of a given database repeat bit for
+// bit, but exhaustive_matcher's descriptor matches vary from run to run even on one thread, so two
+// scans of one seed differ by about 1% of their points (docs/scanner.md, Determinism). kind = "photo_dense" asks for COLMAP's
 // patch_match_stereo, which needs CUDA: refused in one line when `colmap help` says "without CUDA".
 #include <cstdint>
 #include <filesystem>
