@@ -124,8 +124,9 @@ struct GpfParams {
     d.real("particles", &GpfParams::particles, Range::above(0.0), "",
            "particles M: a share of the input in (0, 1] or an integral count <= N (a seeded "
            "subset of the input, carrying its normals)");
-    d.real("s2_init", &GpfParams::s2_init, Range::above(0.0), "diag^2",
-           "initial sigma^2 as a fraction of the squared bbox diagonal (paper: 0.004, absolute)");
+    d.real("s2_init", &GpfParams::s2_init, Range::above(0.0), "",
+           "initial sigma^2 in the working units (units: squared diagonal or CPD's squared RMS "
+           "radius; paper: 0.004, unit not stated)");
     d.real("tolerance", &GpfParams::tolerance, Range::at_least(0.0), "diag",
            "stop when no particle moved farther than this in an iteration (0: run all)");
     d.choice("s2_update", &GpfParams::s2_update, {"eq11", "point", "fixed"},
