@@ -217,8 +217,8 @@ TEST(GpfStep, S2UpdatesEqualTheirClosedFormsOnAHandCase) {
     EXPECT_NEAR(plane.x(2, 0), 0.5 * (c1 + c2), 1e-7);
     EXPECT_NEAR(plane.x.col(0).head<2>().norm(), 0.0, 1e-7);
     EXPECT_NEAR(plane.s2, delta * delta / 12.0, 1e-4 * delta * delta / 12.0);
-    const gpf_detail::Step point = gpf_detail::em_step(problem, x, xb, s2, 0.0, 0.0, nullptr,
-                                                       gpf_detail::S2Residual::Point);
+    const gpf_detail::Step point =
+        gpf_detail::em_step(problem, x, xb, s2, 0.0, 0.0, nullptr, gpf_detail::S2Residual::Point);
     const double expected = (4.0 * a * a + delta * delta) / 12.0;
     EXPECT_NEAR(point.s2, expected, 1e-4 * expected);
   }

@@ -322,13 +322,12 @@ PointCloud gpf(const PointCloud& input, const GpfParams& p, RunContext& ctx) {
   const Eigen::Vector3f centre =
       cpd ? Eigen::Vector3f(input.positions.cast<double>().rowwise().mean().cast<float>())
           : box.center();
-  const float scale =
-      cpd ? static_cast<float>(std::sqrt(
-                (input.positions.cast<double>().colwise() - centre.cast<double>())
-                    .colwise()
-                    .squaredNorm()
-                    .mean()))
-          : diag;
+  const float scale = cpd ? static_cast<float>(std::sqrt(
+                                (input.positions.cast<double>().colwise() - centre.cast<double>())
+                                    .colwise()
+                                    .squaredNorm()
+                                    .mean()))
+                          : diag;
   // h and the tolerance are fractions of the diagonal in every unit system.
   const double to_work = static_cast<double>(diag) / static_cast<double>(scale);
   Eigen::Matrix3Xf v = (input.positions.colwise() - centre) / scale;
