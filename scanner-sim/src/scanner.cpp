@@ -140,7 +140,14 @@ Json vec_json(const Eigen::Vector3d& v) {
   return Json::array({v.x(), v.y(), v.z()});
 }
 
-constexpr double kGoldenAngle = 2.399963229728653;          // pi (3 - sqrt 5)
+constexpr double kGoldenAngle = 2.399963229728653;  // pi (3 - sqrt 5)
+
+}  // namespace
+
+// The types of one run (ScannerEngine::Run's fields; outside the anonymous namespace, so that a
+// class of the header may hold them).
+namespace detail {
+
 constexpr std::size_t kGroupPixels = std::size_t{1} << 21;  // pixels of the views done together
 
 /// What passes A and B learn about one pixel (one byte per pixel).
@@ -171,7 +178,7 @@ struct Counters {
       returned{0};
 };
 
-}  // namespace
+}  // namespace detail
 
 void validate(const ScannerParams& p, const std::string& where) {
   schema_of<ScannerParams>().validate(params_to_json(p), where);
@@ -497,497 +504,593 @@ void ScannerEngine::cast_all(std::vector<RTCRayHit>& rays) const {
   });
 }
 
-Scan ScannerEngine::run(RunContext& ctx) const {
-  using Clock = std::chrono::steady_clock;
-  const int R = resolution_;
-  const std::size_t npix = static_cast<std::size_t>(R) * static_cast<std::size_t>(R);
-  const int views = static_cast<int>(cameras_.size());
-  const RayCaster caster(*scene_);
-  const float cos_max = p_.max_incidence_deg >= 90.0
-                            ? -1.0f
-                            : static_cast<float>(std::cos(p_.max_incidence_deg * M_PI / 180.0));
-  const float range_lo = static_cast<float>(p_.range_min) * diag_;
-  const float range_hi = static_cast<float>(p_.range_max) * diag_;
-  const float jump = static_cast<float>(p_.flying_depth_jump) * diag_;
-  const float spread = static_cast<float>(p_.flying_spread) * diag_;
-  const double f_out = p_.outlier_fraction;
-  const double flying_prob = p_.flying_pixel_prob;
-  const BoundingBox obox = box_.scaled(static_cast<float>(p_.outlier_box_scale));
-  const int need = (sub_rays_ + 1) / 2;
+/// One run of the scanner: its constants (from the parameters and the mesh), the buffers of a
+/// group of views, the output, and the passes that fill them (ScannerEngine::run).
+class ScannerEngine::Run {
+ public:
+  Run(const ScannerEngine& engine, RunContext& ctx);
+  /// Passes A, B and C for the views g0 .. g0 + gv - 1.
+  void scan_group(int g0, int gv);
+  /// The cloud's properties and the scan record (after every group).
+  Scan finish();
+  /// Views per group.
+  int group() const { return group_; }
+
+ private:
+  /// Which scans are misaligned: a seeded partial Fisher-Yates shuffle.
+  void choose_misaligned();
+  /// Pass A for the tiles r of the group: cast every beam, evaluate it, and for returned pixels
+  /// draw the range noise and the number of uniform outliers from the tile's stream (pixels in
+  /// row-major order).
+  void cast_tiles(int g0, const tbb::blocked_range<int>& r, std::vector<RTCRayHit>& buf);
+  /// Serial: the output offsets of the group's rows (point counts do not depend on flying
+  /// pixels); grows the output by the group's points.
+  void place_rows(int rows_g);
+  /// Pass B for the rows of the group: flying pixels (they replace the noisy point; no range
+  /// noise), then the row's points in pixel order, each followed by its uniform outliers, in the
+  /// true frame; per-row sums of surface points (reduced by settle() in fixed order).
+  void emit_rows(int g0, const tbb::blocked_range<int>& rows);
+  /// Per scan, in fixed row order: centre of mass and misalignment.
+  void settle(int g0, int lv);
+  /// Pass C: misaligned scans move as a whole (surface and flying points; uniform outliers stay).
+  void move_misaligned(int g0, const tbb::blocked_range<int>& rows);
+  /// The scan record of view g0 + lv.
+  Json scan_record(int g0, int lv) const;
+
+  const ScannerEngine& e_;
+  RunContext& ctx_;
+  const RayCaster caster_;
+  const int R_;
+  const std::size_t npix_;
+  const int views_;
+  float cos_max_ = 0, range_lo_ = 0, range_hi_ = 0, jump_ = 0, spread_ = 0;
+  double f_out_ = 0, flying_prob_ = 0;
+  BoundingBox obox_;
+  int need_ = 0;
+  std::uint64_t flying_seed_ = 0, outlier_seed_ = 0, misalign_seed_ = 0, out_threshold_ = 0;
+  std::vector<std::uint64_t> view_pixel_seeds_;
+  std::vector<char> misaligned_;
+  // Noise sigma = a + b r + c (1 / max(cos, 0.01) - 1), in the mesh's units.
+  double noise_a_ = 0, noise_b_ = 0, noise_c_ = 0;
+
+  // Views are processed in groups that share one fork-join per pass (few synchronisation points,
+  // bounded memory).
+  int group_ = 1;
+  std::unique_ptr<GroupImage> image_;
+  // Output points per (row, tile column), then the rows' output offsets.
+  std::unique_ptr<std::int64_t[]> segment_points_;  // every entry written by pass A
+  std::vector<std::int64_t> row_start_;
+  std::vector<std::int64_t> row_surface_, row_outliers_;
+  std::vector<Eigen::Vector3d> row_sum_;
+  tbb::enumerable_thread_specific<std::vector<RTCRayHit>> buffers_;
+  Counters counters_;
+  // The group's first output point.
+  Eigen::Index base_ = 0;
+  // Per scan of the group: misalignment and its record.
+  std::vector<Eigen::Matrix3d> rots_;
+  std::vector<Eigen::Vector3d> transl_, centres_, axes_, shifts_;
+  std::vector<std::int64_t> scan_outliers_;
+
+  Scan s_;
+  Eigen::VectorXf cx_, cy_, cz_, flag_;
+  std::unique_ptr<Px[]> kind_;  // per output point of the group: kPoint, kFlying or kUniform
+  std::size_t kind_size_ = 0;
+  Eigen::Matrix3Xf origins_;
+  Json scans_ = Json::array();
+  double t_rays_ = 0, t_artifacts_ = 0;
+};
+
+ScannerEngine::Run::Run(const ScannerEngine& engine, RunContext& ctx)
+    : e_(engine),
+      ctx_(ctx),
+      caster_(*engine.scene_),
+      R_(engine.resolution_),
+      npix_(static_cast<std::size_t>(R_) * static_cast<std::size_t>(R_)),
+      views_(static_cast<int>(engine.cameras_.size())),
+      buffers_([this] {
+        return std::vector<RTCRayHit>(static_cast<std::size_t>(kTile * kTile * e_.sub_rays_));
+      }),
+      origins_(3, views_) {
+  const ScannerParams& p = e_.p_;
+  const float diag = e_.diag_;
+  cos_max_ = p.max_incidence_deg >= 90.0
+                 ? -1.0f
+                 : static_cast<float>(std::cos(p.max_incidence_deg * M_PI / 180.0));
+  range_lo_ = static_cast<float>(p.range_min) * diag;
+  range_hi_ = static_cast<float>(p.range_max) * diag;
+  jump_ = static_cast<float>(p.flying_depth_jump) * diag;
+  spread_ = static_cast<float>(p.flying_spread) * diag;
+  f_out_ = p.outlier_fraction;
+  flying_prob_ = p.flying_pixel_prob;
+  obox_ = e_.box_.scaled(static_cast<float>(p.outlier_box_scale));
+  need_ = (e_.sub_rays_ + 1) / 2;
 
   const std::uint64_t pixel_seed = ctx.stream_seed("scan.pixels");
-  const std::uint64_t flying_seed = ctx.stream_seed("scan.flying");
-  const std::uint64_t outlier_seed = ctx.stream_seed("scan.outliers");
-  const std::uint64_t misalign_seed = ctx.stream_seed("scan.misalign");
-  std::vector<std::uint64_t> view_pixel_seeds(static_cast<std::size_t>(views));
-  for (int view = 0; view < views; ++view) {
-    view_pixel_seeds[static_cast<std::size_t>(view)] =
+  flying_seed_ = ctx.stream_seed("scan.flying");
+  outlier_seed_ = ctx.stream_seed("scan.outliers");
+  misalign_seed_ = ctx.stream_seed("scan.misalign");
+  view_pixel_seeds_.resize(static_cast<std::size_t>(views_));
+  for (int view = 0; view < views_; ++view) {
+    view_pixel_seeds_[static_cast<std::size_t>(view)] =
         derive_seed(pixel_seed, static_cast<std::uint64_t>(view));
   }
   // rng.uniform() < f_out  <=>  (rng.next() >> 11) < ceil(f_out 2^53): uniform() is
   // (next() >> 11) 2^-53 exactly, and f_out 2^53 is exact.
-  const std::uint64_t out_threshold =
-      static_cast<std::uint64_t>(std::ceil(p_.outlier_fraction * 0x1.0p53));
+  out_threshold_ = static_cast<std::uint64_t>(std::ceil(p.outlier_fraction * 0x1.0p53));
+  choose_misaligned();
 
-  // Which scans are misaligned: a seeded partial Fisher-Yates shuffle.
-  std::vector<char> misaligned(static_cast<std::size_t>(views), 0);
-  {
-    const int k = static_cast<int>(std::llround(p_.misalign_fraction * views));
-    std::vector<int> order(static_cast<std::size_t>(views));
-    std::iota(order.begin(), order.end(), 0);
-    Rng rng(misalign_seed);
-    for (int i = 0; i < k; ++i) {
-      const int j = i + static_cast<int>(rng.below(static_cast<std::uint64_t>(views - i)));
-      std::swap(order[static_cast<std::size_t>(i)], order[static_cast<std::size_t>(j)]);
-      misaligned[static_cast<std::size_t>(order[static_cast<std::size_t>(i)])] = 1;
+  group_ = static_cast<int>(
+      std::clamp<std::size_t>(kGroupPixels / npix_, 1, static_cast<std::size_t>(views_)));
+  const std::size_t group_rows = static_cast<std::size_t>(group_) * static_cast<std::size_t>(R_);
+  image_ = std::make_unique<GroupImage>(static_cast<std::size_t>(group_) * npix_);
+  segment_points_.reset(new std::int64_t[group_rows * static_cast<std::size_t>(e_.tiles_x_)]);
+  row_start_.resize(group_rows + 1);
+  row_surface_.resize(group_rows);
+  row_outliers_.resize(group_rows);
+  row_sum_.resize(group_rows);
+  noise_a_ = diag * p.noise_sigma;
+  noise_b_ = p.noise_range_slope;
+  noise_c_ = diag * p.noise_incidence_slope;
+  s_.cloud.resize(0);
+}
+
+void ScannerEngine::Run::choose_misaligned() {
+  const int views = views_;
+  misaligned_.assign(static_cast<std::size_t>(views), 0);
+  const int k = static_cast<int>(std::llround(e_.p_.misalign_fraction * views));
+  std::vector<int> order(static_cast<std::size_t>(views));
+  std::iota(order.begin(), order.end(), 0);
+  Rng rng(misalign_seed_);
+  for (int i = 0; i < k; ++i) {
+    const int j = i + static_cast<int>(rng.below(static_cast<std::uint64_t>(views - i)));
+    std::swap(order[static_cast<std::size_t>(i)], order[static_cast<std::size_t>(j)]);
+    misaligned_[static_cast<std::size_t>(order[static_cast<std::size_t>(i)])] = 1;
+  }
+}
+
+void ScannerEngine::Run::cast_tiles(int g0, const tbb::blocked_range<int>& r,
+                                    std::vector<RTCRayHit>& buf) {
+  const int R = R_, tiles = e_.tiles_, tiles_x = e_.tiles_x_, need = need_;
+  const std::size_t npix = npix_;
+  const float cos_max = cos_max_, range_lo = range_lo_, range_hi = range_hi_, jump = jump_;
+  const double f_out = f_out_, noise_a = noise_a_, noise_b = noise_b_, noise_c = noise_c_;
+  const std::uint64_t out_threshold = out_threshold_;
+  const ZigguratNormal& normal = ZigguratNormal::instance();
+  const int sub = e_.sub_rays_;
+  std::int64_t c_miss = 0, c_grazing = 0, c_range = 0, c_mixed = 0;
+  for (int gt = r.begin(); gt < r.end(); ++gt) {
+    const int lv = gt / tiles;
+    const int view = g0 + lv;
+    const int t = gt % tiles;
+    const Camera& cam = e_.cameras_[static_cast<std::size_t>(view)];
+    const std::size_t base = static_cast<std::size_t>(lv) * npix;
+    float* range = image_->range.get() + base;
+    Px* status = image_->status.get() + base;
+    Eigen::Vector3f* position = image_->position.get() + base;
+    Eigen::Vector3f* clean = image_->clean.get() + base;
+    std::int32_t* outliers = image_->outliers.get() + base;
+    const Tile tl = e_.tile(t);
+    e_.make_tile_rays(cam, tl, buf.data());
+    caster_.intersect(buf.data(), static_cast<unsigned>(e_.tile_ray_count(tl)));
+    // The tile's stream, seeded at its first returned point (most tiles have none).
+    std::optional<Rng> tile_rng;
+    auto rng = [&]() -> Rng& {
+      if (!tile_rng) {
+        tile_rng.emplace(derive_seed(view_pixel_seeds_[static_cast<std::size_t>(view)],
+                                     static_cast<std::uint64_t>(t)));
+      }
+      return *tile_rng;
+    };
+    const RTCRayHit* rh = buf.data();
+    for (int v = tl.v0; v < tl.v1; ++v) {
+      std::int64_t points = 0;
+      for (int u = tl.u0; u < tl.u1; ++u, rh += sub) {
+        const std::size_t i = static_cast<std::size_t>(v) * R + u;
+        // Hit counts first: the sub-rays of most pixels all hit or all miss.
+        int hits = 0;
+        for (int k = 0; k < sub; ++k)
+          hits += rh[k].hit.geomID != RTC_INVALID_GEOMETRY_ID;
+        if (hits < need) {
+          c_mixed += hits > 0;  // some but not all sub-rays hit
+          range[i] = std::numeric_limits<float>::infinity();
+          status[i] = Px::kMiss;
+          ++c_miss;
+          continue;
+        }
+        int first = 0;
+        if (hits < sub) {
+          while (rh[first].hit.geomID == RTC_INVALID_GEOMETRY_ID)
+            ++first;
+        }
+        const RTCRayHit& h = rh[first];
+        float raw = h.ray.tfar;
+        if (hits > 1) {
+          double sum = 0.0;
+          float lo = raw, hi = raw;
+          for (int k = first; k < sub; ++k) {
+            if (hits < sub && rh[k].hit.geomID == RTC_INVALID_GEOMETRY_ID) continue;
+            const float tk = rh[k].ray.tfar;
+            sum += tk;
+            lo = std::min(lo, tk);
+            hi = std::max(hi, tk);
+          }
+          raw = static_cast<float>(sum / hits);
+          c_mixed += hits < sub || hi - lo > jump;
+        } else {
+          c_mixed += hits < sub;
+        }
+        range[i] = raw;
+        // Incidence between the ray and the unoriented face normal, without dividing:
+        // cos = |n.d| / |n|; grazing when cos < cos_max; 1 / max(cos, 0.01) for the noise.
+        const Eigen::Vector3f d(h.ray.dir_x, h.ray.dir_y, h.ray.dir_z);
+        const Eigen::Vector3f ng(h.hit.Ng_x, h.hit.Ng_y, h.hit.Ng_z);
+        const float len = ng.norm();
+        const float dot = std::abs(ng.dot(d));
+        if (dot < cos_max * len || (len == 0.0f && cos_max > 0.0f)) {
+          status[i] = Px::kGrazing;
+          ++c_grazing;
+          continue;
+        }
+        if (raw < range_lo || raw > range_hi) {
+          status[i] = Px::kOutOfRange;
+          ++c_range;
+          continue;
+        }
+        status[i] = Px::kPoint;
+        clean[i] = cam.origin + h.ray.tfar * d;
+        const float inv_cos =
+            len > 0.0f ? std::max(1.0f, len / std::max(dot, 0.01f * len)) : 100.0f;
+        const double sigma = noise_a + noise_b * static_cast<double>(raw) +
+                             noise_c * (static_cast<double>(inv_cos) - 1.0);
+        float noisy = raw;
+        if (sigma > 0.0) noisy += static_cast<float>(sigma * normal(rng()));
+        // Along the beam axis: sub-ray 0.
+        const Eigen::Vector3f axis(rh[0].ray.dir_x, rh[0].ray.dir_y, rh[0].ray.dir_z);
+        position[i] = cam.origin + noisy * axis;
+        std::int32_t n_out = 0;
+        if (f_out > 0.0) {
+          while ((rng().next() >> 11) < out_threshold)  // rng.uniform() < f_out
+            ++n_out;
+        }
+        outliers[i] = n_out;
+        points += 1 + n_out;
+      }
+      segment_points_[(static_cast<std::size_t>(lv) * R + v) * tiles_x + t % tiles_x] = points;
     }
   }
+  counters_.misses += c_miss;
+  counters_.grazing += c_grazing;
+  counters_.out_of_range += c_range;
+  counters_.mixed += c_mixed;
+}
 
-  // Views are processed in groups that share one fork-join per pass (few synchronisation points,
-  // bounded memory).
-  const int group = static_cast<int>(
-      std::clamp<std::size_t>(kGroupPixels / npix, 1, static_cast<std::size_t>(views)));
-  const std::size_t group_rows = static_cast<std::size_t>(group) * static_cast<std::size_t>(R);
-  GroupImage image(static_cast<std::size_t>(group) * npix);
-  // Output points per (row, tile column), then the rows' output offsets.
-  const std::unique_ptr<std::int64_t[]> segment_points(  // every entry written by pass A
-      new std::int64_t[group_rows * static_cast<std::size_t>(tiles_x_)]);
-  std::vector<std::int64_t> row_start(group_rows + 1);
-  std::vector<std::int64_t> row_surface(group_rows), row_outliers(group_rows);
-  std::vector<Eigen::Vector3d> row_sum(group_rows);
-  tbb::enumerable_thread_specific<std::vector<RTCRayHit>> buffers(
-      [&] { return std::vector<RTCRayHit>(static_cast<std::size_t>(kTile * kTile * sub_rays_)); });
-  Counters counters;
-  // Noise sigma = a + b r + c (1 / max(cos, 0.01) - 1), in the mesh's units.
-  const double noise_a = diag_ * p_.noise_sigma;
-  const double noise_b = p_.noise_range_slope;
-  const double noise_c = diag_ * p_.noise_incidence_slope;
+void ScannerEngine::Run::place_rows(int rows_g) {
+  PointCloud& cloud = s_.cloud;
+  const int tiles_x = e_.tiles_x_;
+  base_ = cloud.size();
+  row_start_[0] = 0;
+  for (std::size_t gr = 0; gr < static_cast<std::size_t>(rows_g); ++gr) {
+    std::int64_t n_row = 0;
+    for (int tx = 0; tx < tiles_x; ++tx)
+      n_row += segment_points_[gr * tiles_x + tx];
+    row_start_[gr + 1] = row_start_[gr] + n_row;
+  }
+  const Eigen::Index n_group = row_start_[static_cast<std::size_t>(rows_g)];
+  const Eigen::Index total = base_ + n_group;
+  cloud.positions.conservativeResize(3, total);
+  cloud.scan_ids.conservativeResize(total);
+  cx_.conservativeResize(total);
+  cy_.conservativeResize(total);
+  cz_.conservativeResize(total);
+  flag_.conservativeResize(total);
+  if (static_cast<std::size_t>(n_group) > kind_size_) {
+    kind_size_ = static_cast<std::size_t>(n_group);
+    kind_.reset(new Px[kind_size_]);
+  }
+}
 
-  Scan s;
-  PointCloud& cloud = s.cloud;
-  cloud.resize(0);
-  Eigen::VectorXf cx, cy, cz, flag;
-  std::unique_ptr<Px[]> kind;  // per output point of the group: kPoint, kFlying or kUniform
-  std::size_t kind_size = 0;
-  Eigen::Matrix3Xf origins(3, views);
-  Json scans = Json::array();
-  double t_rays = 0, t_artifacts = 0;
-
-  auto phase = ctx.phase("scan");
-  for (int g0 = 0; g0 < views; g0 += group) {
-    ctx.check_cancelled("scan");
-    const int gv = std::min(group, views - g0);
-    const int rows_g = gv * R;
-
-    // Pass A, tile by tile: cast every beam, evaluate it, and for returned pixels draw the range
-    // noise and the number of uniform outliers from the tile's stream (pixels in row-major order).
-    const auto t0 = Clock::now();
-    tbb::parallel_for(
-        tbb::blocked_range<int>(0, gv * tiles_, 1), [&](const tbb::blocked_range<int>& r) {
-          std::vector<RTCRayHit>& buf = buffers.local();
-          const ZigguratNormal& normal = ZigguratNormal::instance();
-          const int sub = sub_rays_;
-          std::int64_t c_miss = 0, c_grazing = 0, c_range = 0, c_mixed = 0;
-          for (int gt = r.begin(); gt < r.end(); ++gt) {
-            const int lv = gt / tiles_;
-            const int view = g0 + lv;
-            const int t = gt % tiles_;
-            const Camera& cam = cameras_[static_cast<std::size_t>(view)];
-            const std::size_t base = static_cast<std::size_t>(lv) * npix;
-            float* range = image.range.get() + base;
-            Px* status = image.status.get() + base;
-            Eigen::Vector3f* position = image.position.get() + base;
-            Eigen::Vector3f* clean = image.clean.get() + base;
-            std::int32_t* outliers = image.outliers.get() + base;
-            const Tile tl = tile(t);
-            make_tile_rays(cam, tl, buf.data());
-            caster.intersect(buf.data(), static_cast<unsigned>(tile_ray_count(tl)));
-            // The tile's stream, seeded at its first returned point (most tiles have none).
-            std::optional<Rng> tile_rng;
-            auto rng = [&]() -> Rng& {
-              if (!tile_rng) {
-                tile_rng.emplace(derive_seed(view_pixel_seeds[static_cast<std::size_t>(view)],
-                                             static_cast<std::uint64_t>(t)));
-              }
-              return *tile_rng;
-            };
-            const RTCRayHit* rh = buf.data();
-            for (int v = tl.v0; v < tl.v1; ++v) {
-              std::int64_t points = 0;
-              for (int u = tl.u0; u < tl.u1; ++u, rh += sub) {
-                const std::size_t i = static_cast<std::size_t>(v) * R + u;
-                // Hit counts first: the sub-rays of most pixels all hit or all miss.
-                int hits = 0;
-                for (int k = 0; k < sub; ++k)
-                  hits += rh[k].hit.geomID != RTC_INVALID_GEOMETRY_ID;
-                if (hits < need) {
-                  c_mixed += hits > 0;  // some but not all sub-rays hit
-                  range[i] = std::numeric_limits<float>::infinity();
-                  status[i] = Px::kMiss;
-                  ++c_miss;
-                  continue;
-                }
-                int first = 0;
-                if (hits < sub) {
-                  while (rh[first].hit.geomID == RTC_INVALID_GEOMETRY_ID)
-                    ++first;
-                }
-                const RTCRayHit& h = rh[first];
-                float raw = h.ray.tfar;
-                if (hits > 1) {
-                  double sum = 0.0;
-                  float lo = raw, hi = raw;
-                  for (int k = first; k < sub; ++k) {
-                    if (hits < sub && rh[k].hit.geomID == RTC_INVALID_GEOMETRY_ID) continue;
-                    const float tk = rh[k].ray.tfar;
-                    sum += tk;
-                    lo = std::min(lo, tk);
-                    hi = std::max(hi, tk);
-                  }
-                  raw = static_cast<float>(sum / hits);
-                  c_mixed += hits < sub || hi - lo > jump;
-                } else {
-                  c_mixed += hits < sub;
-                }
-                range[i] = raw;
-                // Incidence between the ray and the unoriented face normal, without dividing:
-                // cos = |n.d| / |n|; grazing when cos < cos_max; 1 / max(cos, 0.01) for the noise.
-                const Eigen::Vector3f d(h.ray.dir_x, h.ray.dir_y, h.ray.dir_z);
-                const Eigen::Vector3f ng(h.hit.Ng_x, h.hit.Ng_y, h.hit.Ng_z);
-                const float len = ng.norm();
-                const float dot = std::abs(ng.dot(d));
-                if (dot < cos_max * len || (len == 0.0f && cos_max > 0.0f)) {
-                  status[i] = Px::kGrazing;
-                  ++c_grazing;
-                  continue;
-                }
-                if (raw < range_lo || raw > range_hi) {
-                  status[i] = Px::kOutOfRange;
-                  ++c_range;
-                  continue;
-                }
-                status[i] = Px::kPoint;
-                clean[i] = cam.origin + h.ray.tfar * d;
-                const float inv_cos =
-                    len > 0.0f ? std::max(1.0f, len / std::max(dot, 0.01f * len)) : 100.0f;
-                const double sigma = noise_a + noise_b * static_cast<double>(raw) +
-                                     noise_c * (static_cast<double>(inv_cos) - 1.0);
-                float noisy = raw;
-                if (sigma > 0.0) noisy += static_cast<float>(sigma * normal(rng()));
-                // Along the beam axis: sub-ray 0.
-                const Eigen::Vector3f axis(rh[0].ray.dir_x, rh[0].ray.dir_y, rh[0].ray.dir_z);
-                position[i] = cam.origin + noisy * axis;
-                std::int32_t n_out = 0;
-                if (f_out > 0.0) {
-                  while ((rng().next() >> 11) < out_threshold)  // rng.uniform() < f_out
-                    ++n_out;
-                }
-                outliers[i] = n_out;
-                points += 1 + n_out;
-              }
-              segment_points[(static_cast<std::size_t>(lv) * R + v) * tiles_x_ + t % tiles_x_] =
-                  points;
-            }
-          }
-          counters.misses += c_miss;
-          counters.grazing += c_grazing;
-          counters.out_of_range += c_range;
-          counters.mixed += c_mixed;
-        });
-    const auto t1 = Clock::now();
-    t_rays += std::chrono::duration<double>(t1 - t0).count();
-
-    // Serial: the output offsets of the rows (point counts do not depend on flying pixels).
-    const Eigen::Index base = cloud.size();
-    row_start[0] = 0;
-    for (std::size_t gr = 0; gr < static_cast<std::size_t>(rows_g); ++gr) {
-      std::int64_t n_row = 0;
-      for (int tx = 0; tx < tiles_x_; ++tx)
-        n_row += segment_points[gr * tiles_x_ + tx];
-      row_start[gr + 1] = row_start[gr] + n_row;
-    }
-    const Eigen::Index n_group = row_start[static_cast<std::size_t>(rows_g)];
-    const Eigen::Index total = base + n_group;
-    cloud.positions.conservativeResize(3, total);
-    cloud.scan_ids.conservativeResize(total);
-    cx.conservativeResize(total);
-    cy.conservativeResize(total);
-    cz.conservativeResize(total);
-    flag.conservativeResize(total);
-    if (static_cast<std::size_t>(n_group) > kind_size) {
-      kind_size = static_cast<std::size_t>(n_group);
-      kind.reset(new Px[kind_size]);
-    }
-
-    // Pass B, row by row: flying pixels (they replace the noisy point; no range noise), then the
-    // row's points in pixel order, each followed by its uniform outliers, in the true frame; per-
-    // row sums of surface points (reduced below in fixed order).
-    auto pass_b = [&](const tbb::blocked_range<int>& rows) {
-      std::int64_t c_flying = 0, c_uniform = 0, c_returned = 0;
-      for (int gr = rows.begin(); gr < rows.end(); ++gr) {
-        const int lv = gr / R;
-        const int v = gr % R;
-        const int view = g0 + lv;
-        const Camera& cam = cameras_[static_cast<std::size_t>(view)];
-        const std::size_t img_base = static_cast<std::size_t>(lv) * npix;
-        const float* range = image.range.get() + img_base;
-        const Px* status = image.status.get() + img_base;
-        const Eigen::Vector3f* position = image.position.get() + img_base;
-        const Eigen::Vector3f* clean = image.clean.get() + img_base;
-        const std::int32_t* outliers = image.outliers.get() + img_base;
-        const std::uint64_t view_flying_seed =
-            derive_seed(flying_seed, static_cast<std::uint64_t>(view));
-        const std::uint64_t view_outlier_seed =
-            derive_seed(outlier_seed, static_cast<std::uint64_t>(view));
-        const Eigen::Index row_first = base + row_start[static_cast<std::size_t>(gr)];
-        Eigen::Index j = row_first;
-        std::int64_t surface = 0, n_outliers = 0;
-        Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-        float* out_pos = cloud.positions.data();
-        float* out_cx = cx.data();
-        float* out_cy = cy.data();
-        float* out_cz = cz.data();
-        float* out_flag = flag.data();
-        int* out_id = cloud.scan_ids.data();
-        Px* out_kind = kind.get();  // indexed from the group's first point
-        const std::int64_t* segments =
-            segment_points.get() + static_cast<std::size_t>(gr) * tiles_x_;
-        for (int u = 0; u < R; ++u) {
-          if (u % kTile == 0 && segments[u / kTile] == 0) {
-            u += kTile - 1;  // no point in this tile's part of the row
-            continue;
-          }
-          const std::size_t i = static_cast<std::size_t>(v) * R + u;
-          if (status[i] != Px::kPoint) continue;
-          ++c_returned;
-          Eigen::Vector3f p = position[i];
-          bool flying = false;
-          if (flying_prob > 0.0) {
-            // The 4-neighbour with the largest range difference; behind a silhouette (no hit)
-            // the far end is range + flying_spread.
-            const float r0 = range[i];
-            float target = r0;
-            float best = 0.0f;
-            bool edge = false;
-            auto look = [&](int nu, int nv) {
-              if (nu < 0 || nv < 0 || nu >= R || nv >= R) return;
-              const float nr = range[static_cast<std::size_t>(nv) * R + nu];
-              float cand;
-              if (!std::isfinite(nr)) {
-                cand = r0 + spread;
-              } else if (std::abs(nr - r0) > jump) {
-                cand = nr;
-              } else {
-                return;
-              }
-              edge = true;
-              if (std::abs(cand - r0) > best) {
-                best = std::abs(cand - r0);
-                target = cand;
-              }
-            };
-            look(u - 1, v);
-            look(u + 1, v);
-            look(u, v - 1);
-            look(u, v + 1);
-            if (edge) {
-              Rng frng(derive_seed(view_flying_seed, i));
-              if (frng.uniform() < flying_prob) {
-                const float depth = r0 + static_cast<float>(frng.uniform()) * (target - r0);
-                p = cam.origin + depth * axis_dir(cam, u, v);
-                flying = true;
-                ++c_flying;
-              }
-            }
-          }
-          if (flying) {
-            ++n_outliers;
+void ScannerEngine::Run::emit_rows(int g0, const tbb::blocked_range<int>& rows) {
+  const int R = R_;
+  const std::size_t npix = npix_;
+  const float jump = jump_, spread = spread_;
+  const double flying_prob = flying_prob_;
+  const BoundingBox& obox = obox_;
+  const Eigen::Index base = base_;
+  std::int64_t c_flying = 0, c_uniform = 0, c_returned = 0;
+  for (int gr = rows.begin(); gr < rows.end(); ++gr) {
+    const int lv = gr / R;
+    const int v = gr % R;
+    const int view = g0 + lv;
+    const Camera& cam = e_.cameras_[static_cast<std::size_t>(view)];
+    const std::size_t img_base = static_cast<std::size_t>(lv) * npix;
+    const float* range = image_->range.get() + img_base;
+    const Px* status = image_->status.get() + img_base;
+    const Eigen::Vector3f* position = image_->position.get() + img_base;
+    const Eigen::Vector3f* clean = image_->clean.get() + img_base;
+    const std::int32_t* outliers = image_->outliers.get() + img_base;
+    const std::uint64_t view_flying_seed =
+        derive_seed(flying_seed_, static_cast<std::uint64_t>(view));
+    const std::uint64_t view_outlier_seed =
+        derive_seed(outlier_seed_, static_cast<std::uint64_t>(view));
+    const Eigen::Index row_first = base + row_start_[static_cast<std::size_t>(gr)];
+    Eigen::Index j = row_first;
+    std::int64_t surface = 0, n_outliers = 0;
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    float* out_pos = s_.cloud.positions.data();
+    float* out_cx = cx_.data();
+    float* out_cy = cy_.data();
+    float* out_cz = cz_.data();
+    float* out_flag = flag_.data();
+    int* out_id = s_.cloud.scan_ids.data();
+    Px* out_kind = kind_.get();  // indexed from the group's first point
+    const std::int64_t* segments =
+        segment_points_.get() + static_cast<std::size_t>(gr) * e_.tiles_x_;
+    for (int u = 0; u < R; ++u) {
+      if (u % kTile == 0 && segments[u / kTile] == 0) {
+        u += kTile - 1;  // no point in this tile's part of the row
+        continue;
+      }
+      const std::size_t i = static_cast<std::size_t>(v) * R + u;
+      if (status[i] != Px::kPoint) continue;
+      ++c_returned;
+      Eigen::Vector3f p = position[i];
+      bool flying = false;
+      if (flying_prob > 0.0) {
+        // The 4-neighbour with the largest range difference; behind a silhouette (no hit)
+        // the far end is range + flying_spread.
+        const float r0 = range[i];
+        float target = r0;
+        float best = 0.0f;
+        bool edge = false;
+        auto look = [&](int nu, int nv) {
+          if (nu < 0 || nv < 0 || nu >= R || nv >= R) return;
+          const float nr = range[static_cast<std::size_t>(nv) * R + nu];
+          float cand;
+          if (!std::isfinite(nr)) {
+            cand = r0 + spread;
+          } else if (std::abs(nr - r0) > jump) {
+            cand = nr;
           } else {
-            sum += p.cast<double>();
-            ++surface;
+            return;
           }
-          out_pos[3 * j] = p.x();
-          out_pos[3 * j + 1] = p.y();
-          out_pos[3 * j + 2] = p.z();
-          out_cx[j] = clean[i].x();
-          out_cy[j] = clean[i].y();
-          out_cz[j] = clean[i].z();
-          out_flag[j] = flying ? 1.0f : 0.0f;
-          out_id[j] = view;
-          out_kind[j - base] = flying ? Px::kFlying : Px::kPoint;
-          ++j;
-          const std::int32_t n_out = outliers[i];
-          if (n_out == 0) continue;
-          n_outliers += n_out;
-          c_uniform += n_out;
-          Rng orng(derive_seed(view_outlier_seed, i));
-          for (int o = 0; o < n_out; ++o, ++j) {
-            float q[3];
-            for (int k = 0; k < 3; ++k)
-              q[k] = static_cast<float>(orng.uniform(obox.min[k], obox.max[k]));
-            out_pos[3 * j] = out_cx[j] = q[0];
-            out_pos[3 * j + 1] = out_cy[j] = q[1];
-            out_pos[3 * j + 2] = out_cz[j] = q[2];
-            out_flag[j] = 1.0f;
-            out_id[j] = view;
-            out_kind[j - base] = Px::kUniform;
-          }
-        }
-        row_surface[static_cast<std::size_t>(gr)] = surface;
-        row_outliers[static_cast<std::size_t>(gr)] = n_outliers;
-        row_sum[static_cast<std::size_t>(gr)] = sum;
-      }
-      counters.flying += c_flying;
-      counters.uniform += c_uniform;
-      counters.returned += c_returned;
-    };
-
-    // Per scan, in fixed row order: centre of mass and misalignment.
-    std::vector<Eigen::Matrix3d> rots(static_cast<std::size_t>(gv), Eigen::Matrix3d::Identity());
-    std::vector<Eigen::Vector3d> transl(static_cast<std::size_t>(gv), Eigen::Vector3d::Zero());
-    std::vector<Eigen::Vector3d> centres(static_cast<std::size_t>(gv)),
-        axes(static_cast<std::size_t>(gv)), shifts(static_cast<std::size_t>(gv));
-    std::vector<std::int64_t> scan_outliers(static_cast<std::size_t>(gv), 0);
-    auto settle = [&](int lv) {
-      const auto l = static_cast<std::size_t>(lv);
-      const int view = g0 + lv;
-      std::int64_t n_surface = 0;
-      Eigen::Vector3d centre = Eigen::Vector3d::Zero();
-      for (int v = 0; v < R; ++v) {
-        const std::size_t gr = l * R + v;
-        n_surface += row_surface[gr];
-        scan_outliers[l] += row_outliers[gr];
-        centre += row_sum[gr];
-      }
-      if (n_surface > 0) centre /= static_cast<double>(n_surface);
-      centres[l] = centre;
-      if (misaligned[static_cast<std::size_t>(view)]) {
-        Rng rng(derive_seed(misalign_seed, static_cast<std::uint64_t>(view)));
-        auto random_unit = [&rng] {
-          while (true) {
-            // One draw per statement (argument evaluation order is unspecified, so a
-            // constructor with three draws gave GCC and clang builds different axes); z first
-            // keeps the scans of GCC builds as they were.
-            const double z = rng.normal();
-            const double y = rng.normal();
-            const double x = rng.normal();
-            const Eigen::Vector3d a(x, y, z);
-            const double n = a.norm();
-            if (n > 1e-6) return Eigen::Vector3d(a / n);
+          edge = true;
+          if (std::abs(cand - r0) > best) {
+            best = std::abs(cand - r0);
+            target = cand;
           }
         };
-        axes[l] = random_unit();
-        shifts[l] = random_unit() * (p_.misalign_shift * diag_);
-        rots[l] = Eigen::AngleAxisd(p_.misalign_deg * M_PI / 180.0, axes[l]).toRotationMatrix();
-        transl[l] = centre - rots[l] * centre + shifts[l];
-      }
-      const Eigen::Vector3d reg_origin =
-          rots[l] * cameras_[static_cast<std::size_t>(view)].origin.cast<double>() + transl[l];
-      origins.col(view) = reg_origin.cast<float>();
-    };
-
-    // Pass C: misaligned scans move as a whole (surface and flying points; uniform outliers stay).
-    auto pass_c = [&](const tbb::blocked_range<int>& rows) {
-      for (int gr = rows.begin(); gr < rows.end(); ++gr) {
-        const int lv = gr / R;
-        if (!misaligned[static_cast<std::size_t>(g0 + lv)]) continue;
-        const Eigen::Matrix3d& rot = rots[static_cast<std::size_t>(lv)];
-        const Eigen::Vector3d& trans = transl[static_cast<std::size_t>(lv)];
-        const Eigen::Index end = base + row_start[static_cast<std::size_t>(gr) + 1];
-        for (Eigen::Index j = base + row_start[static_cast<std::size_t>(gr)]; j < end; ++j) {
-          if (kind[static_cast<std::size_t>(j - base)] == Px::kUniform) continue;
-          cloud.positions.col(j) =
-              (rot * cloud.positions.col(j).cast<double>() + trans).cast<float>();
+        look(u - 1, v);
+        look(u + 1, v);
+        look(u, v - 1);
+        look(u, v + 1);
+        if (edge) {
+          Rng frng(derive_seed(view_flying_seed, i));
+          if (frng.uniform() < flying_prob) {
+            const float depth = r0 + static_cast<float>(frng.uniform()) * (target - r0);
+            p = cam.origin + depth * e_.axis_dir(cam, u, v);
+            flying = true;
+            ++c_flying;
+          }
         }
       }
-    };
-    std::vector<Json> view_records(static_cast<std::size_t>(gv));
-    auto write_record = [&](int lv) {
-      const auto l = static_cast<std::size_t>(lv);
-      const int view = g0 + lv;
-      const Camera& cam = cameras_[static_cast<std::size_t>(view)];
-      Json scan_rec = Json::object();
-      scan_rec["id"] = view;
-      scan_rec["sensor_origin"] = vec_json(cam.origin);
-      Json mis = Json(nullptr);
-      if (misaligned[static_cast<std::size_t>(view)]) {
-        mis = Json::object();
-        mis["center"] = vec_json(centres[l]);
-        mis["axis"] = vec_json(axes[l]);
-        mis["angle_deg"] = p_.misalign_deg;
-        mis["shift"] = vec_json(shifts[l]);
-        Json rows = Json::array();
-        for (int a = 0; a < 3; ++a)
-          rows.push_back(Json::array({rots[l](a, 0), rots[l](a, 1), rots[l](a, 2)}));
-        mis["rotation"] = rows;
-        mis["translation"] = vec_json(transl[l]);
+      if (flying) {
+        ++n_outliers;
+      } else {
+        sum += p.cast<double>();
+        ++surface;
       }
-      scan_rec["registered_origin"] =
-          vec_json(Eigen::Vector3d(rots[l] * cam.origin.cast<double>() + transl[l]));
-      scan_rec["forward"] = vec_json(cam.forward);
-      scan_rec["up"] = vec_json(cam.up);
-      scan_rec["fov_deg"] = static_cast<double>(cam.fov_deg);
-      scan_rec["resolution"] = R;
-      scan_rec["points"] = row_start[static_cast<std::size_t>(lv + 1) * R] -
-                           row_start[static_cast<std::size_t>(lv) * R];
-      scan_rec["outliers"] = scan_outliers[l];
-      scan_rec["misaligned"] = misaligned[static_cast<std::size_t>(view)] != 0;
-      scan_rec["misalignment"] = mis;
-      view_records[l] = std::move(scan_rec);
-    };
-
-    // Passes B and C per scan (C depends on the scan's centre of mass only), scans in parallel:
-    // a thread waiting for the rows of one scan runs other scans' rows.
-    tbb::parallel_for(tbb::blocked_range<int>(0, gv, 1), [&](const tbb::blocked_range<int>& vr) {
-      for (int lv = vr.begin(); lv < vr.end(); ++lv) {
-        const tbb::blocked_range<int> rows(lv * R, (lv + 1) * R, 1);
-        tbb::parallel_for(rows, pass_b);
-        settle(lv);
-        if (misaligned[static_cast<std::size_t>(g0 + lv)]) tbb::parallel_for(rows, pass_c);
-        write_record(lv);
+      out_pos[3 * j] = p.x();
+      out_pos[3 * j + 1] = p.y();
+      out_pos[3 * j + 2] = p.z();
+      out_cx[j] = clean[i].x();
+      out_cy[j] = clean[i].y();
+      out_cz[j] = clean[i].z();
+      out_flag[j] = flying ? 1.0f : 0.0f;
+      out_id[j] = view;
+      out_kind[j - base] = flying ? Px::kFlying : Px::kPoint;
+      ++j;
+      const std::int32_t n_out = outliers[i];
+      if (n_out == 0) continue;
+      n_outliers += n_out;
+      c_uniform += n_out;
+      Rng orng(derive_seed(view_outlier_seed, i));
+      for (int o = 0; o < n_out; ++o, ++j) {
+        float q[3];
+        for (int k = 0; k < 3; ++k)
+          q[k] = static_cast<float>(orng.uniform(obox.min[k], obox.max[k]));
+        out_pos[3 * j] = out_cx[j] = q[0];
+        out_pos[3 * j + 1] = out_cy[j] = q[1];
+        out_pos[3 * j + 2] = out_cz[j] = q[2];
+        out_flag[j] = 1.0f;
+        out_id[j] = view;
+        out_kind[j - base] = Px::kUniform;
       }
-    });
-    for (Json& rec : view_records)
-      scans.push_back(std::move(rec));
-    t_artifacts += std::chrono::duration<double>(Clock::now() - t1).count();
+    }
+    row_surface_[static_cast<std::size_t>(gr)] = surface;
+    row_outliers_[static_cast<std::size_t>(gr)] = n_outliers;
+    row_sum_[static_cast<std::size_t>(gr)] = sum;
   }
-  ctx.add_phase_time("scan.rays", t_rays);
-  ctx.add_phase_time("scan.artifacts", t_artifacts);
+  counters_.flying += c_flying;
+  counters_.uniform += c_uniform;
+  counters_.returned += c_returned;
+}
 
+void ScannerEngine::Run::settle(int g0, int lv) {
+  const int R = R_;
+  const auto l = static_cast<std::size_t>(lv);
+  const int view = g0 + lv;
+  std::int64_t n_surface = 0;
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  for (int v = 0; v < R; ++v) {
+    const std::size_t gr = l * R + v;
+    n_surface += row_surface_[gr];
+    scan_outliers_[l] += row_outliers_[gr];
+    centre += row_sum_[gr];
+  }
+  if (n_surface > 0) centre /= static_cast<double>(n_surface);
+  centres_[l] = centre;
+  if (misaligned_[static_cast<std::size_t>(view)]) {
+    Rng rng(derive_seed(misalign_seed_, static_cast<std::uint64_t>(view)));
+    auto random_unit = [&rng] {
+      while (true) {
+        // One draw per statement (argument evaluation order is unspecified, so a
+        // constructor with three draws gave GCC and clang builds different axes); z first
+        // keeps the scans of GCC builds as they were.
+        const double z = rng.normal();
+        const double y = rng.normal();
+        const double x = rng.normal();
+        const Eigen::Vector3d a(x, y, z);
+        const double n = a.norm();
+        if (n > 1e-6) return Eigen::Vector3d(a / n);
+      }
+    };
+    axes_[l] = random_unit();
+    shifts_[l] = random_unit() * (e_.p_.misalign_shift * e_.diag_);
+    rots_[l] = Eigen::AngleAxisd(e_.p_.misalign_deg * M_PI / 180.0, axes_[l]).toRotationMatrix();
+    transl_[l] = centre - rots_[l] * centre + shifts_[l];
+  }
+  const Eigen::Vector3d reg_origin =
+      rots_[l] * e_.cameras_[static_cast<std::size_t>(view)].origin.cast<double>() + transl_[l];
+  origins_.col(view) = reg_origin.cast<float>();
+}
+
+void ScannerEngine::Run::move_misaligned(int g0, const tbb::blocked_range<int>& rows) {
+  PointCloud& cloud = s_.cloud;
+  const Eigen::Index base = base_;
+  for (int gr = rows.begin(); gr < rows.end(); ++gr) {
+    const int lv = gr / R_;
+    if (!misaligned_[static_cast<std::size_t>(g0 + lv)]) continue;
+    const Eigen::Matrix3d& rot = rots_[static_cast<std::size_t>(lv)];
+    const Eigen::Vector3d& trans = transl_[static_cast<std::size_t>(lv)];
+    const Eigen::Index end = base + row_start_[static_cast<std::size_t>(gr) + 1];
+    for (Eigen::Index j = base + row_start_[static_cast<std::size_t>(gr)]; j < end; ++j) {
+      if (kind_[static_cast<std::size_t>(j - base)] == Px::kUniform) continue;
+      cloud.positions.col(j) = (rot * cloud.positions.col(j).cast<double>() + trans).cast<float>();
+    }
+  }
+}
+
+Json ScannerEngine::Run::scan_record(int g0, int lv) const {
+  const auto l = static_cast<std::size_t>(lv);
+  const int view = g0 + lv;
+  const int R = R_;
+  const Camera& cam = e_.cameras_[static_cast<std::size_t>(view)];
+  Json scan_rec = Json::object();
+  scan_rec["id"] = view;
+  scan_rec["sensor_origin"] = vec_json(cam.origin);
+  Json mis = Json(nullptr);
+  if (misaligned_[static_cast<std::size_t>(view)]) {
+    mis = Json::object();
+    mis["center"] = vec_json(centres_[l]);
+    mis["axis"] = vec_json(axes_[l]);
+    mis["angle_deg"] = e_.p_.misalign_deg;
+    mis["shift"] = vec_json(shifts_[l]);
+    Json rows = Json::array();
+    for (int a = 0; a < 3; ++a)
+      rows.push_back(Json::array({rots_[l](a, 0), rots_[l](a, 1), rots_[l](a, 2)}));
+    mis["rotation"] = rows;
+    mis["translation"] = vec_json(transl_[l]);
+  }
+  scan_rec["registered_origin"] =
+      vec_json(Eigen::Vector3d(rots_[l] * cam.origin.cast<double>() + transl_[l]));
+  scan_rec["forward"] = vec_json(cam.forward);
+  scan_rec["up"] = vec_json(cam.up);
+  scan_rec["fov_deg"] = static_cast<double>(cam.fov_deg);
+  scan_rec["resolution"] = R;
+  scan_rec["points"] = row_start_[static_cast<std::size_t>(lv + 1) * R] -
+                       row_start_[static_cast<std::size_t>(lv) * R];
+  scan_rec["outliers"] = scan_outliers_[l];
+  scan_rec["misaligned"] = misaligned_[static_cast<std::size_t>(view)] != 0;
+  scan_rec["misalignment"] = mis;
+  return scan_rec;
+}
+
+void ScannerEngine::Run::scan_group(int g0, int gv) {
+  using Clock = std::chrono::steady_clock;
+  const int R = R_;
+  const int rows_g = gv * R;
+  const auto t0 = Clock::now();
+  tbb::parallel_for(tbb::blocked_range<int>(0, gv * e_.tiles_, 1),
+                    [&](const tbb::blocked_range<int>& r) { cast_tiles(g0, r, buffers_.local()); });
+  const auto t1 = Clock::now();
+  t_rays_ += std::chrono::duration<double>(t1 - t0).count();
+
+  place_rows(rows_g);
+  rots_.assign(static_cast<std::size_t>(gv), Eigen::Matrix3d::Identity());
+  transl_.assign(static_cast<std::size_t>(gv), Eigen::Vector3d::Zero());
+  centres_.resize(static_cast<std::size_t>(gv));
+  axes_.resize(static_cast<std::size_t>(gv));
+  shifts_.resize(static_cast<std::size_t>(gv));
+  scan_outliers_.assign(static_cast<std::size_t>(gv), 0);
+  std::vector<Json> view_records(static_cast<std::size_t>(gv));
+  // Passes B and C per scan (C depends on the scan's centre of mass only), scans in parallel:
+  // a thread waiting for the rows of one scan runs other scans' rows.
+  tbb::parallel_for(tbb::blocked_range<int>(0, gv, 1), [&](const tbb::blocked_range<int>& vr) {
+    for (int lv = vr.begin(); lv < vr.end(); ++lv) {
+      const tbb::blocked_range<int> rows(lv * R, (lv + 1) * R, 1);
+      tbb::parallel_for(rows, [&](const tbb::blocked_range<int>& rr) { emit_rows(g0, rr); });
+      settle(g0, lv);
+      if (misaligned_[static_cast<std::size_t>(g0 + lv)]) {
+        tbb::parallel_for(rows,
+                          [&](const tbb::blocked_range<int>& rr) { move_misaligned(g0, rr); });
+      }
+      view_records[static_cast<std::size_t>(lv)] = scan_record(g0, lv);
+    }
+  });
+  for (Json& rec : view_records)
+    scans_.push_back(std::move(rec));
+  t_artifacts_ += std::chrono::duration<double>(Clock::now() - t1).count();
+}
+
+Scan ScannerEngine::Run::finish() {
+  ctx_.add_phase_time("scan.rays", t_rays_);
+  ctx_.add_phase_time("scan.artifacts", t_artifacts_);
+  PointCloud& cloud = s_.cloud;
   const Eigen::Index n = cloud.size();
-  cloud.sensor_origins = origins;
-  cloud.properties["outlier"] = std::move(flag);
-  cloud.properties["clean_x"] = std::move(cx);
-  cloud.properties["clean_y"] = std::move(cy);
-  cloud.properties["clean_z"] = std::move(cz);
+  cloud.sensor_origins = origins_;
+  cloud.properties["outlier"] = std::move(flag_);
+  cloud.properties["clean_x"] = std::move(cx_);
+  cloud.properties["clean_y"] = std::move(cy_);
+  cloud.properties["clean_z"] = std::move(cz_);
 
-  Json& rec = s.record;
+  Json& rec = s_.record;
   rec = Json::object();
-  rec["params"] = params_to_json(p_);
-  rec["seed"] = ctx.seed();
+  rec["params"] = params_to_json(e_.p_);
+  rec["seed"] = ctx_.seed();
   Json mesh = Json::object();
-  mesh["vertices"] = mesh_.num_vertices();
-  mesh["faces"] = mesh_.num_faces();
-  mesh["degenerate_faces"] = degenerate_faces_;
-  mesh["bbox_min"] = vec_json(box_.min);
-  mesh["bbox_max"] = vec_json(box_.max);
-  mesh["diagonal"] = static_cast<double>(diag_);
+  mesh["vertices"] = e_.mesh_.num_vertices();
+  mesh["faces"] = e_.mesh_.num_faces();
+  mesh["degenerate_faces"] = e_.degenerate_faces_;
+  mesh["bbox_min"] = vec_json(e_.box_.min);
+  mesh["bbox_max"] = vec_json(e_.box_.max);
+  mesh["diagonal"] = static_cast<double>(e_.diag_);
   rec["mesh"] = mesh;
   Json counts = Json::object();
-  counts["rays"] = rays_per_run();
-  counts["pixels"] = static_cast<std::int64_t>(npix) * views;
+  counts["rays"] = e_.rays_per_run();
+  counts["pixels"] = static_cast<std::int64_t>(npix_) * views_;
   counts["points"] = static_cast<std::int64_t>(n);
-  counts["returned_pixels"] = counters.returned.load();
-  counts["misses"] = counters.misses.load();
-  counts["dropped_grazing"] = counters.grazing.load();
-  counts["dropped_range"] = counters.out_of_range.load();
-  counts["mixed_pixels"] = counters.mixed.load();
-  counts["flying_pixels"] = counters.flying.load();
-  counts["uniform_outliers"] = counters.uniform.load();
-  counts["outliers"] = counters.flying.load() + counters.uniform.load();
+  counts["returned_pixels"] = counters_.returned.load();
+  counts["misses"] = counters_.misses.load();
+  counts["dropped_grazing"] = counters_.grazing.load();
+  counts["dropped_range"] = counters_.out_of_range.load();
+  counts["mixed_pixels"] = counters_.mixed.load();
+  counts["flying_pixels"] = counters_.flying.load();
+  counts["uniform_outliers"] = counters_.uniform.load();
+  counts["outliers"] = counters_.flying.load() + counters_.uniform.load();
   rec["counts"] = counts;
-  rec["scans"] = std::move(scans);
-  return s;
+  rec["scans"] = std::move(scans_);
+  return std::move(s_);
+}
+
+Scan ScannerEngine::run(RunContext& ctx) const {
+  Run run(*this, ctx);
+  const int views = static_cast<int>(cameras_.size());
+  auto phase = ctx.phase("scan");
+  for (int g0 = 0; g0 < views; g0 += run.group()) {
+    ctx.check_cancelled("scan");
+    run.scan_group(g0, std::min(run.group(), views - g0));
+  }
+  return run.finish();
 }
 
 }  // namespace detail

@@ -41,6 +41,7 @@ class ScannerEngine {
   static constexpr int kMaxSubRays = 16;  ///< the schema's bound of sub_rays
 
  private:
+  class Run;  // one run's state and its passes (scanner.cpp)
   struct Tile {
     int u0, u1, v0, v1;
   };

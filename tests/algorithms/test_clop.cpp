@@ -136,7 +136,7 @@ TEST(Clop, FastKernelsMatchBruteForce) {
   const double diag = c.bbox().diagonal();
   const double h = 0.05 * diag;
   RunContext ctx(2);
-  const GaussianMixture m = hem_mixture(c.positions, hem_params_of(p, h), h, diag, ctx);
+  const GaussianMixture m = hem_mixture(c.positions, hem_params_of(p), h, diag, ctx);
   Eigen::Matrix3Xf q = c.positions.leftCols(200);
   const Eigen::Matrix3Xf q0 = q;
   p.iterations = 1;  // eq. 24 only

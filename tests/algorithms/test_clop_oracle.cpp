@@ -204,7 +204,7 @@ TEST(ClopOracle, ProjectionLoopMatchesBruteForceRepulsion) {
   p.iterations = 5;  // eq. 24, then 4 steps: F2 computed at steps 0, 2, 3 when interleaved
   const double h = p.h * diag;
   RunContext mctx(2);
-  const GaussianMixture m = hem_mixture(c.positions, hem_params_of(p, h), h, diag, mctx);
+  const GaussianMixture m = hem_mixture(c.positions, hem_params_of(p), h, diag, mctx);
   const Eigen::Matrix3Xf q0 = c.positions.leftCols(1000);
   const Brute brute{m, h, h};
   // Float against double over 5 iterations: 2e-5 h held on the sse2 build; a build for AVX2/FMA
@@ -249,7 +249,7 @@ TEST(ClopOracle, AuthorsFirstIterationIsEq24AtTwiceTheKernel) {
   p.iterations = 3;
   const double h = p.h * diag;
   RunContext mctx(2);
-  const GaussianMixture m = hem_mixture(c.positions, hem_params_of(p, h), h, diag, mctx);
+  const GaussianMixture m = hem_mixture(c.positions, hem_params_of(p), h, diag, mctx);
   const Eigen::Matrix3Xf q0 = c.positions.leftCols(500);
   const Brute paper{m, h, h}, authors{m, h, 2 * h};
   const auto want = authors.project(q0, p.iterations, p.mu, 0.5 * h, true, false);

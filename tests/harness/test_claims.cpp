@@ -193,6 +193,126 @@ Json good_rule() {
           {"b", {{"variant", "y"}}}};
 }
 
+/// A record of a trade-off sweep: error, a time per repeat with a shared "clop" step, a size.
+Json tradeoff_record(const std::string& variant, const std::string& key, double x, double err,
+                     std::vector<double> total_s, double clop_s, double bytes) {
+  Json r = record("d1", variant, {{"err", err}, {"mesh_bytes", bytes}}, {{key, x}}, total_s);
+  r["timing"]["phases"]["clop"] = std::vector<double>(total_s.size(), clop_s);
+  r["sizes"] = {{"covmesh_bytes", bytes}};
+  return r;
+}
+
+TEST(ClaimRules, ParetoFrontsOfTwoSweeps) {
+  // b = y (depth sweep): times 2, 4, 8 for errors 4, 2, 1; a dominated point (time 5, error 3) is
+  // not on b's front. a = x (sigma sweep): errors 3.5, 1.8 at times 1.5, 3.5: as accurate as b's 4
+  // and 2 for less time, and nothing reaches b's 1.
+  std::vector<Json> recs;
+  const double bt[] = {2, 4, 8, 5}, be[] = {4, 2, 1, 3};
+  for (int i = 0; i < 4; ++i)
+    recs.push_back(tradeoff_record("y", "depth", i, be[i], {bt[i] + 10, bt[i] + 10.1}, 10, 0));
+  recs.push_back(tradeoff_record("x", "sigma", 1, 3.5, {11.5, 11.6}, 10, 0));
+  recs.push_back(tradeoff_record("x", "sigma", 2, 1.8, {13.5, 13.6}, 10, 0));
+  const Json rule = {{"what", "a faster at equal error"},
+                     {"kind", "front"},
+                     {"quantity", "err"},
+                     {"cost", "time.total"},
+                     {"exclude_steps", {"clop"}},
+                     {"a", {{"variant", "x"}}},
+                     {"b", {{"variant", "y"}}}};
+  const ClaimRule r = parse_claim(claim_json({rule}), "c.json", "c").rules[0];
+  RuleOutcome o = judge_rule(r, recs);
+  EXPECT_EQ(o.verdict, "held") << o.reason;
+  ASSERT_EQ(o.groups[0]["pairs"].size(), 2u);  // b's points at errors 4 and 2; not 1, not 3
+  EXPECT_NEAR(o.groups[0]["pairs"][0]["b_cost"].get<double>(), 2.05, 1e-9);  // clop left out
+  // a slower than b where it is as accurate: failed, naming the point.
+  recs[5]["timing"]["total_s"] = {15.0, 15.1};
+  o = judge_rule(r, recs);
+  EXPECT_EQ(o.verdict, "failed") << o.reason;
+  EXPECT_NE(o.reason.find("depth=1"), std::string::npos) << o.reason;
+  // Overlapping repeats decide nothing.
+  recs[5]["timing"]["total_s"] = {13.9, 14.2};
+  EXPECT_EQ(judge_rule(r, recs).verdict, "inconclusive");
+  // No a point as accurate as any b point: inconclusive, not held.
+  for (int i : {4, 5})
+    recs[static_cast<std::size_t>(i)]["metrics"]["err"] = 9.0;
+  o = judge_rule(r, recs);
+  EXPECT_EQ(o.verdict, "inconclusive");
+  EXPECT_NE(o.reason.find("no a point reaches"), std::string::npos) << o.reason;
+  // A time cost without the excluded step's seconds has no value.
+  recs[0]["timing"].erase("phases");
+  EXPECT_EQ(judge_rule(r, recs).verdict, "inconclusive");
+}
+
+TEST(ClaimRules, MatchedJudgesEveryPointInTheBudgetBandAndNoOther) {
+  // Band: [bytes of depth 7, a third of depth 8's] = [100, 200].
+  std::vector<Json> recs = {tradeoff_record("y", "depth", 7, 2.0, {1}, 0, 100),
+                            tradeoff_record("y", "depth", 8, 1.0, {1}, 0, 600),
+                            tradeoff_record("x", "sigma", 1, 5.0, {1}, 0, 50),
+                            tradeoff_record("x", "sigma", 2, 1.5, {1}, 0, 150),
+                            tradeoff_record("x", "sigma", 3, 0.5, {1}, 0, 400)};
+  const Json d7 = {{"variant", "y"}, {"point", {{"depth", 7}}}};
+  const Json rule = {{"what", "g below depth 7 in the band"},
+                     {"kind", "matched"},
+                     {"quantity", "err"},
+                     {"a", {{"variant", "x"}}},
+                     {"op", "<"},
+                     {"b", d7},
+                     {"match",
+                      {{"quantity", "sizes.covmesh_bytes"},
+                       {"ref", "mesh_bytes"},
+                       {"lo", d7},
+                       {"hi", {{"variant", "y"}, {"point", {{"depth", 8}}}}},
+                       {"hi_factor", 1.0 / 3.0}}}};
+  const ClaimRule r = parse_claim(claim_json({rule}), "c.json", "c").rules[0];
+  RuleOutcome o = judge_rule(r, recs);
+  EXPECT_EQ(o.verdict, "held") << o.reason;  // sigma 2 only: 1.5 < 2 (sigma 1's 5.0 is outside)
+  recs[3]["metrics"]["err"] = 2.5;
+  EXPECT_EQ(judge_rule(r, recs).verdict, "failed");
+  recs[3]["sizes"]["covmesh_bytes"] = 250.0;  // now nothing in the band
+  o = judge_rule(r, recs);
+  EXPECT_EQ(o.verdict, "inconclusive");
+  EXPECT_NE(o.reason.find("no a record in the band [100, 200]"), std::string::npos) << o.reason;
+  recs[1]["metrics"]["mesh_bytes"] = 150.0;  // a third of depth 8's (50) below depth 7's (100)
+  o = judge_rule(r, recs);
+  EXPECT_EQ(o.verdict, "inconclusive");
+  EXPECT_NE(o.reason.find("empty"), std::string::npos) << o.reason;
+}
+
+TEST(ClaimFiles, TradeoffRulesRejectBadFields) {
+  Json front = {{"what", "w"},          {"kind", "front"},         {"quantity", "err"},
+                {"cost", "mesh_bytes"}, {"a", {{"variant", "x"}}}, {"b", {{"variant", "y"}}}};
+  EXPECT_NO_THROW(parse_claim(claim_json({front}), "c.json", "c"));
+  for (const auto& [key, value] : std::vector<std::pair<std::string, Json>>{
+           {"exclude_steps", Json::array({"clop"})},  // a byte cost has no steps' seconds
+           {"op", ">"},
+           {"factor", -1},
+           {"margin", 0.1}}) {
+    Json bad = front;
+    bad[key] = value;
+    try {
+      parse_claim(claim_json({bad}), "c.json", "c");
+      ADD_FAILURE() << key << " accepted";
+    } catch (const scanbench::ParamError& e) {
+      EXPECT_NE(std::string(e.what()).find("c.json: /rules/0/" + key), std::string::npos)
+          << e.what();
+    }
+  }
+  Json matched = {
+      {"what", "w"},
+      {"kind", "matched"},
+      {"quantity", "err"},
+      {"a", {{"variant", "x"}}},
+      {"b", {{"variant", "y"}}},
+      {"match", {{"quantity", "q"}, {"lo", {{"variant", "y"}}}, {"hi", {{"variant", "nope"}}}}}};
+  try {
+    parse_claim(claim_json({matched}), "c.json", "c");
+    ADD_FAILURE() << "a band selector naming no variant accepted";
+  } catch (const scanbench::ParamError& e) {
+    EXPECT_NE(std::string(e.what()).find("/rules/0/match/hi/variant"), std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(ClaimFiles, ValidatedWithPathsAndQuickPatchApplied) {
   const Claim c = parse_claim(claim_json({good_rule()}), "c.json", "c");
   EXPECT_EQ(c.id, "c");

@@ -95,28 +95,16 @@ void Problem::set_h(float h) {
 
 namespace {
 
-template <class Packet, bool kPointToPoint>
-Step em_step_impl(const Problem& problem, const Eigen::Matrix3Xf& x, const Eigen::Matrix3Xf& xb,
-                  double s2, double omega, double mu, RunContext* ctx) {
+// E-step (eq. 3): the denominators D_n into s.denominator (p_mn = exp(-|v_n - x_m|^2 / 2 s2) /
+// D_n, `c` the outlier term); returns 1 / D_n in the input grid's order (an underflowed
+// denominator contributes nothing).
+template <class Packet>
+std::vector<float> e_step(const Problem& problem, const detail::NeighborGrid& pgrid,
+                          const Packet& k_gauss, float c, Step& s) {
   const Eigen::Matrix3Xf& v = problem.v();
   const Eigen::Index n = v.cols();
-  const Eigen::Index m = x.cols();
-  const float h = problem.h();
   const float r_data = problem.data_radius();
-  const float r_rep = problem.repulsion_radius();
-  Step s;
-  s.outlier_term = std::pow(2.0 * M_PI * s2, 1.5) * omega * static_cast<double>(m) /
-                   ((1.0 - omega) * static_cast<double>(n));
-  const Packet k_gauss = ei::pset1<Packet>(static_cast<float>(-0.5 / s2));
-  std::optional<RunContext::PhaseTimer> timer;
-
-  // E-step (eq. 3): the denominators D_n; p_mn = exp(-|v_n - x_m|^2 / 2 s2) / D_n.
-  if (ctx) timer.emplace(*ctx, "e_step");
-  // Cell side r_rep / 2 = r_data: the E-step (radius r_data) reads 3 x 3 columns, the repulsion
-  // (radius r_rep) 5 x 5.
-  detail::NeighborGrid pgrid(x, kernels::grid_cell(r_rep));
   s.denominator.resize(n);
-  const auto c = static_cast<float>(s.outlier_term);
   pgrid.for_each_query(
       v, r_data, false,
       [&](Eigen::Index i, Eigen::Index, const detail::GridRange* r, std::size_t count) {
@@ -128,34 +116,25 @@ Step em_step_impl(const Problem& problem, const Eigen::Matrix3Xf& x, const Eigen
             });
         s.denominator[i] = ei::predux(acc) + c;
       });
-  // 1 / D_n in the input grid's order; an underflowed denominator contributes nothing.
   const detail::NeighborGrid& vgrid = problem.grid();
   std::vector<float> inv_d(static_cast<std::size_t>(n + detail::NeighborGrid::kPad), 0.0f);
   for (Eigen::Index k = 0; k < n; ++k) {
     const float d = s.denominator[vgrid.index(k)];
     inv_d[static_cast<std::size_t>(k)] = d > 1e-30f ? 1.0f / d : 0.0f;
   }
+  return inv_d;
+}
 
-  // M-step (eq. 10, 11).
-  if (ctx) timer.emplace(*ctx, "m_step");
-  // Particle densities w_m (WLOP) and the particle normals in the particle grid's order.
-  s.particle_weights = kernels::density_weights(pgrid, x, h, r_rep);
-  pgrid.set_weights(s.particle_weights);
-  std::vector<float> pb[3];
-  for (int d = 0; d < 3; ++d)
-    pb[d] = sorted(pgrid, xb.data() + d, 3);
+// M-step data term (eq. 10) into s.data, and per particle for eq. 11: np_m = sum_n p_mn,
+// res_m = S1 and the moments g and A (see em_step_impl).
+template <class Packet, bool kPointToPoint>
+void data_term(const Problem& problem, const Eigen::Matrix3Xf& x, const std::vector<float>& inv_d,
+               const Packet& k_gauss, Step& s, std::vector<double>& np_m,
+               std::vector<double>& res_m, Eigen::Matrix<double, 9, Eigen::Dynamic>& moments) {
+  const detail::NeighborGrid& vgrid = problem.grid();
+  const float r_data = problem.data_radius();
   const std::vector<float>* vb = &problem.sorted_b(0);
   const std::vector<float>& inv_rho = problem.sorted_inv_rho();
-
-  s.data.resize(3, m);
-  s.repulsion.resize(3, m);
-  // Per particle for eq. 11: sum_n p_mn, and sum_n p_mn (b_n . (v_n - x_m'))^2 with the new x_m'.
-  std::vector<double> np_m(static_cast<std::size_t>(m)), res_m(static_cast<std::size_t>(m));
-  // Per particle: g = sum_n p b_n (b_n . (v_n - x_m)) and the upper triangle of sum_n p b_n b_n^T;
-  // point to point (kPointToPoint): sum_n p |v_n - x_m|^2 and sum_n p (v_n - x_m) instead.
-  Eigen::Matrix<double, 9, Eigen::Dynamic> moments(9, m);
-  const Packet theta_k = ei::pset1<Packet>(-kernels::kThetaFactor / (h * h));
-  const Packet floor2 = ei::pset1<Packet>(kernels::kClampRatio * kernels::kClampRatio * h * h);
   vgrid.for_each_query(
       x, r_data, false,
       [&](Eigen::Index i, Eigen::Index, const detail::GridRange* r, std::size_t count) {
@@ -215,9 +194,17 @@ Step em_step_impl(const Problem& problem, const Eigen::Matrix3Xf& x, const Eigen
         moments.col(i) << ei::predux(gx), ei::predux(gy), ei::predux(gz), ei::predux(Axx),
             ei::predux(Axy), ei::predux(Axz), ei::predux(Ayy), ei::predux(Ayz), ei::predux(Azz);
       });
+}
 
-  // Repulsion: sum_m' w_m' beta_mm' C_mm' (x_m - x_m') / sum_m' w_m' beta_mm', projected onto
-  // the tangent plane of x_m', beta = theta(r)/r at the tangential distance r (clamped 0.01 h).
+// Repulsion (eq. 10) into s.repulsion: sum_m' w_m' beta_mm' C_mm' (x_m - x_m') / sum_m' w_m'
+// beta_mm', projected onto the tangent plane of x_m', beta = theta(r)/r at the tangential
+// distance r (clamped 0.01 h). `pb`: the particle normals in pgrid's order; pgrid holds the
+// particle weights w_m.
+template <class Packet>
+void repulsion_term(const detail::NeighborGrid& pgrid, const Eigen::Matrix3Xf& x,
+                    const std::vector<float> (&pb)[3], float h, float r_rep, Step& s) {
+  const Packet theta_k = ei::pset1<Packet>(-kernels::kThetaFactor / (h * h));
+  const Packet floor2 = ei::pset1<Packet>(kernels::kClampRatio * kernels::kClampRatio * h * h);
   pgrid.for_each_query(
       x, r_rep, true,
       [&](Eigen::Index i, Eigen::Index self, const detail::GridRange* r, std::size_t count) {
@@ -251,6 +238,48 @@ Step em_step_impl(const Problem& problem, const Eigen::Matrix3Xf& x, const Eigen
                                   w_sum)
                 : Eigen::Vector3f::Zero();
       });
+}
+
+template <class Packet, bool kPointToPoint>
+Step em_step_impl(const Problem& problem, const Eigen::Matrix3Xf& x, const Eigen::Matrix3Xf& xb,
+                  double s2, double omega, double mu, RunContext* ctx) {
+  const Eigen::Matrix3Xf& v = problem.v();
+  const Eigen::Index n = v.cols();
+  const Eigen::Index m = x.cols();
+  const float h = problem.h();
+  const float r_rep = problem.repulsion_radius();
+  Step s;
+  s.outlier_term = std::pow(2.0 * M_PI * s2, 1.5) * omega * static_cast<double>(m) /
+                   ((1.0 - omega) * static_cast<double>(n));
+  const Packet k_gauss = ei::pset1<Packet>(static_cast<float>(-0.5 / s2));
+  std::optional<RunContext::PhaseTimer> timer;
+
+  // E-step (eq. 3).
+  if (ctx) timer.emplace(*ctx, "e_step");
+  // Cell side r_rep / 2 = r_data: the E-step (radius r_data) reads 3 x 3 columns, the repulsion
+  // (radius r_rep) 5 x 5.
+  detail::NeighborGrid pgrid(x, kernels::grid_cell(r_rep));
+  const std::vector<float> inv_d =
+      e_step<Packet>(problem, pgrid, k_gauss, static_cast<float>(s.outlier_term), s);
+
+  // M-step (eq. 10, 11).
+  if (ctx) timer.emplace(*ctx, "m_step");
+  // Particle densities w_m (WLOP) and the particle normals in the particle grid's order.
+  s.particle_weights = kernels::density_weights(pgrid, x, h, r_rep);
+  pgrid.set_weights(s.particle_weights);
+  std::vector<float> pb[3];
+  for (int d = 0; d < 3; ++d)
+    pb[d] = sorted(pgrid, xb.data() + d, 3);
+
+  s.data.resize(3, m);
+  s.repulsion.resize(3, m);
+  // Per particle for eq. 11: sum_n p_mn, and sum_n p_mn (b_n . (v_n - x_m'))^2 with the new x_m'.
+  std::vector<double> np_m(static_cast<std::size_t>(m)), res_m(static_cast<std::size_t>(m));
+  // Per particle: g = sum_n p b_n (b_n . (v_n - x_m)) and the upper triangle of sum_n p b_n b_n^T;
+  // point to point (kPointToPoint): sum_n p |v_n - x_m|^2 and sum_n p (v_n - x_m) instead.
+  Eigen::Matrix<double, 9, Eigen::Dynamic> moments(9, m);
+  data_term<Packet, kPointToPoint>(problem, x, inv_d, k_gauss, s, np_m, res_m, moments);
+  repulsion_term<Packet>(pgrid, x, pb, h, r_rep, s);
 
   s.x = x + s.data + static_cast<float>(mu) * s.repulsion;
   double np_sum = 0.0, res_sum = 0.0, max_move2 = 0.0;

@@ -11,6 +11,7 @@
 #include <tuple>
 #include <vector>
 
+#include "input_checks.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/kdtree.h"
 
@@ -80,9 +81,8 @@ void propagate(const Eigen::Matrix3Xf& pts, const std::vector<Eigen::Index>& knn
 }  // namespace
 
 PointCloud pca_normals(const PointCloud& input, const PcaNormalsParams& p, RunContext& ctx) {
-  input.validate(kPcaStage);
+  detail::check_points(input, kPcaStage, 3);
   const Eigen::Index n = input.size();
-  if (n < 3) throw InputError(fmt::format("{}: needs at least 3 points, got {}", kPcaStage, n));
   std::string mode = p.orientation;
   const bool has_sensor = input.has_scan_ids() && input.sensor_origins.cols() > 0;
   if (mode == "auto") mode = has_sensor ? "sensor" : "propagate";

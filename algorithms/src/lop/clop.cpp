@@ -15,12 +15,13 @@
 #include <optional>
 #include <vector>
 
-#include "spatial/mixture_index.h"
+#include "input_checks.h"
 #include "lop/projection_kernels.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/kdtree.h"
 #include "scanbench/core/radix_sort.h"
 #include "scanbench/core/simd_dispatch.h"
+#include "spatial/mixture_index.h"
 #include "spatial/simd_exp.h"
 
 // Eigen's packet types (__m128, __m256, __m512) carry vector attributes that GCC reports as
@@ -153,21 +154,18 @@ class PreparedMixture {
   }
 
  private:
-  template <bool kInitial, class Packet>
-  void project_all_impl(const Eigen::Matrix3Xf& q, Eigen::Matrix3Xf& out) const {
-    constexpr int kLanes = Eigen::internal::unpacket_traits<Packet>::size;
-    constexpr int j0 = kInitial ? 3 : 0;
-    constexpr int nk = kInitial ? 1 : 3;
+  // The particles in cells of side `cell` (returned): keys (cell key, particle) in key order,
+  // starts[c] .. starts[c + 1] the particles of cell c. Cells of side h/4; where the particles
+  // are spread thinly (noise thicker than the cell, fewer than kMinOccupancy per occupied cell on
+  // average) the side doubles, up to h, so that one gather serves several particles. The terms
+  // kept do not depend on the cell (every term within reach is gathered, the rest is masked
+  // out), only their summation order does.
+  float sort_into_cells(const Eigen::Matrix3Xf& q, const Eigen::Vector3f& lo,
+                        std::vector<std::pair<std::uint64_t, Index>>& keys,
+                        std::vector<std::size_t>& starts) const {
     const Index n = q.cols();
-    if (n == 0) return;
-    const Eigen::Vector3f lo = q.rowwise().minCoeff();
-    // Cells of side h/4; where the particles are spread thinly (noise thicker than the cell,
-    // fewer than kMinOccupancy per occupied cell on average) the side doubles, up to h, so that
-    // one gather serves several particles. The terms kept do not depend on the cell (every term
-    // within reach is gathered, the rest is masked out), only their summation order does.
     float cell = cell_;
-    std::vector<std::pair<std::uint64_t, Index>> keys(static_cast<std::size_t>(n));
-    std::vector<std::size_t> starts;
+    keys.resize(static_cast<std::size_t>(n));
     for (;;) {
       const float inv_cell = 1.0f / cell;
       auto coord = [&](float v, float l) {
@@ -191,18 +189,164 @@ class PreparedMixture {
       if (occupancy >= kMinOccupancy || cell >= 4.0f * cell_) break;
       cell *= 2.0f;
     }
+    return cell;
+  }
+
+  // The candidate components of a cell (centre `center`) into sc.ids, ordered by distance shell
+  // around the centre (a stable counting sort), so that the terms out of reach of a particle,
+  // above all those of the narrow kernels, fill whole packets that are skipped.
+  void gather_cell(const Eigen::Vector3f& center, const std::vector<float>& radii,
+                   CellScratch& sc) const {
+    sc.ids.clear();
+    sc.d2.clear();
+    index_.gather(center, radii, sc.ranges, sc.ids, sc.d2);
+    float far2 = 0.0f;
+    for (const float d : sc.d2)
+      far2 = std::max(far2, d);
+    std::array<std::size_t, kShells + 1> next{};
+    const float scale = far2 > 0.0f ? kShells / std::sqrt(far2) : 0.0f;
+    sc.shell.resize(sc.ids.size());
+    for (std::size_t k = 0; k < sc.ids.size(); ++k) {
+      sc.shell[k] = std::min(kShells - 1, static_cast<int>(std::sqrt(sc.d2[k]) * scale));
+      ++next[static_cast<std::size_t>(sc.shell[k]) + 1];
+    }
+    for (int b = 0; b < kShells; ++b)
+      next[static_cast<std::size_t>(b) + 1] += next[static_cast<std::size_t>(b)];
+    sc.sorted.resize(sc.ids.size());
+    for (std::size_t k = 0; k < sc.ids.size(); ++k)
+      sc.sorted[next[static_cast<std::size_t>(sc.shell[k])]++] = sc.ids[k];
+    sc.ids.swap(sc.sorted);
+  }
+
+  // The fields of the cell's m candidates into sc.soa (packets of kLanes candidates, padded with
+  // zero records) and their lane mask into sc.valid. Returns m rounded up to whole packets.
+  template <bool kInitial, class Packet>
+  Index fill_candidates(CellScratch& sc) const {
+    namespace ei = Eigen::internal;
+    constexpr int kLanes = ei::unpacket_traits<Packet>::size;
+    constexpr int j0 = kInitial ? 3 : 0;
+    constexpr int nk = kInitial ? 1 : 3;
+    constexpr int nf = 3 + 7 * nk;
+    float ones;
+    const std::uint32_t bits = 0xffffffffu;
+    std::memcpy(&ones, &bits, sizeof ones);
+    const auto m = static_cast<Index>(sc.ids.size());
+    const Index padded = (m + kLanes - 1) / kLanes * kLanes;
+    const auto np = static_cast<std::size_t>(padded);
+    sc.soa.resize(nf * np);
+    sc.valid.assign(np, 0.0f);
+    std::fill_n(sc.valid.begin(), m, ones);
+    if constexpr (!kInitial && nf % kLanes == 0) {
+      // The 24 fields of L candidates: their records' first 24 floats, transposed in L x L
+      // blocks (a zero record pads the last packet); L = 4 or 8.
+      static_assert(nf == 24);
+      using Block = Eigen::internal::PacketBlock<Packet, kLanes>;
+      for (Index t = 0; t < padded; t += kLanes) {
+        const float* rec[kLanes];
+        for (int l = 0; l < kLanes; ++l)
+          rec[l] = t + l < m
+                       ? pre_[static_cast<std::size_t>(sc.ids[static_cast<std::size_t>(t + l)])].f
+                       : kZeroRecord.f;
+        float* block = sc.soa.data() + static_cast<std::size_t>(t) * nf;
+        for (int b = 0; b < nf; b += kLanes) {
+          Block pb;
+          for (int l = 0; l < kLanes; ++l)
+            pb.packet[l] = ei::ploadu<Packet>(rec[l] + b);
+          ei::ptranspose(pb);
+          for (int l = 0; l < kLanes; ++l)
+            ei::pstoreu(block + (b + l) * kLanes, pb.packet[l]);
+        }
+      }
+    } else {
+      for (Index k = m; k < padded; ++k)  // the padding lanes of the last packet
+        for (int f = 0; f < nf; ++f)
+          sc.soa[static_cast<std::size_t>((padded - kLanes) * nf + f * kLanes + k % kLanes)] = 0.0f;
+      for (Index k = 0; k < m; ++k) {
+        const float* src = pre_[static_cast<std::size_t>(sc.ids[static_cast<std::size_t>(k)])].f;
+        const auto kk = static_cast<std::size_t>(k);
+        float* dst = sc.soa.data() + (kk - kk % kLanes) * nf + kk % kLanes;
+        for (int d = 0; d < 3; ++d)
+          dst[d * kLanes] = src[d];
+        for (int e = 0; e < 7 * nk; ++e)
+          dst[(3 + e) * kLanes] = src[Precomputed::kernel(j0) + e];
+      }
+    }
+    return padded;
+  }
+
+  // Particle qi projected on the cell's candidates (sc.soa, `padded` lanes): eq. 24 or eq. 22.
+  template <bool kInitial, class Packet>
+  Eigen::Vector3f project_particle(const Eigen::Vector3f& qi, const CellScratch& sc,
+                                   Index padded) const {
+    namespace ei = Eigen::internal;
+    constexpr int kLanes = ei::unpacket_traits<Packet>::size;
+    constexpr int j0 = kInitial ? 3 : 0;
+    constexpr int nk = kInitial ? 1 : 3;
+    constexpr int nf = 3 + 7 * nk;
+    const Packet limit = ei::pset1<Packet>(32.0f);
+    const Packet minus_half = ei::pset1<Packet>(-0.5f);
+    const Packet qx = ei::pset1<Packet>(qi.x()), qy = ei::pset1<Packet>(qi.y()),
+                 qz = ei::pset1<Packet>(qi.z());
+    Packet sw = ei::pset1<Packet>(0.0f), sx = sw, sy = sw, sz = sw;
+    for (Index t = 0; t < padded; t += kLanes) {
+      const float* block = sc.soa.data() + static_cast<std::size_t>(t) * nf;
+      const Packet dx = ei::psub(ei::ploadu<Packet>(block), qx);
+      const Packet dy = ei::psub(ei::ploadu<Packet>(block + kLanes), qy);
+      const Packet dz = ei::psub(ei::ploadu<Packet>(block + 2 * kLanes), qz);
+      const Packet keep = ei::ploadu<Packet>(sc.valid.data() + t);
+      for (int jj = 0; jj < nk; ++jj) {
+        const float* a = block + (3 + 7 * jj) * kLanes;
+        const Packet a0 = ei::ploadu<Packet>(a);
+        const Packet a1 = ei::ploadu<Packet>(a + kLanes);
+        const Packet a2 = ei::ploadu<Packet>(a + 2 * kLanes);
+        const Packet a3 = ei::ploadu<Packet>(a + 3 * kLanes);
+        const Packet a4 = ei::ploadu<Packet>(a + 4 * kLanes);
+        const Packet a5 = ei::ploadu<Packet>(a + 5 * kLanes);
+        const Packet tx = ei::padd(ei::padd(ei::pmul(a0, dx), ei::pmul(a1, dy)), ei::pmul(a2, dz));
+        const Packet ty = ei::padd(ei::padd(ei::pmul(a1, dx), ei::pmul(a3, dy)), ei::pmul(a4, dz));
+        const Packet tz = ei::padd(ei::padd(ei::pmul(a2, dx), ei::pmul(a4, dy)), ei::pmul(a5, dz));
+        const Packet quad =
+            ei::padd(ei::padd(ei::pmul(dx, tx), ei::pmul(dy, ty)), ei::pmul(dz, tz));
+        // A term whose exponent is below -16 is dropped (the e^-16 truncation of
+        // LOP's support radius, per component and kernel). The widest kernel comes
+        // first: when it is out of reach, so are the narrower ones.
+        const Packet in = ei::pand(keep, ei::pcmp_le(quad, limit));
+        if (!ei::predux_any(in)) {
+          if (jj == 0) break;
+          continue;
+        }
+        const Packet w = ei::pand(detail::fast_pexp(ei::padd(ei::ploadu<Packet>(a + 6 * kLanes),
+                                                             ei::pmul(minus_half, quad))),
+                                  in);
+        const Packet ws = ei::pmul(w, ei::pset1<Packet>(s2_[j0 + jj]));
+        sw = ei::padd(sw, w);
+        sx = ei::padd(sx, ei::pmul(ws, tx));
+        sy = ei::padd(sy, ei::pmul(ws, ty));
+        sz = ei::padd(sz, ei::pmul(ws, tz));
+      }
+    }
+    const float den = ei::predux(sw);
+    return den > 0.0f ? Eigen::Vector3f(qi + Eigen::Vector3f(ei::predux(sx), ei::predux(sy),
+                                                             ei::predux(sz)) /
+                                                 den)
+                      : qi;  // no component within reach: the particle stays
+  }
+
+  template <bool kInitial, class Packet>
+  void project_all_impl(const Eigen::Matrix3Xf& q, Eigen::Matrix3Xf& out) const {
+    const Index n = q.cols();
+    if (n == 0) return;
+    const Eigen::Vector3f lo = q.rowwise().minCoeff();
+    std::vector<std::pair<std::uint64_t, Index>> keys;
+    std::vector<std::size_t> starts;
+    const float cell = sort_into_cells(q, lo, keys, starts);
     std::vector<float> radii = kInitial ? r_initial_ : r_attraction_;
     const float half_diag = 0.5f * std::sqrt(3.0f) * cell;
     for (float& r : radii)
       r += half_diag;
 
-    constexpr int nf = 3 + 7 * nk;
     const auto project_cells = [&](const tbb::blocked_range<std::size_t>& rr) {
-      namespace ei = Eigen::internal;
       CellScratch sc;
-      float ones;
-      const std::uint32_t bits = 0xffffffffu;
-      std::memcpy(&ones, &bits, sizeof ones);
       for (std::size_t c = rr.begin(); c != rr.end(); ++c) {
         const std::uint64_t key = keys[starts[c]].first;
         const Eigen::Vector3f center =
@@ -210,129 +354,11 @@ class PreparedMixture {
                                          static_cast<float>((key >> 21) & ((1u << 21) - 1)),
                                          static_cast<float>(key & ((1u << 21) - 1))) +
                          Eigen::Vector3f::Constant(0.5f));
-        sc.ids.clear();
-        sc.d2.clear();
-        index_.gather(center, radii, sc.ranges, sc.ids, sc.d2);
-        const auto m = static_cast<Index>(sc.ids.size());
-        // Candidates ordered by distance shell around the cell centre (a stable counting
-        // sort), so that the terms out of reach of a particle, above all those of the
-        // narrow kernels, fill whole packets that are skipped.
-        {
-          float far2 = 0.0f;
-          for (const float d : sc.d2)
-            far2 = std::max(far2, d);
-          std::array<std::size_t, kShells + 1> next{};
-          const float scale = far2 > 0.0f ? kShells / std::sqrt(far2) : 0.0f;
-          sc.shell.resize(sc.ids.size());
-          for (std::size_t k = 0; k < sc.ids.size(); ++k) {
-            sc.shell[k] = std::min(kShells - 1, static_cast<int>(std::sqrt(sc.d2[k]) * scale));
-            ++next[static_cast<std::size_t>(sc.shell[k]) + 1];
-          }
-          for (int b = 0; b < kShells; ++b)
-            next[static_cast<std::size_t>(b) + 1] += next[static_cast<std::size_t>(b)];
-          sc.sorted.resize(sc.ids.size());
-          for (std::size_t k = 0; k < sc.ids.size(); ++k)
-            sc.sorted[next[static_cast<std::size_t>(sc.shell[k])]++] = sc.ids[k];
-          sc.ids.swap(sc.sorted);
-        }
-        const Index padded = (m + kLanes - 1) / kLanes * kLanes;
-        const auto np = static_cast<std::size_t>(padded);
-        sc.soa.resize(nf * np);
-        sc.valid.assign(np, 0.0f);
-        std::fill_n(sc.valid.begin(), m, ones);
-        if constexpr (!kInitial && nf % kLanes == 0) {
-          // The 24 fields of L candidates: their records' first 24 floats, transposed in L x L
-          // blocks (a zero record pads the last packet); L = 4 or 8.
-          static_assert(nf == 24);
-          using Block = Eigen::internal::PacketBlock<Packet, kLanes>;
-          for (Index t = 0; t < padded; t += kLanes) {
-            const float* rec[kLanes];
-            for (int l = 0; l < kLanes; ++l)
-              rec[l] =
-                  t + l < m
-                      ? pre_[static_cast<std::size_t>(sc.ids[static_cast<std::size_t>(t + l)])].f
-                      : kZeroRecord.f;
-            float* block = sc.soa.data() + static_cast<std::size_t>(t) * nf;
-            for (int b = 0; b < nf; b += kLanes) {
-              Block pb;
-              for (int l = 0; l < kLanes; ++l)
-                pb.packet[l] = ei::ploadu<Packet>(rec[l] + b);
-              ei::ptranspose(pb);
-              for (int l = 0; l < kLanes; ++l)
-                ei::pstoreu(block + (b + l) * kLanes, pb.packet[l]);
-            }
-          }
-        } else {
-          for (Index k = m; k < padded; ++k)  // the padding lanes of the last packet
-            for (int f = 0; f < nf; ++f)
-              sc.soa[static_cast<std::size_t>((padded - kLanes) * nf + f * kLanes + k % kLanes)] =
-                  0.0f;
-          for (Index k = 0; k < m; ++k) {
-            const float* src =
-                pre_[static_cast<std::size_t>(sc.ids[static_cast<std::size_t>(k)])].f;
-            const auto kk = static_cast<std::size_t>(k);
-            float* dst = sc.soa.data() + (kk - kk % kLanes) * nf + kk % kLanes;
-            for (int d = 0; d < 3; ++d)
-              dst[d * kLanes] = src[d];
-            for (int e = 0; e < 7 * nk; ++e)
-              dst[(3 + e) * kLanes] = src[Precomputed::kernel(j0) + e];
-          }
-        }
-        const Packet limit = ei::pset1<Packet>(32.0f);
-        const Packet minus_half = ei::pset1<Packet>(-0.5f);
+        gather_cell(center, radii, sc);
+        const Index padded = fill_candidates<kInitial, Packet>(sc);
         for (std::size_t pi = starts[c]; pi < starts[c + 1]; ++pi) {
           const Index i = keys[pi].second;
-          const Eigen::Vector3f qi = q.col(i);
-          const Packet qx = ei::pset1<Packet>(qi.x()), qy = ei::pset1<Packet>(qi.y()),
-                       qz = ei::pset1<Packet>(qi.z());
-          Packet sw = ei::pset1<Packet>(0.0f), sx = sw, sy = sw, sz = sw;
-          for (Index t = 0; t < padded; t += kLanes) {
-            const float* block = sc.soa.data() + static_cast<std::size_t>(t) * nf;
-            const Packet dx = ei::psub(ei::ploadu<Packet>(block), qx);
-            const Packet dy = ei::psub(ei::ploadu<Packet>(block + kLanes), qy);
-            const Packet dz = ei::psub(ei::ploadu<Packet>(block + 2 * kLanes), qz);
-            const Packet keep = ei::ploadu<Packet>(sc.valid.data() + t);
-            for (int jj = 0; jj < nk; ++jj) {
-              const float* a = block + (3 + 7 * jj) * kLanes;
-              const Packet a0 = ei::ploadu<Packet>(a);
-              const Packet a1 = ei::ploadu<Packet>(a + kLanes);
-              const Packet a2 = ei::ploadu<Packet>(a + 2 * kLanes);
-              const Packet a3 = ei::ploadu<Packet>(a + 3 * kLanes);
-              const Packet a4 = ei::ploadu<Packet>(a + 4 * kLanes);
-              const Packet a5 = ei::ploadu<Packet>(a + 5 * kLanes);
-              const Packet tx =
-                  ei::padd(ei::padd(ei::pmul(a0, dx), ei::pmul(a1, dy)), ei::pmul(a2, dz));
-              const Packet ty =
-                  ei::padd(ei::padd(ei::pmul(a1, dx), ei::pmul(a3, dy)), ei::pmul(a4, dz));
-              const Packet tz =
-                  ei::padd(ei::padd(ei::pmul(a2, dx), ei::pmul(a4, dy)), ei::pmul(a5, dz));
-              const Packet quad =
-                  ei::padd(ei::padd(ei::pmul(dx, tx), ei::pmul(dy, ty)), ei::pmul(dz, tz));
-              // A term whose exponent is below -16 is dropped (the e^-16 truncation of
-              // LOP's support radius, per component and kernel). The widest kernel comes
-              // first: when it is out of reach, so are the narrower ones.
-              const Packet in = ei::pand(keep, ei::pcmp_le(quad, limit));
-              if (!ei::predux_any(in)) {
-                if (jj == 0) break;
-                continue;
-              }
-              const Packet w =
-                  ei::pand(detail::fast_pexp(ei::padd(ei::ploadu<Packet>(a + 6 * kLanes),
-                                                      ei::pmul(minus_half, quad))),
-                           in);
-              const Packet ws = ei::pmul(w, ei::pset1<Packet>(s2_[j0 + jj]));
-              sw = ei::padd(sw, w);
-              sx = ei::padd(sx, ei::pmul(ws, tx));
-              sy = ei::padd(sy, ei::pmul(ws, ty));
-              sz = ei::padd(sz, ei::pmul(ws, tz));
-            }
-          }
-          const float den = ei::predux(sw);
-          out.col(i) = den > 0.0f
-                           ? Eigen::Vector3f(qi + Eigen::Vector3f(ei::predux(sx), ei::predux(sy),
-                                                                  ei::predux(sz)) /
-                                                      den)
-                           : qi;  // no component within reach: the particle stays
+          out.col(i) = project_particle<kInitial, Packet>(q.col(i), sc, padded);
         }
       }
     };
@@ -425,11 +451,7 @@ void clop_project(const GaussianMixture& m, Eigen::Matrix3Xf& q, const ClopParam
 
 AlgorithmOutput clop(const PointCloud& in, const ClopParams& p, RunContext& ctx) {
   constexpr const char* stage = "resample.clop";
-  in.validate(stage);
-  if (in.empty()) throw InputError(fmt::format("{}: the input has no points", stage));
-  const double diag = in.bbox().diagonal();
-  if (!(diag > 0.0))
-    throw InputError(fmt::format("{}: the input's bounding box has a zero diagonal", stage));
+  const double diag = detail::checked_diagonal(in, stage);
   const double h = p.h * diag;
   const Index m = kernels::particle_count(p.particles, in.size(), stage);
   AlgorithmOutput out;
@@ -441,7 +463,7 @@ AlgorithmOutput clop(const PointCloud& in, const ClopParams& p, RunContext& ctx)
   }
   {
     auto timer = ctx.phase("hem");
-    out.mixture = hem_mixture(in.positions, hem_params_of(p, h), h, diag, ctx);
+    out.mixture = hem_mixture(in.positions, hem_params_of(p), h, diag, ctx);
   }
   clop_project(*out.mixture, q, p, h, ctx);
   out.points.positions = std::move(q);

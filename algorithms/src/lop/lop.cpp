@@ -5,6 +5,7 @@
 #include <optional>
 #include <string_view>
 
+#include "input_checks.h"
 #include "lop/projection_kernels.h"
 #include "scanbench/core/errors.h"
 
@@ -14,12 +15,7 @@ namespace {
 
 PointCloud project(const PointCloud& input, const LopParams& p, RunContext& ctx, bool weighted,
                    std::string_view stage) {
-  input.validate(stage);
-  if (input.empty()) throw InputError(fmt::format("{}: the input has no points", stage));
-  const float diag = input.bbox().diagonal();
-  if (!(diag > 0.0f)) {
-    throw InputError(fmt::format("{}: the input's bounding box has a zero diagonal", stage));
-  }
+  const float diag = detail::checked_diagonal(input, stage);
   const float h = static_cast<float>(p.h) * diag;
   const Eigen::Matrix3Xf& pts = input.positions;
   const Eigen::Index m = kernels::particle_count(p.particles, input.size(), stage);

@@ -22,9 +22,9 @@
 #include <utility>
 #include <vector>
 
-#include "spatial/neighbor_grid.h"
 #include "scanbench/core/kdtree.h"
 #include "scanbench/core/rng.h"
+#include "spatial/neighbor_grid.h"
 
 namespace scanbench::algorithms::kernels {
 

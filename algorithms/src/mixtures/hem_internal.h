@@ -1,7 +1,9 @@
 #pragma once
-// Internals of mixture.hem (hem.cpp) reachable by the oracle tests (tests/algorithms/
-// test_hem_oracle.cpp). Private to the algorithms module (not installed, not a public header).
+// Internals of mixture.hem shared by its files (hem.cpp, hem_level0.cpp, hem_merge.cpp) and
+// reachable by the oracle tests (tests/algorithms/test_hem_oracle.cpp). Private to the algorithms module (not installed, not a public header).
 #include <Eigen/Core>
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <memory>
 #include <type_traits>
@@ -47,6 +49,25 @@ struct DefaultInitAllocator : std::allocator<T> {
   }
 };
 using Components = std::vector<Component, DefaultInitAllocator<Component>>;
+
+/// Stores in c the symmetric `sym` with its eigenvalues clamped to >= max(abs_floor, 1e-6
+/// lambda_max), with its largest eigenvalue and log-determinant. `ev`: the eigenvalues of `sym`
+/// (ascending); `vectors()`: its eigenvectors, asked for only when clamping is needed.
+template <class Vectors>
+void store_conditioned(Component& c, const Eigen::Matrix3d& sym, Eigen::Vector3d ev,
+                       double abs_floor, Vectors&& vectors) {
+  const double floor = std::max(abs_floor, 1e-6 * ev(2));
+  if (ev(0) >= floor) {
+    c.cov = sym;
+  } else {
+    ev = ev.cwiseMax(floor);
+    const Eigen::Matrix3d v = vectors();
+    const Eigen::Matrix3d r = v * ev.asDiagonal() * v.transpose();
+    c.cov = 0.5 * (r + r.transpose());
+  }
+  c.lmax = ev(2);
+  c.logdet = std::log(ev(0)) + std::log(ev(1)) + std::log(ev(2));
+}
 
 /// Stores in c the symmetrised `cov` with its eigenvalues clamped to >= max(abs_floor, 1e-6
 /// lambda_max), with its largest eigenvalue and log-determinant.

@@ -7,6 +7,7 @@
 #include <set>
 #include <sstream>
 
+#include "input_checks.h"
 #include "peers/run_program.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/io.h"
@@ -39,8 +40,7 @@ bool valid_name(std::string_view n) {
 template <class Read>
 auto run_external(const StageData& in, const ExternalParams& p, RunContext& ctx,
                   std::string_view stage, std::string_view what, Read read) {
-  in.points.validate(stage);
-  if (in.points.empty()) throw InputError(fmt::format("{}: the input has no points", stage));
+  detail::check_points(in.points, stage);
   const detail::TempDir dir("external");
   const auto input = dir.path() / "input.ply";
   const auto output = dir.path() / ("output" + p.extension);

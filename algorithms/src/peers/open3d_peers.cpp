@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "gpf/normal_checks.h"
+#include "input_checks.h"
 #include "scanbench/core/errors.h"
 
 namespace scanbench::algorithms {
@@ -55,18 +56,7 @@ auto guarded(std::string_view stage, F&& f) {
   }
 }
 
-double checked_diagonal(const PointCloud& in, std::string_view stage, Eigen::Index min_points) {
-  in.validate(stage);
-  if (in.size() < min_points) {
-    throw InputError(
-        fmt::format("{}: needs at least {} points, got {}", stage, min_points, in.size()));
-  }
-  const double diag = in.bbox().diagonal();
-  if (!(diag > 0.0)) {
-    throw InputError(fmt::format("{}: the input's bbox has a zero diagonal", stage));
-  }
-  return diag;
-}
+using detail::checked_diagonal;
 
 o3d::PointCloud to_open3d(const PointCloud& in, bool with_normals) {
   o3d::PointCloud out;

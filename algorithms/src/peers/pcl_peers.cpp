@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "gpf/normal_checks.h"
+#include "input_checks.h"
 #include "peers/run_program.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/io.h"
@@ -160,20 +161,8 @@ struct PclJob {
   }
 };
 
-void check_points(const PointCloud& in, std::string_view stage, Eigen::Index min_points) {
-  in.validate(stage);
-  if (in.size() < min_points) {
-    throw InputError(
-        fmt::format("{}: needs at least {} points, got {}", stage, min_points, in.size()));
-  }
-}
-
-double diagonal_of(const PointCloud& in, std::string_view stage) {
-  const double diag = in.bbox().diagonal();
-  if (!(diag > 0.0))
-    throw InputError(fmt::format("{}: the input's bbox has a zero diagonal", stage));
-  return diag;
-}
+using detail::check_points;
+using detail::checked_diagonal;
 
 std::string number(double v) {
   return fmt::format("{}", v);
@@ -201,8 +190,7 @@ std::string pcl_tools_version() {
 
 PointCloud pcl_mls(const PointCloud& in, const PclMlsParams& p, RunContext& ctx) {
   constexpr std::string_view stage = "peer.pcl_mls";
-  check_points(in, stage, 3);
-  const double radius = p.radius * diagonal_of(in, stage);
+  const double radius = p.radius * checked_diagonal(in, stage, 3);
   require_programs({"pcl_ply2pcd", "pcl_mls_smoothing"}, stage);
   auto timer = ctx.phase("pcl");
   const PclJob job(in, "pcl-mls", p.timeout_s, stage, ctx);
@@ -231,8 +219,7 @@ PointCloud pcl_mls(const PointCloud& in, const PclMlsParams& p, RunContext& ctx)
 
 PointCloud pcl_outlier_removal(const PointCloud& in, const PclOutlierParams& p, RunContext& ctx) {
   constexpr std::string_view stage = "peer.pcl_outlier_removal";
-  check_points(in, stage, 2);
-  const double diag = diagonal_of(in, stage);
+  const double diag = checked_diagonal(in, stage, 2);
   require_programs({"pcl_ply2pcd", "pcl_outlier_removal", "pcl_convert_pcd_ascii_binary"}, stage);
   auto timer = ctx.phase("pcl");
   PointCloud positions;

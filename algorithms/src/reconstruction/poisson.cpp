@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include "input_checks.h"
 #include "peers/run_program.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/io.h"
@@ -11,8 +12,7 @@ namespace scanbench::algorithms {
 StageData poisson(const StageData& in, const PoissonParams& p, RunContext& ctx) {
   constexpr const char* stage = "reconstruct.poisson";
   const PointCloud& points = in.points;
-  points.validate(stage);
-  if (points.empty()) throw InputError(fmt::format("{}: the input has no points", stage));
+  detail::check_points(points, stage);
   if (!points.has_normals()) {
     throw InputError(
         fmt::format("{}: needs oriented normals, the input points have none (chain "

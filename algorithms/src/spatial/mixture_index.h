@@ -21,8 +21,8 @@
 #include <utility>
 #include <vector>
 
-#include "spatial/neighbor_grid.h"
 #include "scanbench/core/gaussian_mixture.h"
+#include "spatial/neighbor_grid.h"
 
 namespace scanbench::algorithms::detail {
 

@@ -11,6 +11,7 @@
 #include <sstream>
 
 #include "config/json_checks.h"
+#include "results/claims_tradeoff.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/harness/experiment.h"
 #include "scanbench/harness/records.h"
@@ -71,6 +72,9 @@ ClaimSelector parse_selector(const Json& j, const std::string& where) {
 }
 
 ClaimRule parse_rule(const Json& j, const std::string& where) {
+  if (j.is_object() && j.contains("kind") && (j["kind"] == "front" || j["kind"] == "matched")) {
+    return parse_tradeoff_rule(j, where);
+  }
   check_keys(j, where,
              {"what", "kind", "quantity", "per", "stat", "a", "b", "value", "factor", "op",
               "margin", "tolerance", "abs", "param", "range"});
@@ -304,6 +308,15 @@ RuleOutcome judge_argmin(const ClaimRule& rule, const std::vector<Json>& records
 
 }  // namespace
 
+ClaimSelector parse_claim_selector(const Json& j, const std::string& where) {
+  return parse_selector(j, where);
+}
+
+std::vector<std::pair<std::string, std::vector<const Json*>>> claim_groups(
+    const std::vector<Json>& records, const std::string& per) {
+  return group_records(records, per);
+}
+
 bool ClaimSelector::matches(const Json& r) const {
   if (!variant.empty() &&
       r.value("variant", Json::object()).value("label", std::string()) != variant) {
@@ -372,6 +385,10 @@ Claim parse_claim(const Json& j, const std::string& where, const std::string& de
       const std::string rw = fmt::format("{}{}: /rules/{}", where, q ? " (quick)" : "", i);
       check_selector(c.rules[i].a, e, rw + "/a");
       if (c.rules[i].has_b) check_selector(c.rules[i].b, e, rw + "/b");
+      if (c.rules[i].kind == "matched") {
+        check_selector(c.rules[i].match_lo, e, rw + "/match/lo");
+        check_selector(c.rules[i].match_hi, e, rw + "/match/hi");
+      }
     }
   }
   return c;
@@ -417,6 +434,7 @@ std::vector<Claim> load_claims(const fs::path& dir, const std::string& filter) {
 
 RuleOutcome judge_rule(const ClaimRule& rule, const std::vector<Json>& records) {
   if (rule.kind == "argmin") return judge_argmin(rule, records);
+  if (rule.kind == "front" || rule.kind == "matched") return judge_tradeoff(rule, records);
   RuleOutcome out;
   std::vector<std::string> verdicts, reasons, measured;
   const bool timing = rule.quantity.rfind("time.", 0) == 0;

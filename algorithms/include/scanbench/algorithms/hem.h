@@ -122,11 +122,14 @@ struct HemParams : HemSettings {
   }
 };
 
-/// The HEM settings of any struct derived from HemSettings, with the absolute h.
-inline HemParams hem_params_of(const HemSettings& t, double h) {
+/// The HEM parameters of a struct T derived from HemSettings whose `h` is, as HemParams::h, a
+/// fraction of the bbox diagonal (ClopParams). Every field keeps its unit: the absolute kernel
+/// width goes to hem_mixture() as its own argument.
+template <class T>
+HemParams hem_params_of(const T& t) {
   HemParams p;
   static_cast<HemSettings&>(p) = t;
-  p.h = h;
+  p.h = t.h;
   return p;
 }
 
@@ -136,7 +139,8 @@ struct HemStats {
 };
 
 /// Builds the mixture of `points` (3 x n, n >= 1). `h_abs` is the absolute density-kernel width
-/// (not a diagonal fraction) and `diagonal` the length used for the absolute covariance floor.
+/// (p.h, a diagonal fraction, is not read: the caller scales it by its own diagonal) and
+/// `diagonal` the length used for the absolute covariance floor and for p.sigma0.
 /// The result has normalised weights, normal axes and spreads. Throws InputError on an empty or
 /// non-finite input.
 GaussianMixture hem_mixture(const Eigen::Matrix3Xf& points, const HemParams& p, double h_abs,

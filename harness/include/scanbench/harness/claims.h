@@ -29,6 +29,8 @@
 //    "tolerance": for "==", relative (default 1e-6), "abs": absolute (default 0),
 //    "param", "range": [lo, hi]  for "argmin": the value of the sweep parameter `param` at which
 //            the statistic of the `a` records is lowest must lie in [lo, hi]}
+//   and two trade-off kinds, "front" (Pareto fronts of cost against error) and "matched" (judged
+//   within a budget band), documented in harness/src/results/claims_tradeoff.h.
 //   selector: {"variant": label, "point": {"<sweep key>": value, ...}, "dataset": label}
 //            (every given field must match; "point" values compare numerically).
 // Verdicts: "held", "failed" or "inconclusive" with a reason. A rule is inconclusive when a
@@ -59,7 +61,7 @@ struct ClaimSelector {
 
 struct ClaimRule {
   std::string what;
-  std::string kind = "compare";  ///< compare | argmin
+  std::string kind = "compare";  ///< compare | argmin | front | matched
   std::string quantity;
   std::string per = "dataset";  ///< dataset | all
   std::string stat = "median";  ///< median | mean | min | max
@@ -73,6 +75,12 @@ struct ClaimRule {
   double abs = 0.0;
   std::string param;  ///< argmin
   double lo = 0.0, hi = 0.0;
+  // Kinds "front" and "matched" (trade-offs over two sweeps; results/claims_tradeoff.h).
+  std::string cost, cost_b;                ///< front: cost quantities of a and b
+  std::vector<std::string> exclude_steps;  ///< front: chain steps left out of a time.* cost
+  std::string match_quantity, match_ref;   ///< matched: the size of a, and of the band's records
+  ClaimSelector match_lo, match_hi;        ///< matched: the records bounding the band
+  double lo_factor = 1.0, hi_factor = 1.0;
 };
 
 struct Claim {

@@ -1,0 +1,799 @@
+// mixture.hem, level 0 (CLOP paper Algorithm 1 lines 1-9): the initial mixture of eq. 12 with
+// the eq. 26 density weights, on grids of the points.
+#include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <limits>
+#include <mutex>
+#include <optional>
+#include <utility>
+#include <vector>
+
+#include "mixtures/hem_internal.h"
+#include "scanbench/core/kdtree.h"
+#include "scanbench/core/simd_dispatch.h"
+#include "spatial/simd_exp.h"
+
+// Eigen's packet types (__m128, __m256, __m512) carry vector attributes that GCC reports as
+// ignored when they are template arguments (the kernels are templates over the packet type of
+// the active ISA, scanbench/core/simd_dispatch.h); the attributes do not matter there.
+#pragma GCC diagnostic ignored "-Wignored-attributes"
+
+namespace scanbench::algorithms {
+
+namespace {
+
+using Eigen::Index;
+using Eigen::Matrix3d;
+using Eigen::Vector3d;
+using Eigen::Vector3f;
+using Hits = std::vector<std::pair<Index, float>>;
+using Range = std::pair<std::size_t, std::size_t>;
+
+using hem_detail::Component;
+using hem_detail::Components;
+
+// Relative slack of float distance bounds; the exact tests decide membership.
+constexpr float kSlack = 1e-5f;
+
+// Eigen decomposition of a symmetric 3x3 matrix: the closed form where its eigenvectors are
+// provably accurate (residual |A v - lambda v| below 1e-6 of the eigenvalue gap, so the angle
+// error is below 1e-6 rad), otherwise the iterative solver (near-degenerate eigenvalues).
+Eigen::SelfAdjointEigenSolver<Matrix3d> eigen_decomposition(const Matrix3d& a) {
+  Eigen::SelfAdjointEigenSolver<Matrix3d> es;
+  es.computeDirect(a);
+  const Vector3d ev = es.eigenvalues();
+  bool accurate = ev.allFinite();
+  for (int i = 0; i < 3 && accurate; ++i) {
+    double gap = std::numeric_limits<double>::infinity();
+    for (int k = 0; k < 3; ++k)
+      if (k != i) gap = std::min(gap, std::abs(ev(i) - ev(k)));
+    const double residual =
+        (a * es.eigenvectors().col(i) - ev(i) * es.eigenvectors().col(i)).norm();
+    accurate = residual <= 1e-6 * gap;
+  }
+  if (!accurate) es.compute(a);
+  return es;
+}
+
+// Points sorted into a two-level grid: coarse cubes of width `width`, each split into split^3
+// fine cubes. Every point within `width` of a point lies in the 3 x 3 x 3 block of coarse cells
+// around that point's cell, so a neighbour search of radius <= width needs no tree: it reads the
+// block's contiguous ranges of the sorted coordinates.
+struct Grid {
+  double width = 0.0;
+  Vector3d origin = Vector3d::Zero();   // cell (i, j, k) spans origin + width * [i, i + 1) x ...
+  std::vector<Index> order;             // point indices in grid order
+  std::vector<float> x, y, z;           // their coordinates (structure of arrays)
+  std::vector<std::uint64_t> key;       // coarse cells, ascending
+  std::vector<std::size_t> start;       // coarse cell c: positions start[c] .. start[c + 1]
+  std::vector<std::size_t> fine_first;  // coarse cell c: fine cells fine_first[c] .. [c + 1]
+  std::vector<std::size_t> fine_start;  // fine cell f: positions fine_start[f] .. [f + 1]
+  std::vector<Vector3f> fine_centre;    // bounding-box centre of a fine cell's points
+  std::vector<float> fine_reach;        // largest distance of its points from that centre
+
+  std::size_t cells() const { return key.size(); }
+
+  // Position ranges of the existing coarse cells of the block around cell c, in key order.
+  void block(std::size_t c, std::vector<Range>& out) const {
+    out.clear();
+    constexpr std::uint64_t kMask = (std::uint64_t{1} << 21) - 1;
+    const std::uint64_t k = key[c];
+    const auto ix = static_cast<std::int64_t>(k >> 42),
+               iy = static_cast<std::int64_t>((k >> 21) & kMask),
+               iz = static_cast<std::int64_t>(k & kMask);
+    for (std::int64_t dx = -1; dx <= 1; ++dx)
+      for (std::int64_t dy = -1; dy <= 1; ++dy) {
+        const std::int64_t a = ix + dx, b = iy + dy;
+        if (a < 0 || b < 0 || a > static_cast<std::int64_t>(kMask) ||
+            b > static_cast<std::int64_t>(kMask))
+          continue;
+        // The three cells (a, b, iz - 1 .. iz + 1) are consecutive keys: one search.
+        const std::uint64_t lo_key = (static_cast<std::uint64_t>(a) << 42) |
+                                     (static_cast<std::uint64_t>(b) << 21) |
+                                     static_cast<std::uint64_t>(std::max<std::int64_t>(iz - 1, 0));
+        const std::uint64_t hi_key =
+            (static_cast<std::uint64_t>(a) << 42) | (static_cast<std::uint64_t>(b) << 21) |
+            static_cast<std::uint64_t>(std::min<std::int64_t>(iz + 1, kMask));
+        const auto first = std::lower_bound(key.begin(), key.end(), lo_key);
+        const auto last = std::upper_bound(first, key.end(), hi_key);
+        if (first != last)
+          out.emplace_back(start[static_cast<std::size_t>(first - key.begin())],
+                           start[static_cast<std::size_t>(last - key.begin())]);
+      }
+  }
+
+  struct Cell {
+    std::size_t begin, end;  // positions
+    Vector3d lo;             // lower corner of the cube (upper: lo + width)
+  };
+  // The existing cells of the block around cell c, cell c first, then in key order.
+  void block_cells(std::size_t c, std::vector<Cell>& out) const {
+    constexpr std::uint64_t kMask = (std::uint64_t{1} << 21) - 1;
+    const std::uint64_t k = key[c];
+    cells_around({static_cast<std::int64_t>(k >> 42), static_cast<std::int64_t>((k >> 21) & kMask),
+                  static_cast<std::int64_t>(k & kMask)},
+                 1, out);
+    const auto own = std::find_if(out.begin(), out.end(),
+                                  [&](const Cell& cell) { return cell.begin == start[c]; });
+    std::rotate(out.begin(), own, own + 1);
+  }
+
+  // Integer cell coordinates of q (q may lie outside the grid's points).
+  std::array<std::int64_t, 3> coords(const Vector3d& q) const {
+    std::array<std::int64_t, 3> c{};
+    for (int d = 0; d < 3; ++d) {
+      const double t = std::floor((q(d) - origin(d)) / width);
+      c[static_cast<std::size_t>(d)] =
+          static_cast<std::int64_t>(std::clamp(t, -4.0 * (1 << 21), 4.0 * (1 << 21)));
+    }
+    return c;
+  }
+
+  // The existing cells within `span` cells of coordinates c on every axis, in key order: they
+  // hold every point within span * width * (1 - 1e-5) of any point of cell c.
+  void cells_around(const std::array<std::int64_t, 3>& c, std::int64_t span,
+                    std::vector<Cell>& out) const {
+    out.clear();
+    constexpr std::int64_t kMask = (std::int64_t{1} << 21) - 1;
+    auto corner = [&](std::uint64_t k) {
+      return Vector3d(origin.x() + width * static_cast<double>(k >> 42),
+                      origin.y() + width * static_cast<double>((k >> 21) & kMask),
+                      origin.z() + width * static_cast<double>(k & kMask));
+    };
+    auto make_key = [](std::int64_t a, std::int64_t b, std::int64_t z) {
+      return (static_cast<std::uint64_t>(a) << 42) | (static_cast<std::uint64_t>(b) << 21) |
+             static_cast<std::uint64_t>(z);
+    };
+    const std::int64_t zlo = std::max<std::int64_t>(c[2] - span, 0);
+    const std::int64_t zhi = std::min<std::int64_t>(c[2] + span, kMask);
+    if (zlo > zhi) return;
+    const double columns = (2.0 * static_cast<double>(span) + 1.0) * (2.0 * span + 1.0);
+    if (columns >= static_cast<double>(key.size())) {  // a huge span: every cell, in key order
+      for (std::size_t ci = 0; ci < key.size(); ++ci)
+        out.push_back({start[ci], start[ci + 1], corner(key[ci])});
+      return;
+    }
+    for (std::int64_t a = std::max<std::int64_t>(c[0] - span, 0);
+         a <= std::min<std::int64_t>(c[0] + span, kMask); ++a)
+      for (std::int64_t b = std::max<std::int64_t>(c[1] - span, 0);
+           b <= std::min<std::int64_t>(c[1] + span, kMask); ++b) {
+        // The cells (a, b, zlo .. zhi) are consecutive keys: one search.
+        const std::uint64_t last_key = make_key(a, b, zhi);
+        for (auto it = std::lower_bound(key.begin(), key.end(), make_key(a, b, zlo));
+             it != key.end() && *it <= last_key; ++it) {
+          const auto ci = static_cast<std::size_t>(it - key.begin());
+          out.push_back({start[ci], start[ci + 1], corner(*it)});
+        }
+      }
+  }
+
+  // A lower bound of the squared distance from q to the points of `cell`: the distance to its
+  // cube grown by 1e-9 width (points sit in their cube up to the rounding of the cell index),
+  // shrunk by 1e-6 relative (the float distances it is compared with).
+  double box_distance2(const Vector3d& q, const Cell& cell) const {
+    const double hair = 1e-9 * width;
+    const Vector3d below = cell.lo - q - Vector3d::Constant(hair);
+    const Vector3d above = q - (cell.lo + Vector3d::Constant(width + hair));
+    return below.cwiseMax(above).cwiseMax(0.0).squaredNorm() * (1.0 - 1e-6);
+  }
+};
+
+Grid make_grid(const Eigen::Matrix3Xf& pts, double width, int split) {
+  const Index n = pts.cols();
+  const Vector3f lo = pts.rowwise().minCoeff();
+  const Vector3f hi = pts.rowwise().maxCoeff();
+  constexpr double kAxisCells = 1 << 20;  // 21-bit keys per axis never clamp
+  Grid g;
+  g.width = std::max(width, static_cast<double>((hi - lo).maxCoeff()) / kAxisCells);
+  if (!(g.width > 0.0) || !std::isfinite(g.width)) g.width = 1.0;
+  g.origin = lo.cast<double>();
+  const double fine = g.width / split;
+  struct Entry {
+    std::uint64_t key;
+    std::uint32_t sub;
+    Index i;
+    bool operator<(const Entry& o) const {
+      return key != o.key ? key < o.key : sub != o.sub ? sub < o.sub : i < o.i;
+    }
+  };
+  std::vector<Entry> e(static_cast<std::size_t>(n));
+  tbb::parallel_for(tbb::blocked_range<Index>(0, n, 4096), [&](const tbb::blocked_range<Index>& r) {
+    for (Index i = r.begin(); i < r.end(); ++i) {
+      std::uint64_t key = 0;
+      std::uint32_t sub = 0;
+      for (int d = 0; d < 3; ++d) {
+        const double t = static_cast<double>(pts(d, i)) - static_cast<double>(lo(d));  // exact
+        const auto c =
+            static_cast<std::uint64_t>(std::clamp(std::floor(t / g.width), 0.0, kAxisCells));
+        const auto f = static_cast<std::uint32_t>(
+            std::clamp(std::floor(t / fine) - static_cast<double>(c) * split, 0.0, split - 1.0));
+        key = (key << 21) | c;
+        sub = sub * static_cast<std::uint32_t>(split) + f;
+      }
+      e[static_cast<std::size_t>(i)] = {key, sub, i};
+    }
+  });
+  tbb::parallel_sort(e.begin(), e.end());  // a total order: the same result for any thread count
+  g.order.resize(e.size());
+  g.x.resize(e.size());
+  g.y.resize(e.size());
+  g.z.resize(e.size());
+  for (std::size_t k = 0; k < e.size(); ++k) {
+    const Index i = e[k].i;
+    g.order[k] = i;
+    g.x[k] = pts(0, i);
+    g.y[k] = pts(1, i);
+    g.z[k] = pts(2, i);
+    if (k == 0 || e[k].key != e[k - 1].key) {
+      g.key.push_back(e[k].key);
+      g.start.push_back(k);
+      g.fine_first.push_back(g.fine_start.size());
+    }
+    if (k == 0 || e[k].key != e[k - 1].key || e[k].sub != e[k - 1].sub) g.fine_start.push_back(k);
+  }
+  g.start.push_back(e.size());
+  g.fine_first.push_back(g.fine_start.size());
+  g.fine_start.push_back(e.size());
+  const std::size_t nf = g.fine_start.size() - 1;
+  g.fine_centre.resize(nf);
+  g.fine_reach.resize(nf);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nf, 256), [&](const auto& r) {
+    for (std::size_t f = r.begin(); f != r.end(); ++f) {
+      const std::size_t b = g.fine_start[f], end = g.fine_start[f + 1];
+      Vector3f mn(g.x[b], g.y[b], g.z[b]), mx = mn;
+      for (std::size_t k = b + 1; k < end; ++k) {
+        mn = mn.cwiseMin(Vector3f(g.x[k], g.y[k], g.z[k]));
+        mx = mx.cwiseMax(Vector3f(g.x[k], g.y[k], g.z[k]));
+      }
+      const Vector3f centre = 0.5f * (mn + mx);
+      float reach = 0.0f;
+      for (std::size_t k = b; k < end; ++k)
+        reach = std::max(reach, (Vector3f(g.x[k], g.y[k], g.z[k]) - centre).norm());
+      g.fine_centre[f] = centre;
+      g.fine_reach[f] = reach * (1.0f + kSlack);
+    }
+  });
+  return g;
+}
+
+// GCC/Clang vector extensions: 4 floats, portable SIMD for the nearest-neighbour scans of the
+// initial mixture (the density pass uses the packet of the active ISA).
+using Float4 = float __attribute__((vector_size(16)));
+using Int4 = std::int32_t __attribute__((vector_size(16)));
+
+inline Float4 load4(const float* p) {
+  Float4 v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+
+// Whether any lane of a comparison result is set.
+inline bool any_lane(Int4 mask) {
+  std::uint64_t lo = 0, hi = 0;
+  std::memcpy(&lo, &mask, sizeof lo);
+  std::memcpy(&hi, reinterpret_cast<const char*>(&mask) + sizeof lo, sizeof hi);
+  return (lo | hi) != 0;
+}
+
+// Candidate coordinates and grid positions; `padded` rounds `size` up to whole packets of
+// `lanes` floats with points at infinity. The arrays only grow (no zero-filling per use).
+struct Candidates {
+  static constexpr std::size_t kMaxLanes = 16;
+  std::vector<float> x, y, z;
+  std::vector<std::size_t> pos;
+  std::size_t size = 0, padded = 0;
+
+  void reserve(std::size_t bound) {
+    if (x.size() >= bound + kMaxLanes) return;
+    x.resize(bound + kMaxLanes);
+    y.resize(bound + kMaxLanes);
+    z.resize(bound + kMaxLanes);
+    pos.resize(bound + kMaxLanes);
+  }
+  void pad(std::size_t lanes) {
+    padded = (size + lanes - 1) / lanes * lanes;
+    for (std::size_t i = size; i < padded; ++i) {
+      x[i] = std::numeric_limits<float>::infinity();
+      y[i] = 0.0f;
+      z[i] = 0.0f;
+    }
+  }
+};
+
+// The lanes of a packet summed pairwise ((l0 + l1) + (l2 + l3)) + ..., the same tree for every
+// width (for 4 lanes the order of the original 4-lane pass).
+template <class Packet>
+float pairwise_sum(const Packet& p) {
+  constexpr int kLanes = Eigen::internal::unpacket_traits<Packet>::size;
+  float a[kLanes];
+  Eigen::internal::pstoreu(a, p);
+  for (int w = 1; w < kLanes; w *= 2)
+    for (int l = 0; l + w < kLanes; l += 2 * w)
+      a[l] += a[l + w];
+  return a[0];
+}
+
+// WLOP density v_j = 1 + sum_{j' != j, |p_j - p_j'| <= h} exp(-16 |p_j - p_j'|^2 / h^2) of every
+// point, on a grid of coarse width >= h split into fine cells of width h/3. Each pair is
+// evaluated once: within a fine cell both ways, across fine cells by the earlier cell (its
+// candidates: the later points of its block within h + reach of its centre), adding the term to
+// both points. Partial sums are added in 2^-b fixed point: integer sums are exact and
+// order-free, so the result is the same for any thread count.
+template <class Packet>
+std::vector<double> density_weights_impl(const Grid& g, double h) {
+  namespace ei = Eigen::internal;
+  constexpr std::size_t kLanes = ei::unpacket_traits<Packet>::size;
+  static_assert(kLanes <= Candidates::kMaxLanes);
+  const std::size_t n = g.order.size();
+  const auto hf = static_cast<float>(h);
+  const float c2 = hf * hf;
+  const float k_theta = -16.0f / c2;
+  // v <= n: 2^b n < 2^62.
+  const int bits = 62 - static_cast<int>(std::ceil(std::log2(static_cast<double>(n) + 1.0)));
+  const double scale = std::ldexp(1.0, bits);
+  auto fixed = [&](float x) {  // x >= 0; rounding to nearest (any fixed rule is deterministic)
+    return static_cast<long long>(static_cast<double>(x) * scale + 0.5);
+  };
+  tbb::enumerable_thread_specific<std::vector<long long>> sums(
+      [n] { return std::vector<long long>(n, 0); });
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, g.cells(), 1), [&](const auto& rr) {
+    std::vector<long long>& sum = sums.local();
+    std::vector<Range> ranges;
+    Candidates own, cand;
+    std::vector<float> col;
+    for (std::size_t c = rr.begin(); c != rr.end(); ++c) {
+      g.block(c, ranges);
+      for (std::size_t f = g.fine_first[c]; f < g.fine_first[c + 1]; ++f) {
+        const std::size_t own_b = g.fine_start[f], own_e = g.fine_start[f + 1];
+        own.reserve(own_e - own_b);
+        own.size = 0;
+        for (std::size_t k = own_b; k < own_e; ++k, ++own.size) {
+          own.x[own.size] = g.x[k];
+          own.y[own.size] = g.y[k];
+          own.z[own.size] = g.z[k];
+          own.pos[own.size] = k;
+        }
+        own.pad(kLanes);
+        const Vector3f centre = g.fine_centre[f];
+        const float reach = hf * (1.0f + kSlack) + g.fine_reach[f];
+        const float reach2 = reach * reach;
+        // Branch-free compaction.
+        std::size_t bound = 0;
+        for (const auto& [b, e] : ranges)
+          bound += e - std::min(e, std::max(b, own_e));
+        cand.reserve(bound);
+        std::size_t m = 0;
+        for (const auto& [b, e] : ranges)
+          for (std::size_t k = std::max(b, own_e); k < e; ++k) {
+            const float dx = g.x[k] - centre.x(), dy = g.y[k] - centre.y(),
+                        dz = g.z[k] - centre.z();
+            cand.x[m] = g.x[k];
+            cand.y[m] = g.y[k];
+            cand.z[m] = g.z[k];
+            cand.pos[m] = k;
+            m += dx * dx + dy * dy + dz * dz <= reach2 ? 1 : 0;
+          }
+        cand.size = m;
+        cand.pad(kLanes);
+        if (col.size() < cand.padded) col.resize(cand.padded);
+        std::fill_n(col.begin(), cand.padded, 0.0f);
+        // theta for a packet of candidates; beyond h the exponent is -80, a term under 2e-35
+        // that vanishes exactly next to the terms >= theta(h) = 1.1e-7 (and in the fixed point).
+        const Packet c2v = ei::pset1<Packet>(c2), kv = ei::pset1<Packet>(k_theta),
+                     far = ei::pset1<Packet>(-80.0f);
+        auto theta = [&](const Candidates& cs, std::size_t m4, const Packet& qx, const Packet& qy,
+                         const Packet& qz) {
+          const Packet dx = ei::psub(ei::ploadu<Packet>(cs.x.data() + m4), qx),
+                       dy = ei::psub(ei::ploadu<Packet>(cs.y.data() + m4), qy),
+                       dz = ei::psub(ei::ploadu<Packet>(cs.z.data() + m4), qz);
+          const Packet d2 =
+              ei::padd(ei::padd(ei::pmul(dx, dx), ei::pmul(dy, dy)), ei::pmul(dz, dz));
+          return detail::fast_pexp(ei::pselect(ei::pcmp_le(d2, c2v), ei::pmul(d2, kv), far));
+        };
+        for (std::size_t a = 0; a < own.size; ++a) {
+          const Packet qx = ei::pset1<Packet>(own.x[a]), qy = ei::pset1<Packet>(own.y[a]),
+                       qz = ei::pset1<Packet>(own.z[a]);
+          Packet row = ei::pset1<Packet>(0.0f);
+          // The own cell, self included: theta(0) = 1 is the leading 1.
+          for (std::size_t m4 = 0; m4 < own.padded; m4 += kLanes)
+            row = ei::padd(row, theta(own, m4, qx, qy, qz));
+          for (std::size_t m4 = 0; m4 < cand.padded; m4 += kLanes) {
+            const Packet t = theta(cand, m4, qx, qy, qz);
+            row = ei::padd(row, t);
+            ei::pstoreu(col.data() + m4, ei::padd(ei::ploadu<Packet>(col.data() + m4), t));
+          }
+          sum[own.pos[a]] += fixed(pairwise_sum(row));
+        }
+        for (std::size_t i = 0; i < cand.size; ++i)
+          sum[cand.pos[i]] += fixed(col[i]);
+      }
+    }
+  });
+  std::vector<long long> total(n, 0);
+  for (const auto& s : sums)
+    for (std::size_t k = 0; k < n; ++k)
+      total[k] += s[k];
+  std::vector<double> v(n);
+  for (std::size_t k = 0; k < n; ++k)
+    v[static_cast<std::size_t>(g.order[k])] = static_cast<double>(total[k]) / scale;
+  return v;
+}
+
+// The density pass with the packet of the active ISA (scanbench/core/simd.h).
+std::vector<double> density_weights(const Grid& g, double h) {
+  return simd::with_packet(
+      [&](auto tag) { return density_weights_impl<typename decltype(tag)::type>(g, h); });
+}
+
+// Squared float distances from q to the points of `cell` as the kd-tree evaluates them
+// ((dx^2 + dy^2) + dz^2), four at a time: `visit(i, d2)` sees only the groups in which any lane
+// passes `below`.
+template <class Below, class Visit>
+inline void scan_cell(const Grid& g, const Vector3f& q, const Grid::Cell& cell, Below&& below,
+                      Visit&& visit) {
+  std::size_t i = cell.begin;
+  for (; i + 4 <= cell.end; i += 4) {
+    const Float4 dx = load4(g.x.data() + i) - q.x(), dy = load4(g.y.data() + i) - q.y(),
+                 dz = load4(g.z.data() + i) - q.z();
+    const Float4 dd = dx * dx + dy * dy + dz * dz;
+    if (!any_lane(below(dd))) continue;
+    for (int l = 0; l < 4; ++l)
+      visit(i + static_cast<std::size_t>(l), dd[l]);
+  }
+  for (; i < cell.end; ++i) {
+    const float dx = g.x[i] - q.x(), dy = g.y[i] - q.y(), dz = g.z[i] - q.z();
+    visit(i, dx * dx + dy * dy + dz * dz);
+  }
+}
+
+// The level-0 mixture of one point set (Algorithm 1 lines 1-9): per point its nearest-neighbour
+// spacing, eq. 12 from its neighbours within init_radius_factor times that spacing, and the
+// eq. 26 weights. Searches run on grids of the points; the kd-tree serves only the searches that
+// outgrow the grids (none on typical scans), built on first use, once.
+class Level0 {
+ public:
+  Level0(const Eigen::Matrix3Xf& pts, const HemParams& p, double h_abs, double abs_floor)
+      : pts_(pts),
+        p_(p),
+        h_abs_(h_abs),
+        abs_floor_(abs_floor),
+        k_nn_(p.init_neighbors),
+        k_query_(p.init_neighbors + 8),
+        kernel_density_(p.weighted && p.density == "kernel"),
+        k_theta_(-16.0 / (h_abs * h_abs)) {}
+
+  Components build() {
+    const Index n = pts_.cols();
+    if (p_.weighted) {
+      density_grid_.emplace(make_grid(pts_, h_abs_ * (1.0 + 10.0 * kSlack), 3));
+      // density "kernel": summed in the eq. 12 kernel pass below (set_initial).
+      if (p_.density == "support") density_ = density_weights(*density_grid_, h_abs_);
+    }
+    double spacing = typical_spacing();
+    if (!(spacing > 0.0)) spacing = std::max(h_abs_ * 0.1, std::sqrt(abs_floor_) * 10.0);
+
+    // Grid cells of width W: every neighbour within W * (1 - slack) of a point is in its block
+    // (nearest neighbours), within span * W * (1 - slack) in the cells within `span` (radius r).
+    // A point whose neighbours reach further (span > kMaxSpan) asks the kd-tree.
+    g_.emplace(make_grid(pts_, std::max(3.0, 2.0 * p_.init_radius_factor) * spacing, 2));
+    guaranteed_ = static_cast<float>(g_->width) * (1.0f - 4.0f * kSlack);
+    nn_.assign(static_cast<std::size_t>(n), 0.0);
+    comps_ = Components(static_cast<std::size_t>(n));
+    if (kernel_density_) density_.assign(static_cast<std::size_t>(n), 1.0);
+
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, g_->cells(), 4), [&](const auto& rr) {
+      std::vector<Grid::Cell> block, wide;
+      std::vector<float> best(static_cast<std::size_t>(k_nn_));
+      for (std::size_t c = rr.begin(); c != rr.end(); ++c) {
+        g_->block_cells(c, block);
+        const double r_max = nearest_in_block(c, block, best);
+        initial_in_cell(c, r_max, block, wide);
+      }
+    });
+    initial_of_duplicates();
+
+    // Eq. 26 as written, w_j = (v_j |P|)^-1 (unweighted: 1/|P|), NOT renormalised: the HEM
+    // likelihood exponent w_i |P| of eq. 9 is then 1/v_j at level 0 and the sum of the merged
+    // children's 1/v_j (eq. 10) above it, as in the paper and the authors' code. hem_mixture()
+    // normalises the final weights to sum 1 (only their ratios matter to CLOP's eq. 18 and 23).
+    const double n_points = static_cast<double>(comps_.size());
+    for (std::size_t j = 0; j < comps_.size(); ++j)
+      comps_[j].w = (p_.weighted ? 1.0 / density_[j] : 1.0) / n_points;
+    return std::move(comps_);
+  }
+
+ private:
+  static constexpr std::int64_t kMaxSpan = 4;
+
+  const KdTree& tree() const {
+    std::call_once(tree_once_, [&] { tree_storage_.emplace(pts_); });
+    return *tree_storage_;
+  }
+
+  // Mean distance to the k_nn nearest distinct points among the k_query nearest (squared
+  // distances ascending: `d2`, of the k_query nearest or of all points when fewer).
+  double mean_nn(const std::vector<float>& d2) const {
+    const int k_nn = k_nn_;
+    double sum = 0.0;
+    int found = 0;
+    for (float d : d2) {
+      if (d > 0.0f && found < k_nn) {
+        sum += std::sqrt(static_cast<double>(d));
+        ++found;
+      }
+    }
+    return found > 0 ? sum / found : 0.0;
+  }
+
+  double tree_nn(Index j) const {
+    std::vector<Index> idx;
+    std::vector<float> d2;
+    tree().knn(pts_.col(j), k_query_, idx, d2);
+    return mean_nn(d2);
+  }
+
+  // Typical spacing from a fixed subset: sizes the grid of the neighbour searches. With the
+  // density grid (cells of width >= h), the k_query nearest come from the block of cells around
+  // the point when the farthest of them lies within the block's guaranteed reach; the squared
+  // distances are the kd-tree's ((dx^2 + dy^2) + dz^2 in float), so the mean is the same.
+  // 0 when no point has a distinct neighbour.
+  double typical_spacing() const {
+    const Index n = pts_.cols();
+    double spacing = 0.0;
+    std::vector<double> all((static_cast<std::size_t>(n) + 60) / 61);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, all.size(), 16), [&](const auto& r) {
+      std::vector<Grid::Cell> block;
+      std::vector<float> best(static_cast<std::size_t>(k_query_));
+      for (std::size_t k = r.begin(); k != r.end(); ++k) {
+        const Index j = static_cast<Index>(k) * 61;
+        if (!density_grid_) {
+          all[k] = tree_nn(j);
+          continue;
+        }
+        const Grid& dg = *density_grid_;
+        const Vector3f qf = pts_.col(j);
+        dg.cells_around(dg.coords(qf.cast<double>()), 1, block);
+        std::fill(best.begin(), best.end(), std::numeric_limits<float>::infinity());
+        for (const Grid::Cell& cell : block)
+          for (std::size_t i = cell.begin; i < cell.end; ++i) {
+            const float dx = qf.x() - dg.x[i], dy = qf.y() - dg.y[i], dz = qf.z() - dg.z[i];
+            const float d = dx * dx + dy * dy + dz * dz;
+            if (!(d < best.back())) continue;
+            auto at = best.end() - 1;
+            for (; at != best.begin() && *(at - 1) > d; --at)
+              *at = *(at - 1);
+            *at = d;
+          }
+        const auto reach = static_cast<float>(dg.width) * (1.0f - 4.0f * kSlack);
+        all[k] = best.back() <= reach * reach ? mean_nn(best) : tree_nn(j);
+      }
+    });
+    std::vector<double> sample;
+    for (double d : all)
+      if (d > 0.0) sample.push_back(d);
+    if (!sample.empty()) {
+      auto mid = sample.begin() + static_cast<std::ptrdiff_t>(sample.size() / 2);
+      std::nth_element(sample.begin(), mid, sample.end());
+      spacing = *mid;
+    }
+    return spacing;
+  }
+
+  // Eq. 12 for point j from its neighbours within r (`for_each` calls back with indices).
+  template <class ForEach>
+  void set_initial(Index j, double r, ForEach&& for_each) {
+    const bool kernel_density = kernel_density_;
+    const double k_theta = k_theta_;
+    const double r2 = r * r;
+    const Vector3d pj = pts_.col(j).cast<double>();
+    // Moments centred at p_j for precision (six scalars: no temporaries in the hot loop).
+    double sx = 0.0, sy = 0.0, sz = 0.0, sxx = 0.0, sxy = 0.0, sxz = 0.0, syy = 0.0, syz = 0.0,
+           szz = 0.0, count = 0.0, v = 0.0;
+    for_each([&](double qx, double qy, double qz) {
+      const double dx = qx - pj.x(), dy = qy - pj.y(), dz = qz - pj.z();
+      const double d2 = dx * dx + dy * dy + dz * dz;
+      if (d2 <= r2) {
+        // eq. 25 over the kernel's neighbours: the point itself adds theta(0) = 1.
+        if (kernel_density) v += std::exp(k_theta * d2);
+        sx += dx;
+        sy += dy;
+        sz += dz;
+        sxx += dx * dx;
+        sxy += dx * dy;
+        sxz += dx * dz;
+        syy += dy * dy;
+        syz += dy * dz;
+        szz += dz * dz;
+        count += 1.0;
+      }
+    });
+    const Vector3d sum(sx, sy, sz);
+    Matrix3d sum2;
+    sum2 << sxx, sxy, sxz, sxy, syy, syz, sxz, syz, szz;
+    Component& comp = comps_[static_cast<std::size_t>(j)];
+    comp.mu = pj;
+    if (kernel_density) density_[static_cast<std::size_t>(j)] = std::max(v, 1.0);
+    const double bias = p_.cov_bias * r2;
+    if (count < 1.0) count = 1.0;  // the point itself is always within r
+    const Vector3d mean = sum / count;
+    const Matrix3d cov_r = sum2 / count - mean * mean.transpose();
+    const Eigen::SelfAdjointEigenSolver<Matrix3d> es = eigen_decomposition(cov_r);
+    const double lmax = std::max(es.eigenvalues()(2), 0.0);
+    const double sigma_max = std::sqrt(lmax);
+    // eq. 12: Sigma0 = Sigma_r * scale + bias I, whose eigenvalues are ev_r * scale + bias.
+    const double scale = sigma_max > 0.0 ? r / (sigma_max * std::cbrt(count)) : 0.0;
+    const Matrix3d cov0 = cov_r * scale + Matrix3d::Identity() * bias;
+    const Vector3d ev = es.eigenvalues() * scale + Vector3d::Constant(bias);
+    hem_detail::store_conditioned(comp, 0.5 * (cov0 + cov0.transpose()), ev, abs_floor_,
+                                  [&] { return Matrix3d(es.eigenvectors()); });
+    comp.axis = sigma_max > 0.0 ? Vector3d(es.eigenvectors().col(0)) : Vector3d::UnitZ();
+    comp.spread = p_.normal_spread0;
+  }
+
+  void tree_initial(Index j, double r) {
+    Hits own;
+    tree().radius(pts_.col(j), static_cast<float>(r) * (1.0f + kSlack), own);
+    set_initial(j, r, [&](auto&& f) {
+      for (const auto& hit : own)
+        f(pts_(0, hit.first), pts_(1, hit.first), pts_(2, hit.first));
+    });
+  }
+
+  // Nearest-neighbour distances (nn_) of the points of grid cell c from its block (span 1);
+  // returns the largest eq. 12 radius among them.
+  double nearest_in_block(std::size_t c, const std::vector<Grid::Cell>& block,
+                          std::vector<float>& best) {
+    const Grid& g = *g_;
+    const int k_nn = k_nn_, k_query = k_query_;
+    const float guaranteed = guaranteed_;
+    double r_max = 0.0;
+    for (std::size_t k = g.start[c]; k < g.start[c + 1]; ++k) {
+      const Index j = g.order[k];
+      const Vector3f qf(g.x[k], g.y[k], g.z[k]);
+      const Vector3d q = qf.cast<double>();
+      // The k_nn smallest positive distances and the zeros (duplicates, the point itself
+      // included: all in its own cell, visited first). A cell farther than the current k-th
+      // nearest is skipped.
+      int zeros = 0;
+      std::fill(best.begin(), best.end(), std::numeric_limits<float>::infinity());
+      float worst = best.back();
+      for (const Grid::Cell& cell : block) {
+        if (g.box_distance2(q, cell) > static_cast<double>(worst)) continue;
+        scan_cell(
+            g, qf, cell, [&](Float4 dd) { return dd < worst; },
+            [&](std::size_t, float d) {
+              if (!(d < worst)) return;
+              if (d == 0.0f) {
+                ++zeros;
+                return;
+              }
+              auto at = best.end() - 1;
+              for (; at != best.begin() && *(at - 1) > d; --at)
+                *at = *(at - 1);
+              *at = d;
+              worst = best.back();
+            });
+      }
+      // The k_query nearest hold min(zeros, k_query) duplicates (the point itself included),
+      // so the wanted distances are the `want` smallest positive ones.
+      const int want = std::min(k_nn, k_query - std::min(zeros, k_query));
+      double nnd = 0.0;
+      if (want > 0) {
+        const auto uw = static_cast<std::size_t>(want - 1);
+        if (best[uw] <= guaranteed * guaranteed) {  // infinite if fewer candidates
+          double sum = 0.0;
+          for (std::size_t i = 0; i <= uw; ++i)
+            sum += std::sqrt(static_cast<double>(best[i]));
+          nnd = sum / want;
+        } else {
+          nnd = tree_nn(j);
+        }
+      }
+      nn_[static_cast<std::size_t>(j)] = nnd;
+      r_max = std::max(r_max, p_.init_radius_factor * nnd);
+    }
+    return r_max;
+  }
+
+  // Eq. 12 for the points of grid cell c from the cells within `span` of it: they hold every
+  // point within span * guaranteed of the cell's points; a point reaching further asks the
+  // kd-tree. Points with only duplicates among their nearest wait for initial_of_duplicates().
+  void initial_in_cell(std::size_t c, double r_max, const std::vector<Grid::Cell>& block,
+                       std::vector<Grid::Cell>& wide) {
+    const Grid& g = *g_;
+    const float guaranteed = guaranteed_;
+    const std::int64_t span = std::min<std::int64_t>(
+        static_cast<std::int64_t>(std::floor(r_max / guaranteed)) + 1, kMaxSpan);
+    const std::vector<Grid::Cell>* cells = &block;
+    if (span > 1) {
+      constexpr std::uint64_t kMask = (std::uint64_t{1} << 21) - 1;
+      const std::uint64_t key = g.key[c];
+      g.cells_around(
+          {static_cast<std::int64_t>(key >> 42), static_cast<std::int64_t>((key >> 21) & kMask),
+           static_cast<std::int64_t>(key & kMask)},
+          span, wide);
+      cells = &wide;
+    }
+    const auto reach = static_cast<float>(span) * guaranteed;
+    for (std::size_t k = g.start[c]; k < g.start[c + 1]; ++k) {
+      const Index j = g.order[k];
+      const double nnd = nn_[static_cast<std::size_t>(j)];
+      if (!(nnd > 0.0)) continue;  // only duplicates: r needs the median, below
+      const double r = p_.init_radius_factor * nnd;
+      const auto rf = static_cast<float>(r);
+      if (rf * (1.0f + kSlack) > reach) {
+        tree_initial(j, r);
+        continue;
+      }
+      const Vector3f qf(g.x[k], g.y[k], g.z[k]);
+      const Vector3d q = qf.cast<double>();
+      const float pre = rf * rf * (1.0f + 4.0f * kSlack);
+      set_initial(j, r, [&](auto&& f) {
+        for (const Grid::Cell& cell : *cells) {
+          if (g.box_distance2(q, cell) > r * r) continue;
+          scan_cell(
+              g, qf, cell, [&](Float4 dd) { return dd <= pre; },
+              [&](std::size_t i, float d) {
+                if (d <= pre) f(g.x[i], g.y[i], g.z[i]);
+              });
+        }
+      });
+    }
+  }
+
+  // Points with only duplicates among their nearest take the median distinct spacing.
+  void initial_of_duplicates() {
+    const Index n = pts_.cols();
+    std::vector<double> positive;
+    for (double d : nn_)
+      if (d > 0.0) positive.push_back(d);
+    double median_nn = 0.0;
+    if (!positive.empty()) {
+      auto mid = positive.begin() + static_cast<std::ptrdiff_t>(positive.size() / 2);
+      std::nth_element(positive.begin(), mid, positive.end());
+      median_nn = *mid;
+    }
+    if (median_nn <= 0.0) median_nn = std::max(h_abs_ * 0.1, std::sqrt(abs_floor_) * 10.0);
+    for (Index j = 0; j < n; ++j)
+      if (!(nn_[static_cast<std::size_t>(j)] > 0.0))
+        tree_initial(j, p_.init_radius_factor * median_nn);
+  }
+
+  const Eigen::Matrix3Xf& pts_;
+  const HemParams& p_;
+  const double h_abs_, abs_floor_;
+  const int k_nn_;
+  const int k_query_;  // the nearest k_query points, duplicates included
+  const bool kernel_density_;
+  const double k_theta_;
+  mutable std::once_flag tree_once_;
+  mutable std::optional<KdTree> tree_storage_;
+  std::optional<Grid> density_grid_;  // cells of width >= h (weighted only)
+  std::optional<Grid> g_;             // the grid of the neighbour searches
+  float guaranteed_ = 0.0f;
+  std::vector<double> density_;  // v_j of eq. 25
+  std::vector<double> nn_;       // per point: mean distance to its k_nn nearest distinct points
+  Components comps_;
+};
+
+}  // namespace
+
+namespace hem_detail {
+
+Components initial_mixture(const Eigen::Matrix3Xf& pts, const HemParams& p, double h_abs,
+                           double abs_floor) {
+  return Level0(pts, p, h_abs, abs_floor).build();
+}
+
+}  // namespace hem_detail
+
+}  // namespace scanbench::algorithms
