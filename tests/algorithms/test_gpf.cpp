@@ -196,6 +196,34 @@ TEST(GpfStep, EveryTermMatchesBruteForceTranscription) {
   EXPECT_GT(ref.s2_point, 1.5 * ref.s2);  // the readings differ (tangential residuals count)
 }
 
+TEST(GpfStep, S2UpdatesEqualTheirClosedFormsOnAHandCase) {
+  // One particle at the origin (normal +z), four inputs at the corners of a square in x-y at
+  // alternating heights c1, c2: every input has the same neighbour distances, so the same rho,
+  // and with omega = 0 and one particle every posterior p_mn is 1. Eq. 10 (mu = 0) moves the
+  // particle to x' = (0, 0, (c1 + c2)/2); then with delta = c1 - c2
+  //   eq. 11 (point to plane): s2 = sum ((v_n - x') . b_n)^2 / (3 * 4) = delta^2 / 12,
+  //   point to point:          s2 = sum |v_n - x'|^2 / (3 * 4)        = (4 a^2 + delta^2) / 12.
+  const float a = 0.02f, c1 = 0.01f, c2 = -0.006f;
+  Eigen::Matrix3Xf v(3, 4), b = Eigen::Matrix3Xf::Zero(3, 4);
+  v << a, -a, 0, 0, 0, 0, a, -a, c1, c2, c1, c2;
+  b.row(2).setOnes();
+  const Eigen::Matrix3Xf x = Eigen::Matrix3Xf::Zero(3, 1);
+  const Eigen::Matrix3Xf xb = b.leftCols(1);
+  const gpf_detail::Problem problem(v, b, 0.2f);  // data radius 0.05 holds all four
+  const double delta = static_cast<double>(c1) - c2;
+  for (const double s2 : {1e-4, 4e-3}) {  // the update does not depend on the old s2 here
+    const gpf_detail::Step plane = gpf_detail::em_step(problem, x, xb, s2, 0.0, 0.0);
+    EXPECT_NEAR(plane.np, 4.0, 1e-5);
+    EXPECT_NEAR(plane.x(2, 0), 0.5 * (c1 + c2), 1e-7);
+    EXPECT_NEAR(plane.x.col(0).head<2>().norm(), 0.0, 1e-7);
+    EXPECT_NEAR(plane.s2, delta * delta / 12.0, 1e-4 * delta * delta / 12.0);
+    const gpf_detail::Step point =
+        gpf_detail::em_step(problem, x, xb, s2, 0.0, 0.0, nullptr, gpf_detail::S2Residual::Point);
+    const double expected = (4.0 * a * a + delta * delta) / 12.0;
+    EXPECT_NEAR(point.s2, expected, 1e-4 * expected);
+  }
+}
+
 TEST(GpfStep, KernelConversionGpfAtHIsOursAtTwoH) {
   // GPF's theta(r) = exp(-r^2/(h_GPF/2)^2) is scanbench's exp(-16 r^2/h^2) at h = 2 h_GPF.
   const float h_gpf = 0.1f;
@@ -368,6 +396,38 @@ TEST(Gpf, ScaleInvariant) {
   const PointCloud b = gpf(big, p, c2);
   const Eigen::Matrix3Xf back = (b.positions.colwise() - Eigen::Vector3f(5000, -300, 20)) / 1000.0f;
   EXPECT_LT((back - a.positions).cwiseAbs().maxCoeff(), 1e-3f);
+}
+
+TEST(Gpf, CpdUnitsScaleS2AndTheOutlierTermByTheRmsRadius) {
+  // units = cpd works in CPD's normalisation (unit root-mean-square distance to the mean), diag in
+  // units of the bbox diagonal. With r = rms / diag, a cpd run at s2_init s equals a diag run at
+  // s2_init s r^2 whose omega' gives the same outlier term (2 pi s2)^(3/2) omega M/((1 - omega) N)
+  // of eq. 3: omega' / (1 - omega') = omega / (1 - omega) / r^3.
+  const PointCloud in = sphere_with_normals(1500, 0.02f, 8);
+  const Eigen::Vector3d mean = in.positions.cast<double>().rowwise().mean();
+  const double rms =
+      std::sqrt((in.positions.cast<double>().colwise() - mean).colwise().squaredNorm().mean());
+  const double r = rms / static_cast<double>(in.bbox().diagonal());
+  ASSERT_LT(r, 0.5);  // the two unit systems differ by far more than the tolerance below
+  GpfParams cpd;
+  cpd.units = "cpd";
+  cpd.omega = 0.3;
+  cpd.s2_init = 0.004;
+  cpd.s2_update = "fixed";
+  GpfParams diag = cpd;
+  diag.units = "diag";
+  diag.s2_init = cpd.s2_init * r * r;
+  const double odds = cpd.omega / (1.0 - cpd.omega) / (r * r * r);
+  diag.omega = odds / (1.0 + odds);
+  RunContext c1(1), c2(1), c3(1);
+  const PointCloud a = gpf(in, cpd, c1);
+  const PointCloud b = gpf(in, diag, c2);
+  EXPECT_LT((a.positions - b.positions).cwiseAbs().maxCoeff(), 1e-4f);
+  // Not a vacuous equality: the same parameters in diag units give another result.
+  GpfParams same = cpd;
+  same.units = "diag";
+  const PointCloud c = gpf(in, same, c3);
+  EXPECT_GT((a.positions - c.positions).cwiseAbs().maxCoeff(), 1e-3f);
 }
 
 // A plane z = 0 sampled on a grid of spacing 0.01 (normals +z), with a strip |x| < `gap`

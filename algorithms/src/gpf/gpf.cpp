@@ -345,9 +345,21 @@ PointCloud gpf(const PointCloud& input, const GpfParams& p, RunContext& ctx) {
         fmt::format("{}.particles: {} particles exceed the {} input points (GPF projects a subset)",
                     kGpfStage, m, n));
   }
-  // Working units: centred, unit bbox diagonal (see gpf.h, "Units").
-  const Eigen::Vector3f centre = box.center();
-  Eigen::Matrix3Xf v = (input.positions.colwise() - centre) / diag;
+  // Working units (see gpf.h, "Units"): centred on the bbox, unit diagonal; or CPD's
+  // normalisation, centred on the mean, unit root-mean-square distance to it.
+  const bool cpd = p.units == "cpd";
+  const Eigen::Vector3f centre =
+      cpd ? Eigen::Vector3f(input.positions.cast<double>().rowwise().mean().cast<float>())
+          : box.center();
+  const float scale = cpd ? static_cast<float>(std::sqrt(
+                                (input.positions.cast<double>().colwise() - centre.cast<double>())
+                                    .colwise()
+                                    .squaredNorm()
+                                    .mean()))
+                          : diag;
+  // h and the tolerance are fractions of the diagonal in every unit system.
+  const double to_work = static_cast<double>(diag) / static_cast<double>(scale);
+  Eigen::Matrix3Xf v = (input.positions.colwise() - centre) / scale;
 
   std::optional<gpf_detail::Problem> problem;
   Eigen::Matrix3Xf x(3, m), xb(3, m);
@@ -362,7 +374,7 @@ PointCloud gpf(const PointCloud& input, const GpfParams& p, RunContext& ctx) {
       xb.col(k) = normals.col(j);
       ++k;
     }
-    problem.emplace(std::move(v), std::move(normals), static_cast<float>(p.h));
+    problem.emplace(std::move(v), std::move(normals), static_cast<float>(p.h * to_work));
   }
   double s2 = p.s2_init;
   const bool fixed_s2 = p.s2_update == "fixed";
@@ -373,12 +385,12 @@ PointCloud gpf(const PointCloud& input, const GpfParams& p, RunContext& ctx) {
     gpf_detail::Step step = gpf_detail::em_step(*problem, x, xb, s2, p.omega, p.mu, &ctx, residual);
     x = std::move(step.x);
     if (!fixed_s2) s2 = step.s2;
-    if (step.max_move <= p.tolerance) break;
+    if (step.max_move <= p.tolerance * to_work) break;
   }
   if (p.gap_iterations > 0) {
     {
       auto timer = ctx.phase("init");
-      problem->set_h(static_cast<float>(p.h * p.gap_scale));
+      problem->set_h(static_cast<float>(p.h * p.gap_scale * to_work));
     }
     for (int it = 0; it < p.gap_iterations; ++it) {
       ctx.check_cancelled(kGpfStage);
@@ -389,7 +401,7 @@ PointCloud gpf(const PointCloud& input, const GpfParams& p, RunContext& ctx) {
     }
   }
   PointCloud out;
-  out.positions = (x * diag).colwise() + centre;
+  out.positions = (x * scale).colwise() + centre;
   out.normals = std::move(xb);
   out.validate(kGpfStage);  // never NaN: checked, not assumed
   return out;

@@ -43,10 +43,14 @@
 //
 // Where the paper is silent, and what this implementation chose:
 //  - Units. Eq. 3's outlier term (2 pi s2)^(3/2) ... is not scale invariant (a density ratio), and
-//    Algorithm 1's initial s2 = 0.004 is absolute at an unstated scale. Every length inside GPF is
-//    measured in units of the input's bounding-box diagonal (the input is centred and scaled to a
-//    unit diagonal at the boundary and the output scaled back), so `s2_init` is a fraction of the
-//    squared diagonal and the result does not depend on the model's units.
+//    Algorithm 1's initial s2 = 0.004 is absolute at an unstated scale. The input is centred and
+//    scaled at the boundary (the output scaled back), so the result does not depend on the
+//    model's units; `units` says to what: "diag", a unit bounding-box diagonal, or "cpd", CPD's
+//    normalisation (zero mean, unit root-mean-square distance to the mean; Myronenko and Song
+//    2010, whose model GPF sec. 4.1 follows: eq. 3's outlier term is CPD's E-step constant
+//    verbatim, and CPD's registration normalises its point sets this way by default). `s2_init`,
+//    s2 and the outlier term are in the working units; `h` and `tolerance` stay fractions of the
+//    diagonal in both.
 //  - M and N in the outlier term of the local version: the global M and N. The term is the ratio
 //    of the uniform density omega/N to the mixture weight (1 - omega)/M of eq. 1; X is a uniform
 //    random subset of V, so M/N is also the expected local ratio, and a locally counted ratio
@@ -99,6 +103,9 @@ struct GpfParams {
   double tolerance = 1e-5;
   /// "eq11" (Algorithm 1), "point" (point-to-point M-step) or "fixed" (s2 stays s2_init).
   std::string s2_update = "eq11";
+  /// Working units of s2 (and of eq. 3's outlier term): "diag" (bbox diagonal 1) or "cpd"
+  /// (CPD's normalisation: zero mean, unit root-mean-square distance to the centroid).
+  std::string units = "diag";
   /// Gap filling (Fig. 21): extra iterations with the neighbourhoods widened by gap_scale.
   int gap_iterations = 0;
   double gap_scale = 2.0;
@@ -117,8 +124,9 @@ struct GpfParams {
     d.real("particles", &GpfParams::particles, Range::above(0.0), "",
            "particles M: a share of the input in (0, 1] or an integral count <= N (a seeded "
            "subset of the input, carrying its normals)");
-    d.real("s2_init", &GpfParams::s2_init, Range::above(0.0), "diag^2",
-           "initial sigma^2 as a fraction of the squared bbox diagonal (paper: 0.004, absolute)");
+    d.real("s2_init", &GpfParams::s2_init, Range::above(0.0), "",
+           "initial sigma^2 in the working units (units: squared diagonal or CPD's squared RMS "
+           "radius; paper: 0.004, unit not stated)");
     d.real("tolerance", &GpfParams::tolerance, Range::at_least(0.0), "diag",
            "stop when no particle moved farther than this in an iteration (0: run all)");
     d.choice("s2_update", &GpfParams::s2_update, {"eq11", "point", "fixed"},
@@ -127,6 +135,11 @@ struct GpfParams {
              "point-to-point E-step (CPD's); fixed: s2 stays s2_init (the regime the paper "
              "describes in sec. 4.4, 'the update variations of s2 are not large'); the last two "
              "are readings, not the paper's printed algorithm");
+    d.choice("units", &GpfParams::units, {"diag", "cpd"},
+             "working units of s2_init, s2 and eq. 3's outlier term (h and tolerance stay "
+             "fractions of the diagonal): diag = centred on the bbox, unit bbox diagonal; cpd = "
+             "CPD's normalisation (Myronenko and Song 2010, the model GPF sec. 4.1 follows): "
+             "zero mean, unit root-mean-square distance to the centroid");
     d.integer("gap_iterations", &GpfParams::gap_iterations, Range::closed(0, 1000), "",
               "gap filling (Fig. 21): extra iterations with neighbourhoods scaled by gap_scale");
     d.real("gap_scale", &GpfParams::gap_scale, Range::closed(1.0, 10.0), "",
