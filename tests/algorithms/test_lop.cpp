@@ -8,12 +8,12 @@
 #include <set>
 
 #include "fixtures.h"
-#include "spatial/mixture_index.h"
 #include "lop/projection_kernels.h"
 #include "scanbench/algorithms/lop.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/kdtree.h"
 #include "scanbench/core/rng.h"
+#include "spatial/mixture_index.h"
 #include "spatial/simd_exp.h"
 
 namespace scanbench::algorithms {

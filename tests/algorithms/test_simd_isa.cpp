@@ -13,9 +13,8 @@
 #include <string>
 
 #include "fixtures.h"
-#include "mixtures/hem_internal.h"
-#include "spatial/neighbor_grid.h"
 #include "lop/projection_kernels.h"
+#include "mixtures/hem_internal.h"
 #include "scanbench/algorithms/clop.h"
 #include "scanbench/algorithms/csw.h"
 #include "scanbench/algorithms/hem.h"
@@ -25,6 +24,7 @@
 #include "scanbench/core/simd.h"
 #include "scanbench/scanner/scanner.h"
 #include "scanbench/scanner/throughput.h"
+#include "spatial/neighbor_grid.h"
 
 namespace scanbench::algorithms {
 namespace {

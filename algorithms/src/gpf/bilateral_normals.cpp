@@ -6,10 +6,10 @@
 #include <string_view>
 #include <vector>
 
-#include "spatial/neighbor_grid.h"
 #include "gpf/normal_checks.h"
 #include "lop/projection_kernels.h"
 #include "scanbench/core/errors.h"
+#include "spatial/neighbor_grid.h"
 
 namespace scanbench::algorithms {
 

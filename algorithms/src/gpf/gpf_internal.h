@@ -6,8 +6,8 @@
 #include <Eigen/Core>
 #include <vector>
 
-#include "spatial/neighbor_grid.h"
 #include "scanbench/core/run_context.h"
+#include "spatial/neighbor_grid.h"
 
 namespace scanbench::algorithms::gpf_detail {
 

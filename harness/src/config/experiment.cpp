@@ -475,10 +475,26 @@ Experiment load_experiment(const fs::path& file) {
 Experiment parse_experiment(const Json& j, const std::string& where) {
   const Where w{where, ""};
   check_keys_at(j, w,
-                {"scanbench_experiment", "name", "description", "seed", "seeds", "repeats",
-                 "threads", "timeout_s", "memory_limit_mb", "save_outputs", "datasets", "scanners",
-                 "variants", "sweep", "metrics", "metric_params", "compare", "report", "protocol",
-                  "plugins"});
+                {"scanbench_experiment",
+                 "name",
+                 "description",
+                 "seed",
+                 "seeds",
+                 "repeats",
+                 "threads",
+                 "timeout_s",
+                 "memory_limit_mb",
+                 "save_outputs",
+                 "datasets",
+                 "scanners",
+                 "variants",
+                 "sweep",
+                 "metrics",
+                 "metric_params",
+                 "compare",
+                 "report",
+                 "protocol",
+                 "plugins"});
   Experiment e;
   e.raw = j;
   if (!j.contains("scanbench_experiment")) {

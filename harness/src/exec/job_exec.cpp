@@ -251,10 +251,10 @@ void output_sizes(const StageData& out, DataKind primary, const TriangleMesh* sc
 Json metrics_pass(const Job& job, const metrics::GroundTruth* gt, const PointTruth* point_truth,
                   const StageData& out, DataKind primary, const TriangleMesh* scored_mesh,
                   const PointCloud* scan, double t_metrics, JobParts& r, RunContext& ctx) {
-  Json m = point_truth ? evaluate_on_point_truth(*point_truth, out.points, scored_mesh, job.metrics,
-                                                 job.metric_params, ctx)
-                       : metrics::evaluate(*gt, out, primary, scan, job.metrics,
-                                           job.metric_params, ctx);
+  Json m = point_truth
+               ? evaluate_on_point_truth(*point_truth, out.points, scored_mesh, job.metrics,
+                                         job.metric_params, ctx)
+               : metrics::evaluate(*gt, out, primary, scan, job.metrics, job.metric_params, ctx);
   r.timing["metrics_s"] = wall_seconds() - t_metrics;
   Json metric_phases = Json::object();
   for (const auto& [k, v] : ctx.phase_seconds())
