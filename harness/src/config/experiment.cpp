@@ -472,6 +472,65 @@ Experiment load_experiment(const fs::path& file) {
   return e;
 }
 
+namespace {
+
+/// The run settings of an experiment: seed(s), repeats, threads, timeout, memory limit, outputs.
+void parse_run_settings(const Json& j, const Where& w, Experiment& e) {
+  if (j.contains("seed") && j.contains("seeds")) fail(w, "give either \"seed\" or \"seeds\"");
+  if (j.contains("seed")) e.seeds = {get_seed(j["seed"], w / "seed")};
+  if (j.contains("seeds")) {
+    const Json& s = j["seeds"];
+    if (!s.is_array() || s.empty()) fail(w / "seeds", "expected a non-empty list of seeds");
+    e.seeds.clear();
+    for (std::size_t i = 0; i < s.size(); ++i)
+      e.seeds.push_back(get_seed(s[i], w / "seeds" / i));
+  }
+  if (j.contains("repeats")) e.repeats = get_int(j["repeats"], w / "repeats", 1, 1000);
+  if (j.contains("threads")) e.threads = get_int(j["threads"], w / "threads", 0, 1024);
+  if (j.contains("timeout_s")) e.timeout_s = get_number(j["timeout_s"], w / "timeout_s", 0.1, 1e6);
+  if (j.contains("memory_limit_mb")) {
+    e.memory_limit_mb = get_number(j["memory_limit_mb"], w / "memory_limit_mb", 64, 1e7);
+  }
+  if (j.contains("save_outputs")) {
+    if (!j["save_outputs"].is_boolean()) fail(w / "save_outputs", "expected a boolean");
+    e.save_outputs = j["save_outputs"].get<bool>();
+  }
+}
+
+/// The metrics to compute and their parameters (each checked against the metric registry).
+void parse_metric_settings(const Json& j, const Where& w, Experiment& e) {
+  if (j.contains("metrics")) {
+    const Json& m = j["metrics"];
+    if (!m.is_array()) fail(w / "metrics", "expected a list of metric names, got " + describe(m));
+    for (std::size_t i = 0; i < m.size(); ++i) {
+      const std::string name = get_string(m[i], w / "metrics" / i);
+      try {
+        metrics::registry().at(name);
+      } catch (const UnknownNameError& ex) {
+        fail(w / "metrics" / i, ex.what());
+      }
+      e.metrics.push_back(name);
+    }
+  }
+  if (j.contains("metric_params")) {
+    const Json& mp = j["metric_params"];
+    expect_object(mp, w / "metric_params");
+    for (const auto& [name, params] : mp.items()) {
+      const metrics::MetricRegistry::Entry* entry = metrics::registry().find(name);
+      if (!entry) {
+        try {
+          metrics::registry().at(name);
+        } catch (const UnknownNameError& ex) {
+          fail(w / "metric_params" / name, ex.what());
+        }
+      }
+      e.metric_params[name] = entry->params.validate(params, (w / "metric_params" / name).str());
+    }
+  }
+}
+
+}  // namespace
+
 Experiment parse_experiment(const Json& j, const std::string& where) {
   const Where w{where, ""};
   check_keys_at(j, w,
@@ -508,25 +567,7 @@ Experiment parse_experiment(const Json& j, const std::string& where) {
   }
   e.name = j.contains("name") ? get_string(j["name"], w / "name") : fs::path(where).stem().string();
   if (j.contains("description")) e.description = get_string(j["description"], w / "description");
-  if (j.contains("seed") && j.contains("seeds")) fail(w, "give either \"seed\" or \"seeds\"");
-  if (j.contains("seed")) e.seeds = {get_seed(j["seed"], w / "seed")};
-  if (j.contains("seeds")) {
-    const Json& s = j["seeds"];
-    if (!s.is_array() || s.empty()) fail(w / "seeds", "expected a non-empty list of seeds");
-    e.seeds.clear();
-    for (std::size_t i = 0; i < s.size(); ++i)
-      e.seeds.push_back(get_seed(s[i], w / "seeds" / i));
-  }
-  if (j.contains("repeats")) e.repeats = get_int(j["repeats"], w / "repeats", 1, 1000);
-  if (j.contains("threads")) e.threads = get_int(j["threads"], w / "threads", 0, 1024);
-  if (j.contains("timeout_s")) e.timeout_s = get_number(j["timeout_s"], w / "timeout_s", 0.1, 1e6);
-  if (j.contains("memory_limit_mb")) {
-    e.memory_limit_mb = get_number(j["memory_limit_mb"], w / "memory_limit_mb", 64, 1e7);
-  }
-  if (j.contains("save_outputs")) {
-    if (!j["save_outputs"].is_boolean()) fail(w / "save_outputs", "expected a boolean");
-    e.save_outputs = j["save_outputs"].get<bool>();
-  }
+  parse_run_settings(j, w, e);
 
   std::vector<ScannerSpec> default_scanners;
   if (j.contains("scanners")) default_scanners = parse_scanners(j["scanners"], w / "scanners");
@@ -594,34 +635,7 @@ Experiment parse_experiment(const Json& j, const std::string& where) {
     }
   }
 
-  if (j.contains("metrics")) {
-    const Json& m = j["metrics"];
-    if (!m.is_array()) fail(w / "metrics", "expected a list of metric names, got " + describe(m));
-    for (std::size_t i = 0; i < m.size(); ++i) {
-      const std::string name = get_string(m[i], w / "metrics" / i);
-      try {
-        metrics::registry().at(name);
-      } catch (const UnknownNameError& ex) {
-        fail(w / "metrics" / i, ex.what());
-      }
-      e.metrics.push_back(name);
-    }
-  }
-  if (j.contains("metric_params")) {
-    const Json& mp = j["metric_params"];
-    expect_object(mp, w / "metric_params");
-    for (const auto& [name, params] : mp.items()) {
-      const metrics::MetricRegistry::Entry* entry = metrics::registry().find(name);
-      if (!entry) {
-        try {
-          metrics::registry().at(name);
-        } catch (const UnknownNameError& ex) {
-          fail(w / "metric_params" / name, ex.what());
-        }
-      }
-      e.metric_params[name] = entry->params.validate(params, (w / "metric_params" / name).str());
-    }
-  }
+  parse_metric_settings(j, w, e);
   if (j.contains("compare")) {
     expect_object(j["compare"], w / "compare");
     e.compare = j["compare"];
