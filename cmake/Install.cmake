@@ -37,6 +37,7 @@ set(scanbench_public_headers
   metrics/include/scanbench/metrics/closest_point.h
   metrics/include/scanbench/metrics/distance_field.h
   metrics/include/scanbench/metrics/ground_truth.h
+  metrics/include/scanbench/metrics/metric_input.h
   metrics/include/scanbench/metrics/registry.h
   harness/include/scanbench/plugin.h)
 foreach(h IN LISTS scanbench_public_headers)

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "gpf/normal_checks.h"
+#include "input_checks.h"
 #include "lop/projection_kernels.h"
 #include "scanbench/core/errors.h"
 #include "spatial/neighbor_grid.h"
@@ -19,17 +20,12 @@ constexpr std::string_view kBilateralStage = "normals.bilateral";
 
 PointCloud bilateral_normals(const PointCloud& input, const BilateralNormalsParams& p,
                              RunContext& ctx) {
-  input.validate(kBilateralStage);
+  detail::check_points(input, kBilateralStage, 0);  // one point or none: nothing to smooth
   detail::require_unit_normals(input, kBilateralStage, "normals.pca -> normals.bilateral");
   PointCloud out = input;
   const Eigen::Index n = input.size();
   if (n <= 1) return out;
-  const float diag = input.bbox().diagonal();
-  if (!(diag > 0.0f)) {
-    throw InputError(
-        fmt::format("{}: the input's bounding box has a zero diagonal (all {} points coincide)",
-                    kBilateralStage, n));
-  }
+  const float diag = detail::checked_diagonal(input, kBilateralStage);
   auto timer = ctx.phase("bilateral");
   const float h = static_cast<float>(p.h) * diag;
   const float k = -kernels::kThetaFactor / (h * h);

@@ -11,6 +11,7 @@
 
 #include "gpf/gpf_internal.h"
 #include "gpf/normal_checks.h"
+#include "input_checks.h"
 #include "lop/projection_kernels.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/simd_dispatch.h"
@@ -322,8 +323,7 @@ constexpr std::string_view kChain = "normals.pca -> normals.bilateral -> filter.
 }  // namespace
 
 PointCloud gpf(const PointCloud& input, const GpfParams& p, RunContext& ctx) {
-  input.validate(kGpfStage);
-  if (input.empty()) throw InputError(fmt::format("{}: the input has no points", kGpfStage));
+  const float diag = detail::checked_diagonal(input, kGpfStage);
   Eigen::Matrix3Xf normals;
   {
     auto timer = ctx.phase("normals");
@@ -331,13 +331,6 @@ PointCloud gpf(const PointCloud& input, const GpfParams& p, RunContext& ctx) {
     normals = detail::unit_normals(input);
   }
   const BoundingBox box = input.bbox();
-  const float diag = box.diagonal();
-  if (!(diag > 0.0f)) {
-    throw InputError(fmt::format(
-        "{}: the input's bounding box has a zero diagonal ({} point(s), all identical); GPF "
-        "needs a surface",
-        kGpfStage, input.size()));
-  }
   const Eigen::Index n = input.size();
   const Eigen::Index m = kernels::particle_count(p.particles, n, kGpfStage);
   if (m > n) {

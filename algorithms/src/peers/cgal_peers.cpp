@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "gpf/normal_checks.h"
+#include "input_checks.h"
 #include "scanbench/algorithms/pca_normals.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/rng.h"
@@ -27,14 +28,6 @@ using PeerKernel = CGAL::Simple_cartesian<double>;
 using PeerPoint = PeerKernel::Point_3;
 using PeerVector = PeerKernel::Vector_3;
 using PointWithNormal = std::pair<PeerPoint, PeerVector>;
-
-void check_input(const PointCloud& input, std::string_view stage, Eigen::Index min_points) {
-  input.validate(stage);
-  if (input.size() < min_points) {
-    throw InputError(
-        fmt::format("{}: needs at least {} points, got {}", stage, min_points, input.size()));
-  }
-}
 
 std::vector<PeerPoint> to_cgal(const Eigen::Matrix3Xf& p) {
   std::vector<PeerPoint> out;
@@ -52,7 +45,7 @@ Eigen::Vector3f to_eigen(const PeerPoint& p) {
 
 PointCloud cgal_wlop(const PointCloud& input, const CgalWlopParams& p, RunContext& ctx) {
   constexpr std::string_view stage = "peer.cgal_wlop";
-  check_input(input, stage, 1);
+  detail::check_points(input, stage, 1);
   const double diag = input.bbox().diagonal();
   if (!(diag > 0.0))
     throw InputError(fmt::format("{}: the input's bbox has a zero diagonal", stage));
@@ -89,7 +82,7 @@ PointCloud cgal_wlop(const PointCloud& input, const CgalWlopParams& p, RunContex
 
 PointCloud cgal_bilateral(const PointCloud& input, const CgalBilateralParams& p, RunContext& ctx) {
   constexpr std::string_view stage = "peer.cgal_bilateral";
-  check_input(input, stage, 3);
+  detail::check_points(input, stage, 3);
   PointCloud out = input;
   if (!out.has_normals()) out = pca_normals(input, PcaNormalsParams{}, ctx);
   const auto n = static_cast<std::size_t>(out.size());
@@ -134,7 +127,7 @@ PointCloud cgal_jet(const PointCloud& input, const CgalJetParams& p, RunContext&
     throw ParamError(fmt::format("{}.k: a degree-{} jet needs at least {} neighbours, got {}",
                                  stage, p.degree_fitting, coefficients, p.k));
   }
-  check_input(input, stage, p.k);
+  detail::check_points(input, stage, p.k);
   std::vector<PeerPoint> points = to_cgal(input.positions);
   {
     auto timer = ctx.phase("cgal");
@@ -152,7 +145,7 @@ PointCloud cgal_jet(const PointCloud& input, const CgalJetParams& p, RunContext&
 
 PointCloud cgal_ear(const PointCloud& input, const CgalEarParams& p, RunContext& ctx) {
   constexpr std::string_view stage = "peer.cgal_ear";
-  check_input(input, stage, 7);  // CGAL's spacing estimate takes 6 neighbours
+  detail::check_points(input, stage, 7);  // CGAL's spacing estimate takes 6 neighbours
   detail::require_unit_normals(input, stage, "normals.pca -> normals.bilateral -> peer.cgal_ear");
   const BoundingBox box = input.bbox();
   const double diag = box.diagonal();
