@@ -19,6 +19,7 @@
 #include "scanbench/core/errors.h"
 #include "scanbench/core/rng.h"
 #include "scanbench/core/timing.h"
+#include "sift_match.h"
 
 namespace scanbench::scanner::detail {
 
@@ -273,13 +274,16 @@ Eigen::VectorXf surface_distances(const EmbreeScene& scene, const TriangleMesh& 
   return out;
 }
 
-/// kind "photo_dense": refused unless COLMAP has CUDA (patch_match_stereo needs it).
-void require_cuda(const ScannerParams& p, RunContext& ctx) {
+/// What `colmap help` prints (its first line names the version, e.g. "COLMAP 3.8 -- ...").
+std::string colmap_help(RunContext& ctx) {
   programs::TempDir tmp("scan-colmap-help");
   programs::run_program({"colmap", "help"}, tmp.path(), 60, "scan: colmap help", ctx);
-  const std::string text =
-      read_all(tmp.path() / "stdout.txt") + read_all(tmp.path() / "stderr.txt");
-  if (text.find("without CUDA") != std::string::npos) {
+  return read_all(tmp.path() / "stdout.txt") + read_all(tmp.path() / "stderr.txt");
+}
+
+/// kind "photo_dense": refused unless COLMAP has CUDA (patch_match_stereo needs it).
+void require_cuda(const ScannerParams& p, const std::string& help) {
+  if (help.find("without CUDA") != std::string::npos) {
     throw Error(fmt::format(
         "scan: kind {} needs COLMAP's patch_match_stereo, which needs CUDA, and this COLMAP is "
         "built without CUDA ('colmap help'); use kind photo (sparse)",
@@ -330,12 +334,12 @@ void render_views(const EmbreeScene& scene, const Rig& rig, const ScannerParams&
   colmap::write_model_text(known, ws / "known");
 }
 
-/// feature_extractor, exhaustive_matcher, point_triangulator (known poses and intrinsics fixed).
-/// Repeatability, measured with COLMAP 3.8 (docs/scanner.md, Determinism): the images, the SIFT
-/// keypoints and descriptors, and point_triangulator on a given database repeat bit for bit at 1
-/// and 2 threads; exhaustive_matcher's descriptor matches do not, even on one thread.
-void run_colmap(const Rig& rig, const ScannerParams& p, const fs::path& ws, RunContext& ctx,
-                Json& timings) {
+/// feature_extractor, scanbench's matching (sift_match.h: COLMAP's exhaustive_matcher is not
+/// repeatable), matches_importer (COLMAP's geometric verification only), point_triangulator
+/// (known poses and intrinsics fixed). Repeatability, measured with COLMAP 3.8 (docs/scanner.md,
+/// Determinism): every step repeats bit for bit at 1 and 2 threads, so the scan does.
+MatchListStats run_colmap(const Rig& rig, const ScannerParams& p, const fs::path& ws,
+                          RunContext& ctx, Json& timings) {
   const std::string db = (ws / "database.db").string();
   const std::string threads = std::to_string(p.colmap_threads);
   const std::string seed = std::to_string(ctx.stream_seed("scan.colmap") % 2147483647u);
@@ -349,10 +353,20 @@ void run_colmap(const Rig& rig, const ScannerParams& p, const fs::path& ws, RunC
                // needs the known model's ids to be the database's (it aborts otherwise).
                "--SiftExtraction.use_gpu", "0", "--SiftExtraction.num_threads", "1"},
               ws, p, ctx, timings);
-  colmap_step("exhaustive_matcher",
-              {"--random_seed", seed, "--database_path", db, "--SiftMatching.use_gpu", "0",
-               "--SiftMatching.num_threads", threads},
-              ws, p, ctx, timings);
+  ctx.check_cancelled("scan");
+  const double t0 = wall_seconds();
+  const fs::path list = ws / "match_list.txt";
+  const MatchListStats stats =
+      write_match_list(read_database_descriptors(db), SiftMatchOptions{}, list);
+  timings["matching_s"] = wall_seconds() - t0;
+  // COLMAP 3.8 verifies the listed pairs in order on one thread of its own, whose random stream
+  // (RANSAC's samples) is seeded with --random_seed; SiftMatching.num_threads is unused there and
+  // pinned to 1 all the same. SiftMatching's verification options are COLMAP's defaults.
+  colmap_step(
+      "matches_importer",
+      {"--random_seed", seed, "--database_path", db, "--match_list_path", list.string(),
+       "--match_type", "raw", "--SiftMatching.use_gpu", "0", "--SiftMatching.num_threads", "1"},
+      ws, p, ctx, timings);
   fs::create_directories(ws / "sparse");
   colmap_step(
       "point_triangulator",
@@ -361,6 +375,7 @@ void run_colmap(const Rig& rig, const ScannerParams& p, const fs::path& ws, RunC
        "--Mapper.num_threads", threads, "--Mapper.ba_refine_focal_length", "0",
        "--Mapper.ba_refine_principal_point", "0", "--Mapper.ba_refine_extra_params", "0"},
       ws, p, ctx, timings);
+  return stats;
 }
 
 }  // namespace
@@ -369,7 +384,10 @@ Scan photo_scan(const TriangleMesh& mesh, const ScannerParams& p, RunContext& ct
   mesh.validate("scan");
   if (mesh.count_degenerate_faces() == mesh.num_faces())
     throw InputError("scan: every triangle of the mesh is degenerate");
-  if (p.kind == "photo_dense") require_cuda(p, ctx);
+  // The scan repeats for one COLMAP version (docs/scanner.md, Determinism): it goes in the record.
+  const std::string help = colmap_help(ctx);
+  const std::string version = help.substr(0, std::min(help.find(" --"), help.find('\n')));
+  if (p.kind == "photo_dense") require_cuda(p, help);
   const Rig rig = make_rig(mesh, p);
   Scan s;
   s.workspace = std::make_shared<programs::TempDir>("scan-photo");
@@ -380,7 +398,7 @@ Scan photo_scan(const TriangleMesh& mesh, const ScannerParams& p, RunContext& ct
   double t0 = wall_seconds();
   render_views(scene, rig, p, ws, ctx);
   timings["render_s"] = wall_seconds() - t0;
-  run_colmap(rig, p, ws, ctx, timings);
+  const MatchListStats matched = run_colmap(rig, p, ws, ctx, timings);
 
   t0 = wall_seconds();
   colmap::Model model = colmap::read_model(ws / "sparse");
@@ -426,7 +444,12 @@ Scan photo_scan(const TriangleMesh& mesh, const ScannerParams& p, RunContext& ct
                 {"height", p.image_height},
                 {"params", {rig.fx, rig.fy, rig.cx, rig.cy}}}},
               {"outlier_threshold_abs", threshold},
+              {"colmap_version", version},
               {"colmap_seed", std::to_string(ctx.stream_seed("scan.colmap") % 2147483647u)},
+              {"matching",
+               {{"pairs", matched.pairs},
+                {"pairs_listed", matched.pairs_listed},
+                {"raw_matches", matched.matches}}},
               {"timings", timings},
               {"scans", views}};
   return s;
