@@ -68,6 +68,9 @@ TEST(PhotoScanner, TexturedSphereFrom12ViewsGivesAThousandPointsOnTheSphere) {
                         "point_triangulator_s"})
     EXPECT_TRUE(s.record["timings"].contains(t)) << t;
   EXPECT_EQ(s.record.at("colmap_version").get<std::string>().rfind("COLMAP ", 0), 0u);
+  // Known poses: the model's camera centres are the rendered ones (up to rounding).
+  EXPECT_EQ(s.record.at("registration").at("mode"), "known");
+  EXPECT_LT(s.record.at("registration").at("centre_error_max").get<double>(), 1e-9 * diag);
   // The matching's counts: 66 pairs of 12 views, most of them verified.
   EXPECT_EQ(s.record.at("matching").at("pairs"), 66);
   EXPECT_GT(s.record.at("matching").at("raw_matches").get<std::int64_t>(), 1000);
@@ -146,6 +149,44 @@ TEST(PhotoScanner, WholeScanRepeatsAtOneAndTwoThreads) {
   fs::remove_all(d);
 }
 
+// registration "mapper" (docs/scanner.md): COLMAP's mapper registers all 12 views, and after
+// model_aligner's similarity the scan's sensors (the model's camera centres) lie near the rendered
+// centres, each at its recorded registration error (not zero: the poses are estimated), and the
+// points near the sphere.
+TEST(PhotoScanner, MapperRegistrationIsAlignedToTheRenderedPoses) {
+  ASSERT_TRUE(have_colmap()) << "colmap not installed (scripts/setup.sh installs it)";
+  ScannerParams p = photo_default();
+  p.registration = "mapper";
+  RunContext ctx(7, 2);
+  const Scan s = scan(make_sphere({}), p, ctx);
+  const double diag = 2.0 * std::sqrt(3.0);
+  const PointCloud& c = s.cloud;
+  c.validate("mapper scan");
+  ASSERT_EQ(c.sensor_origins.cols(), 12);
+  const Json& r = s.record.at("registration");
+  EXPECT_EQ(r.at("mode"), "mapper");
+  const double max_error = r.at("centre_error_max").get<double>();
+  EXPECT_GT(max_error, 0.0);
+  EXPECT_LT(max_error, 0.01 * diag);
+  for (int i = 0; i < 12; ++i) {
+    const Json& v = s.record.at("scans").at(static_cast<std::size_t>(i));
+    const Eigen::Vector3d rendered(v.at("sensor_origin")[0].get<double>(),
+                                   v.at("sensor_origin")[1].get<double>(),
+                                   v.at("sensor_origin")[2].get<double>());
+    EXPECT_NEAR((c.sensor_origins.col(i).cast<double>() - rendered).norm(),
+                v.at("centre_error").get<double>(), 1e-5 * diag)
+        << "view " << i;
+  }
+  Eigen::Index near = 0;
+  for (Eigen::Index i = 0; i < c.size(); ++i) {
+    if (std::abs(static_cast<double>(c.positions.col(i).norm()) - 1.0) < 0.005 * diag) ++near;
+  }
+  EXPECT_GE(near, 1000) << "of " << c.size() << " points";
+  for (const char* t : {"mapper_s", "model_aligner_s"})
+    EXPECT_TRUE(s.record.at("timings").contains(t)) << t;
+  EXPECT_FALSE(s.record.at("timings").contains("point_triangulator_s"));
+}
+
 TEST(PhotoScanner, DensePresetIsRefusedWithoutCuda) {
   ASSERT_TRUE(have_colmap()) << "colmap not installed (scripts/setup.sh installs it)";
   if (std::system("colmap help 2>&1 | grep -q 'without CUDA'") != 0)
@@ -165,6 +206,9 @@ TEST(PhotoScanner, DensePresetIsRefusedWithoutCuda) {
 TEST(PhotoScanner, UnknownKindIsAParamError) {
   ScannerParams p = photo_default();
   p.kind = "lidar";
+  EXPECT_THROW(validate(p, "scanner"), ParamError);
+  p = photo_default();
+  p.registration = "gps";
   EXPECT_THROW(validate(p, "scanner"), ParamError);
 }
 

@@ -64,7 +64,9 @@
 // every image pair (scanner-sim/src/sift_match.h, COLMAP's definitions; hand-written because
 // COLMAP 3.8's exhaustive_matcher is not repeatable); matches_importer (COLMAP's geometric
 // verification only); and point_triangulator on a text model holding the known poses (intrinsics
-// and poses kept fixed; `colmap_threads` threads).
+// and poses kept fixed; `colmap_threads` threads), or with `registration` = "mapper" COLMAP's
+// incremental mapper (intrinsics fixed) and model_aligner (a least-squares similarity taking its
+// camera centres onto the rendered ones), so the scan includes the registration error.
 // The output is the sparse model as a scan: positions, scan_id (first view seeing the point),
 // sensors at the camera centres, "reprojection_error" (px), "track_length", "surface_distance"
 // (unsigned distance to the mesh, mesh units) and "outlier" (surface_distance above
@@ -126,6 +128,7 @@ struct ScannerParams {
   double image_blur_px = 0.0;
   double outlier_threshold = 0.01;
   int colmap_threads = 2;
+  std::string registration = "known";
   double colmap_timeout_s = 1800.0;
 
   static void declare(ParamDeclarer<ScannerParams>& d);
