@@ -19,6 +19,7 @@
 #include "scanbench/core/errors.h"
 #include "scanbench/core/rng.h"
 #include "scanbench/core/timing.h"
+#include "sift_match.h"
 
 namespace scanbench::scanner::detail {
 
@@ -273,13 +274,16 @@ Eigen::VectorXf surface_distances(const EmbreeScene& scene, const TriangleMesh& 
   return out;
 }
 
-/// kind "photo_dense": refused unless COLMAP has CUDA (patch_match_stereo needs it).
-void require_cuda(const ScannerParams& p, RunContext& ctx) {
+/// What `colmap help` prints (its first line names the version, e.g. "COLMAP 3.8 -- ...").
+std::string colmap_help(RunContext& ctx) {
   programs::TempDir tmp("scan-colmap-help");
   programs::run_program({"colmap", "help"}, tmp.path(), 60, "scan: colmap help", ctx);
-  const std::string text =
-      read_all(tmp.path() / "stdout.txt") + read_all(tmp.path() / "stderr.txt");
-  if (text.find("without CUDA") != std::string::npos) {
+  return read_all(tmp.path() / "stdout.txt") + read_all(tmp.path() / "stderr.txt");
+}
+
+/// kind "photo_dense": refused unless COLMAP has CUDA (patch_match_stereo needs it).
+void require_cuda(const ScannerParams& p, const std::string& help) {
+  if (help.find("without CUDA") != std::string::npos) {
     throw Error(fmt::format(
         "scan: kind {} needs COLMAP's patch_match_stereo, which needs CUDA, and this COLMAP is "
         "built without CUDA ('colmap help'); use kind photo (sparse)",
@@ -293,6 +297,11 @@ void require_cuda(const ScannerParams& p, RunContext& ctx) {
 }  // namespace
 
 namespace {
+
+/// The image file of view i (COLMAP's image name).
+std::string view_name(std::size_t i) {
+  return fmt::format("view_{:03d}.png", i);
+}
 
 /// Renders every view into ws/images/view_NNN.png and writes the known model to ws/known/.
 void render_views(const EmbreeScene& scene, const Rig& rig, const ScannerParams& p,
@@ -317,7 +326,7 @@ void render_views(const EmbreeScene& scene, const Rig& rig, const ScannerParams&
     colmap::Image im;
     im.id = static_cast<std::uint32_t>(i + 1);
     im.camera_id = 1;
-    im.name = fmt::format("view_{:03d}.png", i);
+    im.name = view_name(i);
     Eigen::Matrix3d r;
     r.row(0) = v.right.transpose();
     r.row(1) = v.down.transpose();
@@ -330,12 +339,58 @@ void render_views(const EmbreeScene& scene, const Rig& rig, const ScannerParams&
   colmap::write_model_text(known, ws / "known");
 }
 
-/// feature_extractor, exhaustive_matcher, point_triangulator (known poses and intrinsics fixed).
-/// Repeatability, measured with COLMAP 3.8 (docs/scanner.md, Determinism): the images, the SIFT
-/// keypoints and descriptors, and point_triangulator on a given database repeat bit for bit at 1
-/// and 2 threads; exhaustive_matcher's descriptor matches do not, even on one thread.
-void run_colmap(const Rig& rig, const ScannerParams& p, const fs::path& ws, RunContext& ctx,
-                Json& timings) {
+/// registration "mapper": COLMAP's incremental mapper on the verified matches (intrinsics held
+/// fixed), then model_aligner with a least-squares similarity (robust_alignment 0: no RANSAC)
+/// taking the model's camera centres onto the rendered ones; the aligned model goes to ws/sparse.
+void map_and_align(const Rig& rig, const ScannerParams& p, const fs::path& ws,
+                   const std::string& seed, RunContext& ctx, Json& timings) {
+  const fs::path mapped = ws / "mapped";
+  fs::create_directories(mapped);
+  colmap_step(
+      "mapper",
+      {"--random_seed", seed, "--database_path", (ws / "database.db").string(), "--image_path",
+       (ws / "images").string(), "--output_path", mapped.string(), "--Mapper.num_threads",
+       std::to_string(p.colmap_threads), "--Mapper.ba_refine_focal_length", "0",
+       "--Mapper.ba_refine_principal_point", "0", "--Mapper.ba_refine_extra_params", "0"},
+      ws, p, ctx, timings);
+  // One folder per model (0, 1, ...): the one with the most images (the first on ties).
+  fs::path best;
+  std::size_t most = 0;
+  for (int k = 0; fs::is_directory(mapped / std::to_string(k)); ++k) {
+    const std::size_t n = colmap::read_model(mapped / std::to_string(k)).images.size();
+    if (n > most) {
+      most = n;
+      best = mapped / std::to_string(k);
+    }
+  }
+  if (best.empty())
+    throw Error(
+        "scan: colmap mapper reconstructed nothing (too few matches: check texture_scale and "
+        "the views' overlap)");
+  const fs::path ref = ws / "reference_centres.txt";
+  {
+    std::ofstream out(ref, std::ios::binary | std::ios::trunc);
+    for (std::size_t i = 0; i < rig.views.size(); ++i) {
+      const Eigen::Vector3d& c = rig.views[i].centre;
+      out << fmt::format("{} {:.17g} {:.17g} {:.17g}\n", view_name(i), c.x(), c.y(), c.z());
+    }
+    out.flush();
+    if (!out) throw IoError(fmt::format("{}: cannot write", ref.string()));
+  }
+  fs::create_directories(ws / "sparse");
+  colmap_step("model_aligner",
+              {"--random_seed", seed, "--input_path", best.string(), "--output_path",
+               (ws / "sparse").string(), "--ref_images_path", ref.string(), "--ref_is_gps", "0",
+               "--alignment_type", "custom", "--robust_alignment", "0"},
+              ws, p, ctx, timings);
+}
+
+/// feature_extractor, scanbench's matching (sift_match.h: COLMAP's exhaustive_matcher is not
+/// repeatable), matches_importer (COLMAP's geometric verification only), point_triangulator
+/// (known poses and intrinsics fixed). Repeatability, measured with COLMAP 3.8 (docs/scanner.md,
+/// Determinism): every step repeats bit for bit at 1 and 2 threads, so the scan does.
+MatchListStats run_colmap(const Rig& rig, const ScannerParams& p, const fs::path& ws,
+                          RunContext& ctx, Json& timings) {
   const std::string db = (ws / "database.db").string();
   const std::string threads = std::to_string(p.colmap_threads);
   const std::string seed = std::to_string(ctx.stream_seed("scan.colmap") % 2147483647u);
@@ -349,10 +404,24 @@ void run_colmap(const Rig& rig, const ScannerParams& p, const fs::path& ws, RunC
                // needs the known model's ids to be the database's (it aborts otherwise).
                "--SiftExtraction.use_gpu", "0", "--SiftExtraction.num_threads", "1"},
               ws, p, ctx, timings);
-  colmap_step("exhaustive_matcher",
-              {"--random_seed", seed, "--database_path", db, "--SiftMatching.use_gpu", "0",
-               "--SiftMatching.num_threads", threads},
-              ws, p, ctx, timings);
+  ctx.check_cancelled("scan");
+  const double t0 = wall_seconds();
+  const fs::path list = ws / "match_list.txt";
+  const MatchListStats stats =
+      write_match_list(read_database_descriptors(db), SiftMatchOptions{}, list);
+  timings["matching_s"] = wall_seconds() - t0;
+  // COLMAP 3.8 verifies the listed pairs in order on one thread of its own, whose random stream
+  // (RANSAC's samples) is seeded with --random_seed; SiftMatching.num_threads is unused there and
+  // pinned to 1 all the same. SiftMatching's verification options are COLMAP's defaults.
+  colmap_step(
+      "matches_importer",
+      {"--random_seed", seed, "--database_path", db, "--match_list_path", list.string(),
+       "--match_type", "raw", "--SiftMatching.use_gpu", "0", "--SiftMatching.num_threads", "1"},
+      ws, p, ctx, timings);
+  if (p.registration == "mapper") {
+    map_and_align(rig, p, ws, seed, ctx, timings);
+    return stats;
+  }
   fs::create_directories(ws / "sparse");
   colmap_step(
       "point_triangulator",
@@ -361,6 +430,7 @@ void run_colmap(const Rig& rig, const ScannerParams& p, const fs::path& ws, RunC
        "--Mapper.num_threads", threads, "--Mapper.ba_refine_focal_length", "0",
        "--Mapper.ba_refine_principal_point", "0", "--Mapper.ba_refine_extra_params", "0"},
       ws, p, ctx, timings);
+  return stats;
 }
 
 }  // namespace
@@ -369,7 +439,10 @@ Scan photo_scan(const TriangleMesh& mesh, const ScannerParams& p, RunContext& ct
   mesh.validate("scan");
   if (mesh.count_degenerate_faces() == mesh.num_faces())
     throw InputError("scan: every triangle of the mesh is degenerate");
-  if (p.kind == "photo_dense") require_cuda(p, ctx);
+  // The scan repeats for one COLMAP version (docs/scanner.md, Determinism): it goes in the record.
+  const std::string help = colmap_help(ctx);
+  const std::string version = help.substr(0, std::min(help.find(" --"), help.find('\n')));
+  if (p.kind == "photo_dense") require_cuda(p, help);
   const Rig rig = make_rig(mesh, p);
   Scan s;
   s.workspace = std::make_shared<programs::TempDir>("scan-photo");
@@ -380,20 +453,22 @@ Scan photo_scan(const TriangleMesh& mesh, const ScannerParams& p, RunContext& ct
   double t0 = wall_seconds();
   render_views(scene, rig, p, ws, ctx);
   timings["render_s"] = wall_seconds() - t0;
-  run_colmap(rig, p, ws, ctx, timings);
+  const MatchListStats matched = run_colmap(rig, p, ws, ctx, timings);
 
   t0 = wall_seconds();
   colmap::Model model = colmap::read_model(ws / "sparse");
   // Sensors in view order: image id i + 1 is view i (render_views).
   std::sort(model.images.begin(), model.images.end(),
             [](const colmap::Image& a, const colmap::Image& b) { return a.id < b.id; });
+  const char* step = p.registration == "mapper" ? "mapper" : "point_triangulator";
   if (model.images.size() != rig.views.size())
-    throw Error(fmt::format("scan: colmap point_triangulator kept {} of {} images",
-                            model.images.size(), rig.views.size()));
+    throw Error(fmt::format("scan: colmap {} kept {} of {} images", step, model.images.size(),
+                            rig.views.size()));
   if (model.points.empty())
     throw Error(
-        "scan: colmap point_triangulator found no 3-D points (too few features or "
-        "matches: check texture_scale and the views' overlap)");
+        fmt::format("scan: colmap {} found no 3-D points (too few features or matches: check "
+                    "texture_scale and the views' overlap)",
+                    step));
   // A fixed point order (COLMAP writes its hash map's order): by id.
   std::sort(model.points.begin(), model.points.end(),
             [](const colmap::Point& a, const colmap::Point& b) { return a.id < b.id; });
@@ -409,12 +484,19 @@ Scan photo_scan(const TriangleMesh& mesh, const ScannerParams& p, RunContext& ct
 
   const auto outliers = static_cast<std::int64_t>(s.cloud.properties["outlier"].sum());
   Json views = Json::array();
+  // Registration error: distance of each model camera centre from the rendered one (0 up to
+  // rounding with the known poses; with the mapper, after model_aligner's similarity).
+  double error_sum = 0, error_max = 0;
   for (std::size_t i = 0; i < rig.views.size(); ++i) {
     const View& v = rig.views[i];
+    const double error = (model.images[i].centre() - v.centre).norm();
+    error_sum += error;
+    error_max = std::max(error_max, error);
     views.push_back({{"id", i},
                      {"sensor_origin", {v.centre.x(), v.centre.y(), v.centre.z()}},
                      {"forward", {v.forward.x(), v.forward.y(), v.forward.z()}},
-                     {"image", model.images[i].name}});
+                     {"image", model.images[i].name},
+                     {"centre_error", error}});
   }
   s.record = {{"params", params_to_json(p)},
               {"seed", ctx.seed()},
@@ -426,7 +508,16 @@ Scan photo_scan(const TriangleMesh& mesh, const ScannerParams& p, RunContext& ct
                 {"height", p.image_height},
                 {"params", {rig.fx, rig.fy, rig.cx, rig.cy}}}},
               {"outlier_threshold_abs", threshold},
+              {"colmap_version", version},
               {"colmap_seed", std::to_string(ctx.stream_seed("scan.colmap") % 2147483647u)},
+              {"registration",
+               {{"mode", p.registration},
+                {"centre_error_mean", error_sum / static_cast<double>(rig.views.size())},
+                {"centre_error_max", error_max}}},
+              {"matching",
+               {{"pairs", matched.pairs},
+                {"pairs_listed", matched.pairs_listed},
+                {"raw_matches", matched.matches}}},
               {"timings", timings},
               {"scans", views}};
   return s;

@@ -95,9 +95,14 @@ void ScannerParams::declare(ParamDeclarer<ScannerParams>& d) {
   d.real("outlier_threshold", &P::outlier_threshold, Range::open_min(0, 10), "diag",
          "photo: a point farther than this from the mesh is flagged outlier");
   d.integer("colmap_threads", &P::colmap_threads, Range::closed(1, 256), "",
-            "photo: COLMAP's threads (matching, triangulation; SIFT extraction uses 1), "
-            "independent of the run's thread count (COLMAP 3.8's matching varies from run to "
-            "run at any count: docs/scanner.md)");
+            "photo: COLMAP's threads for point_triangulator (SIFT extraction and geometric "
+            "verification use 1; the descriptor matching uses the run's threads); the scan does "
+            "not depend on it (docs/scanner.md, Determinism)");
+  d.text("registration", &P::registration,
+         "photo: known (point_triangulator with the rendered poses) or mapper (COLMAP's "
+         "incremental mapper estimates the poses, then model_aligner aligns its camera centres "
+         "to the rendered ones by a least-squares similarity: the scan includes the "
+         "registration error)");
   d.real("colmap_timeout_s", &P::colmap_timeout_s, Range::open_min(0, 86400), "s",
          "photo: time limit of each COLMAP step");
 }
@@ -190,6 +195,10 @@ void validate(const ScannerParams& p, const std::string& where) {
   if (p.kind != "range" && p.kind != "photo" && p.kind != "photo_dense") {
     throw ParamError(
         fmt::format("{}.kind: expected range, photo or photo_dense, got '{}'", where, p.kind));
+  }
+  if (p.registration != "known" && p.registration != "mapper") {
+    throw ParamError(
+        fmt::format("{}.registration: expected known or mapper, got '{}'", where, p.registration));
   }
   if (!p.poses.empty()) {
     const auto poses = parse_poses(p.poses, where);

@@ -59,18 +59,22 @@
 // at the camera (albedo * (0.25 + 0.75 |cos|)), 2 x 2 samples per pixel, background black; then an
 // optional Gaussian blur
 // (`image_blur_px`) and Gaussian grey noise (`image_noise`, stream "scan.photo_noise" per view).
-// The images go to COLMAP (the real program, on the CPU; `colmap_threads` threads for matching and triangulation):
-// feature_extractor (one PINHOLE camera with the known intrinsics), exhaustive_matcher, and
-// point_triangulator on a text model holding the known poses (intrinsics and poses kept fixed).
+// The images go to COLMAP (the real program, on the CPU): feature_extractor (one PINHOLE camera
+// with the known intrinsics, one thread); scanbench's exact matching of the SIFT descriptors of
+// every image pair (scanner-sim/src/sift_match.h, COLMAP's definitions; hand-written because
+// COLMAP 3.8's exhaustive_matcher is not repeatable); matches_importer (COLMAP's geometric
+// verification only); and point_triangulator on a text model holding the known poses (intrinsics
+// and poses kept fixed; `colmap_threads` threads), or with `registration` = "mapper" COLMAP's
+// incremental mapper (intrinsics fixed) and model_aligner (a least-squares similarity taking its
+// camera centres onto the rendered ones), so the scan includes the registration error.
 // The output is the sparse model as a scan: positions, scan_id (first view seeing the point),
 // sensors at the camera centres, "reprojection_error" (px), "track_length", "surface_distance"
 // (unsigned distance to the mesh, mesh units) and "outlier" (surface_distance above
 // `outlier_threshold` diag). The COLMAP workspace (images/, database.db, known/, sparse/) is kept
 // in Scan::workspace and written beside the scan as <ply>.colmap/. COLMAP's random seed is derived
-// from the run seed, and the thread count of the run context plays no part. Not repeatable: with
-// COLMAP 3.8 the images, SIFT features and the triangulation of a given database repeat bit for
-// bit, but exhaustive_matcher's descriptor matches vary from run to run even on one thread, so two
-// scans of one seed differ by about 1% of their points (docs/scanner.md, Determinism). kind = "photo_dense" asks for COLMAP's
+// from the run seed. Repeatable for a given COLMAP version: with COLMAP 3.8 every step repeats bit
+// for bit, so the scan does, whatever the run context's and COLMAP's thread counts
+// (docs/scanner.md, Determinism). kind = "photo_dense" asks for COLMAP's
 // patch_match_stereo, which needs CUDA: refused in one line when `colmap help` says "without CUDA".
 #include <cstdint>
 #include <filesystem>
@@ -88,7 +92,8 @@ namespace scanbench::scanner {
 /// Version of the scan model: bumped whenever the same parameters and seed give different points
 /// (random streams, artifact model). Part of the harness's scan cache key, so a resumed
 /// experiment never mixes scans of two models. 2: per-tile noise streams, ziggurat normals.
-inline constexpr int kScanModelVersion = 2;
+/// 3: photo scans match descriptors exactly in scanbench (not with exhaustive_matcher).
+inline constexpr int kScanModelVersion = 3;
 
 /// Every parameter of the virtual scanner. Lengths are fractions of the bbox diagonal ("diag"),
 /// angles in degrees. Defaults: a clean scanner (8 views of 256 x 256 pixels, no artifacts).
@@ -123,6 +128,7 @@ struct ScannerParams {
   double image_blur_px = 0.0;
   double outlier_threshold = 0.01;
   int colmap_threads = 2;
+  std::string registration = "known";
   double colmap_timeout_s = 1800.0;
 
   static void declare(ParamDeclarer<ScannerParams>& d);
