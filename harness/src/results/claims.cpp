@@ -78,6 +78,15 @@ void conclude(RuleOutcome& out, std::vector<std::string> verdicts, std::vector<s
     out.reason += (out.reason.empty() ? "" : "; ") + r;
 }
 
+/// A group that cannot be judged: inconclusive, its problem the reason.
+void inconclusive_group(RuleOutcome& out, std::vector<std::string>& verdicts,
+                        std::vector<std::string>& reasons, const std::string& group,
+                        const std::string& problem) {
+  verdicts.push_back("inconclusive");
+  reasons.push_back(group + ": " + problem);
+  out.groups.push_back(Json{{"group", group}, {"verdict", "inconclusive"}});
+}
+
 RuleOutcome judge_argmin(const ClaimRule& rule, const std::vector<Json>& records) {
   RuleOutcome out;
   std::vector<std::string> verdicts, reasons, measured;
@@ -85,10 +94,7 @@ RuleOutcome judge_argmin(const ClaimRule& rule, const std::vector<Json>& records
     Side side = select_side(recs, rule.a, rule, "a");
     Json gj = {{"group", g}};
     if (!side.problem.empty()) {
-      verdicts.push_back("inconclusive");
-      reasons.push_back(g + ": " + side.problem);
-      gj["verdict"] = "inconclusive";
-      out.groups.push_back(gj);
+      inconclusive_group(out, verdicts, reasons, g, side.problem);
       continue;
     }
     std::map<double, std::vector<double>> by_param;
@@ -106,10 +112,7 @@ RuleOutcome judge_argmin(const ClaimRule& rule, const std::vector<Json>& records
       problem = fmt::format("fewer than two values of '{}'", rule.param);
     }
     if (!problem.empty()) {
-      verdicts.push_back("inconclusive");
-      reasons.push_back(g + ": " + problem);
-      gj["verdict"] = "inconclusive";
-      out.groups.push_back(gj);
+      inconclusive_group(out, verdicts, reasons, g, problem);
       continue;
     }
     double best_x = 0, best = std::numeric_limits<double>::infinity();
@@ -197,10 +200,7 @@ RuleOutcome judge_rule(const ClaimRule& rule, const std::vector<Json>& records) 
     if (rule.has_b) b = select_side(recs, rule.b, rule, "b");
     const std::string problem = !a.problem.empty() ? a.problem : b.problem;
     if (!problem.empty()) {
-      verdicts.push_back("inconclusive");
-      reasons.push_back(g + ": " + problem);
-      gj["verdict"] = "inconclusive";
-      out.groups.push_back(gj);
+      inconclusive_group(out, verdicts, reasons, g, problem);
       continue;
     }
     const double ref = rule.factor * (rule.has_b ? b.value : rule.value);
