@@ -27,6 +27,7 @@ set(scanbench_public_headers
   core/include/scanbench/core/kdtree.h
   core/include/scanbench/core/params.h
   core/include/scanbench/core/point_cloud.h
+  core/include/scanbench/core/polygon_faces.h
   core/include/scanbench/core/registry.h
   core/include/scanbench/core/rng.h
   core/include/scanbench/core/run_context.h

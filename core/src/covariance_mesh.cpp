@@ -9,23 +9,10 @@
 
 namespace scanbench {
 
-bool CovarianceMesh::all_faces_have(int n) const {
-  if (num_faces() == 0) return false;
-  for (Eigen::Index f = 0; f < num_faces(); ++f)
-    if (face_size(f) != n) return false;
-  return true;
-}
-
 void CovarianceMesh::resize(Eigen::Index v) {
   means.resize(3, v);
   covariances.resize(6, v);
-  face_offsets.assign(1, 0);
-  face_vertices.clear();
-}
-
-void CovarianceMesh::add_face(std::span<const int> vertices) {
-  face_vertices.insert(face_vertices.end(), vertices.begin(), vertices.end());
-  face_offsets.push_back(static_cast<int>(face_vertices.size()));
+  faces.clear();
 }
 
 Eigen::Matrix3d CovarianceMesh::covariance(Eigen::Index i) const {
@@ -47,8 +34,8 @@ void CovarianceMesh::validate(std::string_view where) const {
     throw InputError(fmt::format("{}: covariance mesh has {} means, {} covariances", where, v,
                                  covariances.cols()));
   }
-  if (face_offsets.empty() || face_offsets.front() != 0 ||
-      static_cast<std::size_t>(face_offsets.back()) != face_vertices.size()) {
+  if (faces.offsets.empty() || faces.offsets.front() != 0 ||
+      static_cast<std::size_t>(faces.offsets.back()) != faces.indices.size()) {
     throw InputError(fmt::format("{}: covariance mesh face offsets are inconsistent", where));
   }
   for (Eigen::Index i = 0; i < v; ++i) {
@@ -67,7 +54,7 @@ void CovarianceMesh::validate(std::string_view where) const {
     }
   }
   for (Eigen::Index f = 0; f < num_faces(); ++f) {
-    const auto fv = face(f);
+    const auto fv = faces.face(f);
     if (fv.size() < 3) {
       throw InputError(
           fmt::format("{}: face {} has {} vertices (at least 3 needed)", where, f, fv.size()));
@@ -92,11 +79,11 @@ TriangleMesh CovarianceMesh::mean_mesh() const {
   m.origin = origin;
   Eigen::Index t = 0;
   for (Eigen::Index f = 0; f < num_faces(); ++f)
-    t += face_size(f) - 2;
+    t += faces.size(f) - 2;
   m.faces.resize(3, t);
   t = 0;
   for (Eigen::Index f = 0; f < num_faces(); ++f) {
-    const auto fv = face(f);
+    const auto fv = faces.face(f);
     for (std::size_t k = 1; k + 1 < fv.size(); ++k)
       m.faces.col(t++) << fv[0], fv[k], fv[k + 1];
   }

@@ -466,7 +466,7 @@ CovarianceMesh covariance_mesh_from_ply(const ply::File& file, const std::string
         }
         poly.push_back(static_cast<int>(v));
       }
-      m.add_face(poly);
+      m.faces.add(poly);
     }
   }
   try {
@@ -516,8 +516,8 @@ void write_covariance_mesh(const CovarianceMesh& mesh, const std::filesystem::pa
   idx.is_list = true;
   idx.count_type = ply::Type::UInt8;
   idx.type = ply::Type::Int32;
-  idx.values.assign(mesh.face_vertices.begin(), mesh.face_vertices.end());
-  idx.offsets.assign(mesh.face_offsets.begin(), mesh.face_offsets.end());
+  idx.values.assign(mesh.faces.indices.begin(), mesh.faces.indices.end());
+  idx.offsets.assign(mesh.faces.offsets.begin(), mesh.faces.offsets.end());
   fe.properties.push_back(std::move(idx));
   f.elements.push_back(std::move(ve));
   f.elements.push_back(std::move(fe));

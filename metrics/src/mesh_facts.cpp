@@ -75,9 +75,9 @@ MeshFacts mesh_facts(const TriangleMesh& mesh) {
 }
 
 MeshFacts mesh_facts(const CovarianceMesh& mesh) {
-  MeshFacts f = polygon_facts(mesh.num_vertices(), mesh.face_offsets, mesh.face_vertices);
+  MeshFacts f = polygon_facts(mesh.num_vertices(), mesh.faces.offsets, mesh.faces.indices);
   for (Eigen::Index k = 0; k < mesh.num_faces(); ++k) {
-    auto c = mesh.face(k);
+    auto c = mesh.faces.face(k);
     std::vector<int> s(c.begin(), c.end());
     std::sort(s.begin(), s.end());
     f.degenerate_faces += std::adjacent_find(s.begin(), s.end()) != s.end();

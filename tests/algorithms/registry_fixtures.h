@@ -29,7 +29,7 @@ inline StageData every_kind(PointCloud scan, const TriangleMesh& mesh) {
     cm.set_covariance(i, 0.01 * Eigen::Matrix3d::Identity());
   for (Eigen::Index f = 0; f < mesh.num_faces(); ++f) {
     const int t[3] = {mesh.faces(0, f), mesh.faces(1, f), mesh.faces(2, f)};
-    cm.add_face(t);
+    cm.faces.add(t);
   }
   d.covariance_mesh = std::move(cm);
   return d;

@@ -121,7 +121,7 @@ CovarianceMesh with_covariance(const Mesh& m, const Eigen::Matrix3d& s) {
   CovarianceMesh c;
   c.means = m.positions;
   c.covariances = vech(s).replicate(1, m.positions.cols());
-  set_faces(c, m.faces);
+  c.faces = m.faces;
   return c;
 }
 
@@ -144,7 +144,7 @@ TEST(GpSubdivision, EqualIsotropicCovariancesReproduceLinearEq14) {
                       .cwiseAbs()
                       .maxCoeff(),
                   1e-12 * var);
-        EXPECT_EQ(faces_of(g).indices, lin.faces.indices);
+        EXPECT_EQ(g.faces.indices, lin.faces.indices);
       }
 }
 
@@ -163,7 +163,7 @@ CovarianceMesh random_covariances(const Mesh& m, std::uint64_t seed, double anis
       ev[k] = 0.01 * std::pow(anisotropy, rng.uniform());
     c.covariances.col(i) = vech(rot * ev.asDiagonal() * rot.transpose());
   }
-  set_faces(c, m.faces);
+  c.faces = m.faces;
   return c;
 }
 
@@ -276,7 +276,7 @@ TEST(GpSubdivision, LimitNormalsAgreeWithFiniteDifferencesOfTheRefinedSurface) {
       double e = 0, el = 0;
       for (int v = 0; v < static_cast<int>(base.means.cols()); ++v) {
         if (an.kind[v] == VertexKind::Boundary) continue;
-        e = std::max(e, (fd_normal(deep.means, faces_of(deep), v) - an.normals.col(v)).norm());
+        e = std::max(e, (fd_normal(deep.means, deep.faces, v) - an.normals.col(v)).norm());
         el = std::max(el, (fd_normal(ldeep.positions, ldeep.faces, v) - lan.normals.col(v)).norm());
       }
       err_gp.push_back(e);
@@ -331,7 +331,7 @@ TEST(LimitAnalysis, AppendixBMatchesNumericChainRule) {
     ValueMatrix<9> q(9, c.means.cols());
     for (Eigen::Index i = 0; i < q.cols(); ++i)
       q.col(i) = gaussian_to_dual(c.means.col(i), unvech(c.covariances.col(i)));
-    const LimitJets<9> j = limit_jets<9>(q, faces_of(c), o, "t");
+    const LimitJets<9> j = limit_jets<9>(q, c.faces, o, "t");
     const int v = fixtures::lattice_centre(4);
     auto mu = [&](double s, double t) {
       const Vector9d x = j.value.col(v) + s * j.du.col(v) + t * j.dv.col(v) +
@@ -618,8 +618,8 @@ TEST(BadInput, GpSchemesNameTheFaceAndCatmullClarkTakesTriangles) {
   const CovarianceMesh tri =
       gp_subdivide(with_covariance(fixtures::coarse_sphere(2), 0.1 * Eigen::Matrix3d::Identity()),
                    SubdivisionScheme::CatmullClark, p, ctx, "tri");
-  EXPECT_TRUE(faces_of(tri).all_of_size(4));
-  EXPECT_EQ(faces_of(tri).num_faces(), 3 * 48);  // each triangle -> 3 quads
+  EXPECT_TRUE(tri.faces.all_of_size(4));
+  EXPECT_EQ(tri.faces.num_faces(), 3 * 48);  // each triangle -> 3 quads
 }
 
 TEST(BadInput, LevelsBeyondMemoryAreRefusedBeforeAllocating) {
@@ -752,8 +752,8 @@ TEST(Figure9And10, ShippedInputsEqualTheGenerator) {
     const CovarianceMesh r = read_covariance_mesh(path);
     EXPECT_EQ(r.means, f.mesh.means) << f.name;
     EXPECT_EQ(r.covariances, f.mesh.covariances) << f.name;
-    EXPECT_EQ(r.face_offsets, f.mesh.face_offsets) << f.name;
-    EXPECT_EQ(r.face_vertices, f.mesh.face_vertices) << f.name;
+    EXPECT_EQ(r.faces.offsets, f.mesh.faces.offsets) << f.name;
+    EXPECT_EQ(r.faces.indices, f.mesh.faces.indices) << f.name;
   }
 }
 

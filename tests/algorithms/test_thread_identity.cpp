@@ -61,10 +61,10 @@ std::map<std::string, std::string> blobs(const StageData& d) {
     const CovarianceMesh& c = *d.covariance_mesh;
     b["covmesh.means"] = raw(c.means);
     b["covmesh.covariances"] = raw(c.covariances);
-    b["covmesh.face_offsets"] = std::string(reinterpret_cast<const char*>(c.face_offsets.data()),
-                                            c.face_offsets.size() * sizeof(c.face_offsets[0]));
-    b["covmesh.face_vertices"] = std::string(reinterpret_cast<const char*>(c.face_vertices.data()),
-                                             c.face_vertices.size() * sizeof(c.face_vertices[0]));
+    b["covmesh.face_offsets"] = std::string(reinterpret_cast<const char*>(c.faces.offsets.data()),
+                                            c.faces.offsets.size() * sizeof(c.faces.offsets[0]));
+    b["covmesh.face_vertices"] = std::string(reinterpret_cast<const char*>(c.faces.indices.data()),
+                                             c.faces.indices.size() * sizeof(c.faces.indices[0]));
   }
   return b;
 }

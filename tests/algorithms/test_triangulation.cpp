@@ -147,7 +147,7 @@ TEST(Triangulation, ThinCuboidSheetsAreNotBridged) {
   EXPECT_EQ(st.seeds, 2);
   EXPECT_GT(cm.num_faces(), 2 * 150);  // each 10x10-cell sheet mostly triangulated
   for (Eigen::Index f = 0; f < cm.num_faces(); ++f) {
-    const auto t = cm.face(f);
+    const auto t = cm.faces.face(f);
     const double z0 = cm.means(2, t[0]);
     EXPECT_EQ(cm.means(2, t[1]), z0) << "face " << f << " bridges the sheets";
     EXPECT_EQ(cm.means(2, t[2]), z0) << "face " << f << " bridges the sheets";
@@ -162,7 +162,7 @@ TEST(Triangulation, FreeCandidatesOnAHemMixtureAreIdenticalAt1And2Threads) {
   std::vector<int> faces[2];
   for (int threads : {1, 2}) {
     const CovarianceMesh cm = test::hem_then_triangulate(pc, Json{{"candidates", "free"}}, threads);
-    faces[threads - 1] = cm.face_vertices;
+    faces[threads - 1] = cm.faces.indices;
     const Topology t = topology(cm);
     EXPECT_EQ(t.over, 0);
     // Record what a clean sphere gives (a closed manifold is the goal; holes are reported).
@@ -230,7 +230,7 @@ TEST(Triangulation, SeedIsArgmaxOfEq20AndTheFrontTakesTheLargestPOfEq22) {
   EXPECT_EQ(stats.seeds, 1);
   // Output vertices are the used Gaussians in index order: all five, so the indices stand.
   auto face = [&](Eigen::Index f) {
-    std::set<int> v(cm.face(f).begin(), cm.face(f).end());
+    std::set<int> v(cm.faces.face(f).begin(), cm.faces.face(f).end());
     return v;
   };
   EXPECT_EQ(face(0), (std::set<int>{A, B, C})) << "seed: argmax of eq. 20";

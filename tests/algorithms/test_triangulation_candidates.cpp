@@ -106,7 +106,7 @@ TEST(TriangulationCandidates, DelaunayCandidatesDoNotBridgeTheThinSheets) {
   EXPECT_EQ(st.seeds, 2);
   EXPECT_GT(cm.num_faces(), 2 * 150);
   for (Eigen::Index f = 0; f < cm.num_faces(); ++f) {
-    const auto t = cm.face(f);
+    const auto t = cm.faces.face(f);
     const double z0 = cm.means(2, t[0]);
     EXPECT_EQ(cm.means(2, t[1]), z0) << "face " << f << " bridges the sheets";
     EXPECT_EQ(cm.means(2, t[2]), z0) << "face " << f << " bridges the sheets";
@@ -163,7 +163,7 @@ TEST(TriangulationCandidates, DelaunayModeIsIdenticalAt1And2Threads) {
   for (int threads : {1, 2}) {
     const CovarianceMesh cm =
         test::hem_then_triangulate(pc, Json{{"candidates", "delaunay"}}, threads);
-    faces[threads - 1] = cm.face_vertices;
+    faces[threads - 1] = cm.faces.indices;
     EXPECT_EQ(topology(cm).over, 0);
   }
   EXPECT_FALSE(faces[0].empty());

@@ -76,7 +76,7 @@ struct Topology {
 inline Topology topology(const CovarianceMesh& m) {
   std::map<std::pair<int, int>, int> edges;
   for (Eigen::Index f = 0; f < m.num_faces(); ++f) {
-    const auto t = m.face(f);
+    const auto t = m.faces.face(f);
     for (int k = 0; k < 3; ++k) {
       const int a = t[static_cast<std::size_t>(k)], b = t[static_cast<std::size_t>((k + 1) % 3)];
       ++edges[{std::min(a, b), std::max(a, b)}];

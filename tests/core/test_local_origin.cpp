@@ -144,7 +144,7 @@ TEST_F(LocalOrigin, WriteReadRoundTripsExactlyWithTheOriginComment) {
   for (Eigen::Index i = 0; i < 3; ++i)
     cm.set_covariance(i, 0.01 * Eigen::Matrix3d::Identity());
   const int tri[3] = {0, 1, 2};
-  cm.add_face(tri);
+  cm.faces.add(tri);
   cm.origin = kT;
   write_covariance_mesh(cm, dir_ / "cm.ply");
   const CovarianceMesh rcm = read_covariance_mesh(dir_ / "cm.ply");

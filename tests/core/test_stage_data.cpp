@@ -39,8 +39,8 @@ CovarianceMesh small_mesh() {
   }
   const int quad[4] = {0, 1, 2, 3};
   const int tri[3] = {1, 4, 2};
-  m.add_face(quad);
-  m.add_face(tri);
+  m.faces.add(quad);
+  m.faces.add(tri);
   return m;
 }
 
@@ -52,10 +52,10 @@ TEST(CovarianceMesh, PlyRoundTripIsBitExactAndKeepsPolygons) {
   const CovarianceMesh r = read_covariance_mesh(p);
   EXPECT_EQ(r.means, m.means);
   EXPECT_EQ(r.covariances, m.covariances);
-  EXPECT_EQ(r.face_offsets, m.face_offsets);
-  EXPECT_EQ(r.face_vertices, m.face_vertices);
-  EXPECT_EQ(r.face_size(0), 4);
-  EXPECT_FALSE(r.all_faces_have(3));
+  EXPECT_EQ(r.faces.offsets, m.faces.offsets);
+  EXPECT_EQ(r.faces.indices, m.faces.indices);
+  EXPECT_EQ(r.faces.size(0), 4);
+  EXPECT_FALSE(r.faces.all_of_size(3));
   // read_stage_file tells it apart from a mesh and a cloud by its covxx property.
   const StageData d = read_stage_file(p);
   EXPECT_EQ(d.kinds(), DataKinds(DataKind::CovarianceMesh));
@@ -81,7 +81,7 @@ TEST(CovarianceMesh, ValidateNamesTheVertexOrFace) {
   m.covariances(0, 2) = std::nan("");
   EXPECT_THROW(m.validate("x"), InputError);
   m = small_mesh();
-  m.face_vertices[5] = 9;  // out of range in face 1
+  m.faces.indices[5] = 9;  // out of range in face 1
   try {
     m.validate("x");
     FAIL() << "bad index accepted";
@@ -89,7 +89,7 @@ TEST(CovarianceMesh, ValidateNamesTheVertexOrFace) {
     EXPECT_NE(std::string(e.what()).find("face 1"), std::string::npos) << e.what();
   }
   m = small_mesh();
-  m.face_vertices[1] = 0;  // repeated in face 0
+  m.faces.indices[1] = 0;  // repeated in face 0
   EXPECT_THROW(m.validate("x"), InputError);
 }
 

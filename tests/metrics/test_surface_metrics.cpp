@@ -268,7 +268,7 @@ TEST(MeshFacts, KnownMeshes) {
   }
   for (const auto& q : std::vector<std::array<int, 4>>{
            {0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}})
-    cube.add_face(q);
+    cube.faces.add(q);
   const MeshFacts cf = mesh_facts(cube);
   EXPECT_EQ(cf.faces, 6);
   EXPECT_EQ(cf.boundary_edges, 0);

@@ -1,13 +1,10 @@
 // A plugin whose algorithm crashes (SIGSEGV) inside a job: only that job fails.
 #include <csignal>
 
-#include "scanbench/plugin.h"
+#include "no_params.h"
 
 namespace {
-struct NoParams {
-  static void declare(scanbench::ParamDeclarer<NoParams>&) {}
-};
-scanbench::PointCloud crash(const scanbench::PointCloud& in, const NoParams&,
+scanbench::PointCloud crash(const scanbench::PointCloud& in, const test_plugin::NoParams&,
                             scanbench::RunContext&) {
   std::raise(SIGSEGV);
   return in;
@@ -15,5 +12,6 @@ scanbench::PointCloud crash(const scanbench::PointCloud& in, const NoParams&,
 }  // namespace
 
 SCANBENCH_PLUGIN(r) {
-  r.algorithm<NoParams>("test_plugin.crash", "raises SIGSEGV (plugin isolation test)", crash);
+  r.algorithm<test_plugin::NoParams>("test_plugin.crash", "raises SIGSEGV (plugin isolation test)",
+                                     crash);
 }

@@ -1,17 +1,8 @@
 // A plugin that registers a fresh name and then a built-in one (the loader refuses both).
-#include "scanbench/plugin.h"
-
-namespace {
-struct NoParams {
-  static void declare(scanbench::ParamDeclarer<NoParams>&) {}
-};
-scanbench::PointCloud copy(const scanbench::PointCloud& in, const NoParams&,
-                           scanbench::RunContext&) {
-  return in;
-}
-}  // namespace
+#include "no_params.h"
 
 SCANBENCH_PLUGIN(r) {
+  using namespace test_plugin;
   r.algorithm<NoParams>("test_plugin.fresh", "a copy (never added: the plugin is refused)", copy);
   r.algorithm<NoParams>("resample.clop", "a second resample.clop", copy);
 }

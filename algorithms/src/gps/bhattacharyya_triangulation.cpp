@@ -677,7 +677,7 @@ CovarianceMesh triangulate_bhattacharyya(const GaussianMixture& mixture,
   for (const auto& t : faces) {
     const int f[3] = {remap[static_cast<std::size_t>(t[0])], remap[static_cast<std::size_t>(t[1])],
                       remap[static_cast<std::size_t>(t[2])]};
-    out.add_face(f);
+    out.faces.add(f);
   }
   if (stats != nullptr) {
     stats->pairs = pairs;

@@ -55,18 +55,6 @@ std::pair<double, double> eig_range(const Eigen::Matrix3d& s) {
 
 }  // namespace
 
-PolygonFaces faces_of(const CovarianceMesh& m) {
-  PolygonFaces f;
-  f.offsets.assign(m.face_offsets.begin(), m.face_offsets.end());
-  f.indices.assign(m.face_vertices.begin(), m.face_vertices.end());
-  return f;
-}
-
-void set_faces(CovarianceMesh& m, const PolygonFaces& faces) {
-  m.face_offsets.assign(faces.offsets.begin(), faces.offsets.end());
-  m.face_vertices.assign(faces.indices.begin(), faces.indices.end());
-}
-
 PolygonFaces faces_of(const TriangleMesh& m) {
   PolygonFaces f;
   f.offsets.resize(m.num_faces() + 1);
@@ -111,7 +99,7 @@ void subdivide_linear(Eigen::Matrix3Xd& positions, PolygonFaces& faces, Subdivis
 CovarianceMesh gp_subdivide(const CovarianceMesh& in, SubdivisionScheme scheme,
                             const SubdivideParams& p, RunContext& ctx, std::string_view where) {
   in.validate(where);
-  PolygonFaces faces = faces_of(in);
+  PolygonFaces faces = in.faces;
   const SubdivisionOptions o = p.options(scheme);
   // Refuse before the dual-space copy is allocated.
   check_subdivision_memory(faces, static_cast<int>(in.means.cols()), p.levels, scheme, 72.0, where);
@@ -154,7 +142,7 @@ CovarianceMesh gp_subdivide(const CovarianceMesh& in, SubdivisionScheme scheme,
           fmt::format("{}: refined vertex {}: the dual-space quadric is not positive "
                       "definite (an input covariance is too close to singular)",
                       where, i));
-  set_faces(out, faces);
+  out.faces = std::move(faces);
   return out;
 }
 
@@ -234,7 +222,7 @@ SurfaceAnalysis linear_limit_analysis(const Eigen::Matrix3Xd& positions, const P
 SurfaceAnalysis gp_limit_analysis(const CovarianceMesh& m, const SubdivisionOptions& options,
                                   std::string_view where) {
   m.validate(where);
-  const PolygonFaces faces = faces_of(m);
+  const PolygonFaces& faces = m.faces;
   ValueMatrix<9> q(9, m.means.cols());
   for (Eigen::Index i = 0; i < m.means.cols(); ++i)
     q.col(i) = gaussian_to_dual(m.means.col(i), cov_at(m, i));
@@ -305,7 +293,7 @@ CovarianceMesh infer_covariances(const Eigen::Matrix3Xd& positions, const Polygo
   CovarianceMesh out;
   out.means = positions;
   out.covariances.resize(6, nv);
-  set_faces(out, faces);
+  out.faces = faces;
   if (p.method == "isotropic") {
     // sigma_0^2 I at every vertex: by eq. 14 the GP scheme is then the linear one (the check of
     // `scanbench claims`, configs/claims/gps-eq14-isotropic-linear.json).

@@ -28,7 +28,7 @@ CovarianceMesh cone(const Eigen::Matrix3d& apex) {
   m.means = p;
   m.covariances = vech(0.01 * Eigen::Matrix3d::Identity()).replicate(1, p.cols());
   m.covariances.col(0) = vech(apex);
-  set_faces(m, f);
+  m.faces = std::move(f);
   return m;
 }
 
@@ -49,7 +49,7 @@ CovarianceMesh cube(Cov cov) {
   m.covariances.resize(6, 8);
   for (int i = 0; i < 8; ++i)
     m.covariances.col(i) = vech(cov(Eigen::Vector3d(p.col(i))));
-  set_faces(m, f);
+  m.faces = std::move(f);
   return m;
 }
 

@@ -14,17 +14,6 @@
 
 namespace scanbench::algorithms {
 
-void PolygonFaces::add(std::initializer_list<int> face) {
-  indices.insert(indices.end(), face.begin(), face.end());
-  offsets.push_back(static_cast<int>(indices.size()));
-}
-
-bool PolygonFaces::all_of_size(int k) const {
-  for (int f = 0; f < num_faces(); ++f)
-    if (size(f) != k) return false;
-  return true;
-}
-
 namespace {
 
 // Corner/twin connectivity. Corner c of face f is half-edge v[c] -> v[next(c)].

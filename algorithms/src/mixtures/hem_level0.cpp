@@ -68,6 +68,17 @@ Eigen::SelfAdjointEigenSolver<Matrix3d> eigen_decomposition(const Matrix3d& a) {
 // fine cubes. Every point within `width` of a point lies in the 3 x 3 x 3 block of coarse cells
 // around that point's cell, so a neighbour search of radius <= width needs no tree: it reads the
 // block's contiguous ranges of the sorted coordinates.
+//
+// Not the shared spatial/neighbor_grid.h (which hem_merge.cpp uses): the level-0 sums (eq. 12
+// moments, eq. 25 densities) are added in this grid's order, and that order differs from the
+// shared grid's in two ways that would change the mixture's bits. Cells are found in double,
+// floor((p - lo) / width) with an exact subtraction, which box_distance2's 1e-9 width margin
+// relies on; NeighborGrid finds them in float, floor((p - lo) * (1 / cell)), which puts a few
+// points in another cell (0 to 2 in random clouds of 100,000 points). Within a cell the points
+// are ordered by fine cell (the density pass evaluates each pair once per pair of fine cells,
+// bounded by their centres and reach); NeighborGrid orders them by index and has no fine cells.
+// NeighborGrid cannot take the double rule without changing the bits of WLOP, CLOP and its
+// other users, nor hold both rules without being two grids in one.
 struct Grid {
   double width = 0.0;
   Vector3d origin = Vector3d::Zero();   // cell (i, j, k) spans origin + width * [i, i + 1) x ...

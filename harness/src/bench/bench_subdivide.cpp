@@ -17,7 +17,6 @@ namespace scanbench::harness {
 
 namespace {
 
-using algorithms::PolygonFaces;
 using algorithms::SubdivideParams;
 using algorithms::SubdivisionScheme;
 

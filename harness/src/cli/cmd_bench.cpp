@@ -2,6 +2,9 @@
 // in one run, printing ratios (never absolute targets checked by a timed test). The paper-case
 // benches (resample, filter, subdivide) are library code (harness/bench.h); these commands parse
 // flags and call it.
+#include <functional>
+#include <memory>
+
 #include "cli/commands.h"
 #include "scanbench/harness/bench.h"
 
@@ -33,9 +36,17 @@ void add_case_options(CLI::App* sub, long& points, std::string& dataset, long ma
   sub->add_option("--dataset", dataset, "Dataset name or mesh file (default: the claim's)");
 }
 
+// One paper-case bench: its subcommand with the common flags, then its own (`own_flags`), and
+// the action that runs it and writes --json.
 template <class Opts>
-void set_action(CLI::App* sub, Cli& cli, std::shared_ptr<Opts> o, std::shared_ptr<std::string> json,
-                Json (*run)(const Opts&)) {
+void add_case_bench(CLI::App* bench, Cli& cli, const char* name, const char* doc,
+                    const char* quick_doc, Json (*run)(const Opts&),
+                    const std::function<void(CLI::App*, Opts&)>& own_flags) {
+  auto o = std::make_shared<Opts>();
+  auto json = std::make_shared<std::string>();
+  CLI::App* sub = bench->add_subcommand(name, doc);
+  add_common(sub, *o, *json, quick_doc);
+  own_flags(sub, *o);
   sub->callback([&cli, o, json, run] {
     cli.action = [o, json, run] {
       const Json out = run(*o);
@@ -46,54 +57,50 @@ void set_action(CLI::App* sub, Cli& cli, std::shared_ptr<Opts> o, std::shared_pt
 }
 
 void add_bench_resample(CLI::App* bench, Cli& cli) {
-  auto o = std::make_shared<ResampleBenchOptions>();
-  auto json = std::make_shared<std::string>();
-  CLI::App* sub = bench->add_subcommand(
-      "resample",
+  add_case_bench<ResampleBenchOptions>(
+      bench, cli, "resample",
       "CLOP paper Camel case (claim clop-fig9-speed): CLOP vs WLOP vs CGAL's WLOP in interleaved "
       "rounds (median ratios with 95% intervals, p2plane_mean, nn_dist_cv; --scaling: threads, "
-      "growth, memory)");
-  add_common(sub, *o, *json, "About 20K points and 3 rounds (a smoke run)");
-  sub->add_flag("--scaling", o->scaling,
-                "Also 1 vs 2 threads, CLOP time over --sizes and peak memory per point");
-  sub->add_flag("--no-cgal", o->no_cgal, "Skip CGAL's WLOP (slow)");
-  add_case_options(sub, o->points, o->dataset, 50000000L);
-  sub->add_option("--sizes", o->sizes, "Scan sizes of the --scaling growth run")
-      ->delimiter(',')
-      ->check(CLI::Range(1000L, 50000000L));
-  set_action(sub, cli, o, json, &bench_resample);
+      "growth, memory)",
+      "About 20K points and 3 rounds (a smoke run)", &bench_resample,
+      [](CLI::App* sub, ResampleBenchOptions& o) {
+        sub->add_flag("--scaling", o.scaling,
+                      "Also 1 vs 2 threads, CLOP time over --sizes and peak memory per point");
+        sub->add_flag("--no-cgal", o.no_cgal, "Skip CGAL's WLOP (slow)");
+        add_case_options(sub, o.points, o.dataset, 50000000L);
+        sub->add_option("--sizes", o.sizes, "Scan sizes of the --scaling growth run")
+            ->delimiter(',')
+            ->check(CLI::Range(1000L, 50000000L));
+      });
 }
 
 void add_bench_filter(CLI::App* bench, Cli& cli) {
-  auto o = std::make_shared<FilterBenchOptions>();
-  auto json = std::make_shared<std::string>();
-  CLI::App* sub = bench->add_subcommand(
-      "filter",
+  add_case_bench<FilterBenchOptions>(
+      bench, cli, "filter",
       "GPF paper Table 1 case (claim gpf-table1-timing): GPF (normals counted) vs WLOP, CLOP and "
       "the EAR chain in interleaved rounds (median ratios with 95% intervals, p2plane near sharp "
-      "edges)");
-  add_common(sub, *o, *json, "About 10K points and 3 rounds (a smoke run)");
-  add_case_options(sub, o->points, o->dataset, 10000000L);
-  set_action(sub, cli, o, json, &bench_filter);
+      "edges)",
+      "About 10K points and 3 rounds (a smoke run)", &bench_filter,
+      [](CLI::App* sub, FilterBenchOptions& o) {
+        add_case_options(sub, o.points, o.dataset, 10000000L);
+      });
 }
 
 void add_bench_subdivide(CLI::App* bench, Cli& cli) {
-  auto o = std::make_shared<SubdivideBenchOptions>();
-  auto json = std::make_shared<std::string>();
-  CLI::App* sub = bench->add_subcommand(
-      "subdivide",
+  add_case_bench<SubdivideBenchOptions>(
+      bench, cli, "subdivide",
       "GP-Loop vs linear Loop on the same control mesh, levels 1-4, in interleaved rounds "
       "(ratio gp_loop/loop per level), and both limit surfaces' distance to the smooth original "
-      "of coarse sphere and torus control meshes");
-  add_common(sub, *o, *json, "Fewer rounds (a smoke run)");
-  sub->add_option("--resolution", o->resolution,
-                  "Cube-sphere resolution of the timed control mesh (12 n^2 triangles)")
-      ->check(CLI::Range(1, 256));
-  sub->add_option("--sigma0", o->sigma_0,
-                  "sigma_0 of the face-based covariance inference (eq. 17), fraction of the "
-                  "bbox diagonal")
-      ->check(CLI::Range(1e-6, 1.0));
-  set_action(sub, cli, o, json, &bench_subdivide);
+      "of coarse sphere and torus control meshes",
+      "Fewer rounds (a smoke run)", &bench_subdivide, [](CLI::App* sub, SubdivideBenchOptions& o) {
+        sub->add_option("--resolution", o.resolution,
+                        "Cube-sphere resolution of the timed control mesh (12 n^2 triangles)")
+            ->check(CLI::Range(1, 256));
+        sub->add_option("--sigma0", o.sigma_0,
+                        "sigma_0 of the face-based covariance inference (eq. 17), fraction of "
+                        "the bbox diagonal")
+            ->check(CLI::Range(1e-6, 1.0));
+      });
 }
 
 }  // namespace

@@ -11,7 +11,6 @@
 #include <sstream>
 
 #include "config/json_checks.h"
-#include "results/claims_tradeoff.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/harness/experiment.h"
 
@@ -37,10 +36,14 @@ std::string get_string(const Json& j, const std::string& key, const std::string&
   return j[key].get<std::string>();
 }
 
-double get_number(const Json& j, const std::string& key, const std::string& where, double def) {
+/// A finite number (with `positive`, a positive one); `def` when absent.
+double get_number(const Json& j, const std::string& key, const std::string& where, double def,
+                  bool positive = false) {
   if (!j.contains(key)) return def;
-  if (!j[key].is_number() || !std::isfinite(j[key].get<double>())) {
-    fail(where + "/" + key, "expected a finite number, got " + j[key].dump());
+  if (!j[key].is_number() || !std::isfinite(j[key].get<double>()) ||
+      (positive && j[key].get<double>() <= 0)) {
+    fail(where + "/" + key, fmt::format("expected a {}finite number, got {}",
+                                        positive ? "positive " : "", j[key].dump()));
   }
   return j[key].get<double>();
 }
@@ -67,6 +70,71 @@ ClaimSelector parse_selector(const Json& j, const std::string& where) {
     s.point = j["point"];
   }
   return s;
+}
+
+/// The selector under `key` (ParamError "missing (a selector)" when absent).
+ClaimSelector get_selector(const Json& j, const std::string& key, const std::string& where) {
+  if (!j.contains(key)) fail(where + "/" + key, "missing (a selector)");
+  return parse_selector(j[key], where + "/" + key);
+}
+
+/// A rule of kind "front" or "matched" (claims.h).
+ClaimRule parse_tradeoff_rule(const Json& j, const std::string& where) {
+  ClaimRule r;
+  r.kind = j["kind"].get<std::string>();
+  const bool is_front = r.kind == "front";
+  if (is_front) {
+    check_keys(j, where,
+               {"what", "kind", "quantity", "per", "a", "b", "cost", "cost_b", "exclude_steps",
+                "factor", "op"});
+  } else {
+    check_keys(j, where, {"what", "kind", "quantity", "per", "a", "b", "factor", "op", "match"});
+  }
+  r.what = get_string(j, "what", where, true);
+  r.quantity = get_string(j, "quantity", where, true);
+  r.per = get_choice(j, "per", where, {"dataset", "all"}, "dataset");
+  r.a = get_selector(j, "a", where);
+  r.b = get_selector(j, "b", where);
+  r.has_b = true;
+  r.factor = get_number(j, "factor", where, 1.0, true);
+  r.op = get_string(j, "op", where, false, is_front ? "<" : "<=");
+  const std::vector<std::string> ops = is_front
+                                           ? std::vector<std::string>{"<", "<="}
+                                           : std::vector<std::string>{"<", "<=", ">", ">=", "=="};
+  if (std::find(ops.begin(), ops.end(), r.op) == ops.end()) {
+    fail(where + "/op", fmt::format("not used by kind {}: '{}'", r.kind, r.op));
+  }
+  if (is_front) {
+    r.cost = get_string(j, "cost", where, true);
+    r.cost_b = get_string(j, "cost_b", where, false, r.cost);
+    if (j.contains("exclude_steps")) {
+      const Json& e = j["exclude_steps"];
+      if (!e.is_array()) fail(where + "/exclude_steps", "expected a list of chain step labels");
+      for (const auto& s : e) {
+        if (!s.is_string() || s.get<std::string>().empty()) {
+          fail(where + "/exclude_steps", "expected a list of chain step labels");
+        }
+        r.exclude_steps.push_back(s.get<std::string>());
+      }
+      if (r.cost.rfind("time.", 0) != 0 || r.cost_b.rfind("time.", 0) != 0) {
+        fail(where + "/exclude_steps", "only for time.* costs");
+      }
+    }
+    return r;
+  }
+  if (!j.contains("match") || !j["match"].is_object()) {
+    fail(where + "/match", "expected {\"quantity\", \"lo\", \"hi\", ...}");
+  }
+  const Json& m = j["match"];
+  const std::string w = where + "/match";
+  check_keys(m, w, {"quantity", "ref", "lo", "lo_factor", "hi", "hi_factor"});
+  r.match_quantity = get_string(m, "quantity", w, true);
+  r.match_ref = get_string(m, "ref", w, false, r.match_quantity);
+  r.match_lo = get_selector(m, "lo", w);
+  r.match_hi = get_selector(m, "hi", w);
+  r.lo_factor = get_number(m, "lo_factor", w, 1.0, true);
+  r.hi_factor = get_number(m, "hi_factor", w, 1.0, true);
+  return r;
 }
 
 ClaimRule parse_rule(const Json& j, const std::string& where) {
@@ -145,10 +213,6 @@ bool json_equal_value(const Json& a, const Json& b) {
 }
 
 }  // namespace
-
-ClaimSelector parse_claim_selector(const Json& j, const std::string& where) {
-  return parse_selector(j, where);
-}
 
 bool ClaimSelector::matches(const Json& r) const {
   if (!variant.empty() &&

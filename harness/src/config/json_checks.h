@@ -1,5 +1,5 @@
 #pragma once
-// Private to the harness: the key check shared by the readers of claims files (claims.cpp) and
+// Private to the harness: the key check shared by the readers of claim files (claim_file.cpp) and
 // of compare tolerances (compare.cpp). The experiment loader has its own, with JSON-pointer
 // locations (experiment.cpp).
 #include <initializer_list>

@@ -68,8 +68,7 @@ bool same_output(const StageData& a, const StageData& b, DataKind primary) {
       return a.covariance_mesh && b.covariance_mesh &&
              same_bytes(a.covariance_mesh->means, b.covariance_mesh->means) &&
              same_bytes(a.covariance_mesh->covariances, b.covariance_mesh->covariances) &&
-             a.covariance_mesh->face_offsets == b.covariance_mesh->face_offsets &&
-             a.covariance_mesh->face_vertices == b.covariance_mesh->face_vertices;
+             a.covariance_mesh->faces == b.covariance_mesh->faces;
     case DataKind::Mixture:
       return a.mixture && b.mixture && same_bytes(a.mixture->weights, b.mixture->weights) &&
              same_bytes(a.mixture->means, b.mixture->means) &&

@@ -139,7 +139,7 @@ AlgorithmOutput sphere_covmesh(const PointCloud& in, const SphereMeshParams& p, 
     cm.set_covariance(i, s * s * Eigen::Matrix3d::Identity());
   for (Eigen::Index f = 0; f < m.num_faces(); ++f) {
     const int t[3] = {m.faces(0, f), m.faces(1, f), m.faces(2, f)};
-    cm.add_face(t);
+    cm.faces.add(t);
   }
   AlgorithmOutput out;
   out.covariance_mesh = std::move(cm);

@@ -8,7 +8,7 @@
 #include <limits>
 #include <map>
 
-#include "results/claims_tradeoff.h"
+#include "results/claims_judging.h"
 #include "scanbench/harness/records.h"
 
 namespace scanbench::harness {
@@ -26,36 +26,6 @@ double statistic(std::vector<double> v, const std::string& stat) {
   if (stat == "min") return *std::min_element(v.begin(), v.end());
   if (stat == "max") return *std::max_element(v.begin(), v.end());
   return median(v);
-}
-
-bool holds(double a, const std::string& op, double b) {
-  if (op == "<") return a < b;
-  if (op == "<=") return a <= b;
-  if (op == ">") return a > b;
-  if (op == ">=") return a >= b;
-  return a == b;
-}
-
-std::string num(double v) {
-  return std::isnan(v) ? "n/a" : fmt::format("{:.4g}", v);
-}
-
-/// Groups of records: per dataset (in order of first appearance) or one group "all".
-std::vector<std::pair<std::string, std::vector<const Json*>>> group_records(
-    const std::vector<Json>& records, const std::string& per) {
-  std::vector<std::pair<std::string, std::vector<const Json*>>> groups;
-  for (const auto& r : records) {
-    const std::string g =
-        per == "all" ? "all" : r.value("dataset", Json::object()).value("label", std::string("?"));
-    auto it =
-        std::find_if(groups.begin(), groups.end(), [&](const auto& x) { return x.first == g; });
-    if (it == groups.end()) {
-      groups.emplace_back(g, std::vector<const Json*>{});
-      it = groups.end() - 1;
-    }
-    it->second.push_back(&r);
-  }
-  return groups;
 }
 
 struct Side {
@@ -93,14 +63,6 @@ Side select_side(const std::vector<const Json*>& group, const ClaimSelector& sel
   return s;
 }
 
-std::string combine(const std::vector<std::string>& verdicts) {
-  if (std::find(verdicts.begin(), verdicts.end(), "failed") != verdicts.end()) return "failed";
-  if (std::find(verdicts.begin(), verdicts.end(), "inconclusive") != verdicts.end()) {
-    return "inconclusive";
-  }
-  return "held";
-}
-
 /// A rule's verdict from its groups' (combine; inconclusive without any record), the measured
 /// values and the reasons joined with "; ".
 void conclude(RuleOutcome& out, std::vector<std::string> verdicts, std::vector<std::string> reasons,
@@ -109,24 +71,30 @@ void conclude(RuleOutcome& out, std::vector<std::string> verdicts, std::vector<s
     verdicts.push_back("inconclusive");
     reasons.push_back("no records");
   }
-  out.verdict = combine(verdicts);
+  out.verdict = combine_verdicts(verdicts);
   for (const auto& m : measured)
     out.measured += (out.measured.empty() ? "" : "; ") + m;
   for (const auto& r : reasons)
     out.reason += (out.reason.empty() ? "" : "; ") + r;
 }
 
+/// A group that cannot be judged: inconclusive, its problem the reason.
+void inconclusive_group(RuleOutcome& out, std::vector<std::string>& verdicts,
+                        std::vector<std::string>& reasons, const std::string& group,
+                        const std::string& problem) {
+  verdicts.push_back("inconclusive");
+  reasons.push_back(group + ": " + problem);
+  out.groups.push_back(Json{{"group", group}, {"verdict", "inconclusive"}});
+}
+
 RuleOutcome judge_argmin(const ClaimRule& rule, const std::vector<Json>& records) {
   RuleOutcome out;
   std::vector<std::string> verdicts, reasons, measured;
-  for (const auto& [g, recs] : group_records(records, rule.per)) {
+  for (const auto& [g, recs] : claim_groups(records, rule.per)) {
     Side side = select_side(recs, rule.a, rule, "a");
     Json gj = {{"group", g}};
     if (!side.problem.empty()) {
-      verdicts.push_back("inconclusive");
-      reasons.push_back(g + ": " + side.problem);
-      gj["verdict"] = "inconclusive";
-      out.groups.push_back(gj);
+      inconclusive_group(out, verdicts, reasons, g, side.problem);
       continue;
     }
     std::map<double, std::vector<double>> by_param;
@@ -144,10 +112,7 @@ RuleOutcome judge_argmin(const ClaimRule& rule, const std::vector<Json>& records
       problem = fmt::format("fewer than two values of '{}'", rule.param);
     }
     if (!problem.empty()) {
-      verdicts.push_back("inconclusive");
-      reasons.push_back(g + ": " + problem);
-      gj["verdict"] = "inconclusive";
-      out.groups.push_back(gj);
+      inconclusive_group(out, verdicts, reasons, g, problem);
       continue;
     }
     double best_x = 0, best = std::numeric_limits<double>::infinity();
@@ -156,7 +121,7 @@ RuleOutcome judge_argmin(const ClaimRule& rule, const std::vector<Json>& records
     for (const auto& [x, v] : by_param) {
       const double s = statistic(v, rule.stat);
       values[fmt::format("{:g}", x)] = s;
-      curve += fmt::format("{}{:g}:{}", curve.empty() ? "" : " ", x, num(s));
+      curve += fmt::format("{}{:g}:{}", curve.empty() ? "" : " ", x, claim_number(s));
       if (s < best) {
         best = s;
         best_x = x;
@@ -186,7 +151,40 @@ RuleOutcome judge_argmin(const ClaimRule& rule, const std::vector<Json>& records
 
 std::vector<std::pair<std::string, std::vector<const Json*>>> claim_groups(
     const std::vector<Json>& records, const std::string& per) {
-  return group_records(records, per);
+  std::vector<std::pair<std::string, std::vector<const Json*>>> groups;
+  for (const auto& r : records) {
+    const std::string g =
+        per == "all" ? "all" : r.value("dataset", Json::object()).value("label", std::string("?"));
+    auto it =
+        std::find_if(groups.begin(), groups.end(), [&](const auto& x) { return x.first == g; });
+    if (it == groups.end()) {
+      groups.emplace_back(g, std::vector<const Json*>{});
+      it = groups.end() - 1;
+    }
+    it->second.push_back(&r);
+  }
+  return groups;
+}
+
+std::string combine_verdicts(const std::vector<std::string>& verdicts) {
+  if (std::find(verdicts.begin(), verdicts.end(), "failed") != verdicts.end()) return "failed";
+  if (verdicts.empty() ||
+      std::find(verdicts.begin(), verdicts.end(), "inconclusive") != verdicts.end()) {
+    return "inconclusive";
+  }
+  return "held";
+}
+
+bool op_holds(double a, const std::string& op, double b) {
+  if (op == "<") return a < b;
+  if (op == "<=") return a <= b;
+  if (op == ">") return a > b;
+  if (op == ">=") return a >= b;
+  return a == b;
+}
+
+std::string claim_number(double v) {
+  return std::isnan(v) ? "n/a" : fmt::format("{:.4g}", v);
 }
 
 RuleOutcome judge_rule(const ClaimRule& rule, const std::vector<Json>& records) {
@@ -195,17 +193,14 @@ RuleOutcome judge_rule(const ClaimRule& rule, const std::vector<Json>& records) 
   RuleOutcome out;
   std::vector<std::string> verdicts, reasons, measured;
   const bool timing = rule.quantity.rfind("time.", 0) == 0;
-  for (const auto& [g, recs] : group_records(records, rule.per)) {
+  for (const auto& [g, recs] : claim_groups(records, rule.per)) {
     Json gj = {{"group", g}};
     Side a = select_side(recs, rule.a, rule, "a");
     Side b;
     if (rule.has_b) b = select_side(recs, rule.b, rule, "b");
     const std::string problem = !a.problem.empty() ? a.problem : b.problem;
     if (!problem.empty()) {
-      verdicts.push_back("inconclusive");
-      reasons.push_back(g + ": " + problem);
-      gj["verdict"] = "inconclusive";
-      out.groups.push_back(gj);
+      inconclusive_group(out, verdicts, reasons, g, problem);
       continue;
     }
     const double ref = rule.factor * (rule.has_b ? b.value : rule.value);
@@ -214,14 +209,14 @@ RuleOutcome judge_rule(const ClaimRule& rule, const std::vector<Json>& records) 
       const bool eq = std::abs(a.value - ref) <= rule.abs + rule.tolerance * std::abs(ref);
       verdict = eq ? "held" : "failed";
       if (!eq)
-        why =
-            fmt::format("{}: {} != {} (tolerance {:g})", g, num(a.value), num(ref), rule.tolerance);
+        why = fmt::format("{}: {} != {} (tolerance {:g})", g, claim_number(a.value),
+                          claim_number(ref), rule.tolerance);
     } else {
-      verdict = holds(a.value, rule.op, ref) ? "held" : "failed";
+      verdict = op_holds(a.value, rule.op, ref) ? "held" : "failed";
       if (rule.margin > 0 && std::abs(a.value - ref) <= rule.margin * std::abs(ref)) {
         verdict = "inconclusive";
-        why = fmt::format("{}: {} vs {} differ by less than the margin {:g}", g, num(a.value),
-                          num(ref), rule.margin);
+        why = fmt::format("{}: {} vs {} differ by less than the margin {:g}", g,
+                          claim_number(a.value), claim_number(ref), rule.margin);
       } else if (timing && a.recs.size() == 1 && (!rule.has_b || b.recs.size() == 1)) {
         // Repeat samples: the claim is decided only when the two sides' ranges do not overlap.
         const std::vector<double> sa = record_samples(*a.recs[0], rule.quantity);
@@ -236,22 +231,24 @@ RuleOutcome judge_rule(const ClaimRule& rule, const std::vector<Json>& records) 
         if (!sa.empty() && !sb.empty() && *amin <= *bmax && *bmin <= *amax &&
             (sa.size() > 1 || sb.size() > 1)) {
           verdict = "inconclusive";
-          why = fmt::format("{}: timing samples overlap ([{}, {}] vs [{}, {}] s)", g, num(*amin),
-                            num(*amax), num(*bmin), num(*bmax));
+          why = fmt::format("{}: timing samples overlap ([{}, {}] vs [{}, {}] s)", g,
+                            claim_number(*amin), claim_number(*amax), claim_number(*bmin),
+                            claim_number(*bmax));
         }
       }
       if (verdict == "failed") {
-        why = fmt::format("{}: {} {} {} does not hold", g, num(a.value), rule.op, num(ref));
+        why = fmt::format("{}: {} {} {} does not hold", g, claim_number(a.value), rule.op,
+                          claim_number(ref));
       }
     }
-    std::string m = fmt::format("{}: {}", g, num(a.value));
+    std::string m = fmt::format("{}: {}", g, claim_number(a.value));
     if (rule.has_b) {
-      m += fmt::format(" vs {}", num(b.value));
+      m += fmt::format(" vs {}", claim_number(b.value));
       if (b.value != 0.0) m += fmt::format(" (ratio {:.3g})", a.value / b.value);
       gj["b"] = b.value;
       if (b.value != 0.0) gj["ratio"] = a.value / b.value;
     } else {
-      m += fmt::format(" vs {}", num(ref));
+      m += fmt::format(" vs {}", claim_number(ref));
     }
     gj["a"] = a.value;
     gj["reference"] = ref;
@@ -265,7 +262,7 @@ RuleOutcome judge_rule(const ClaimRule& rule, const std::vector<Json>& records) 
   if (out.reason.empty()) {
     out.reason = fmt::format("{} {} {}{} {}", rule.quantity, rule.op,
                              rule.factor != 1.0 ? fmt::format("{:g} x ", rule.factor) : "",
-                             rule.has_b ? rule.b.describe() : num(rule.value),
+                             rule.has_b ? rule.b.describe() : claim_number(rule.value),
                              rule.per == "dataset" ? "on every dataset" : "over all datasets");
   }
   return out;
@@ -278,7 +275,7 @@ ClaimOutcome judge_claim(const Claim& claim, const std::vector<Json>& records) {
     out.rules.push_back(judge_rule(r, records));
     verdicts.push_back(out.rules.back().verdict);
   }
-  out.verdict = combine(verdicts);
+  out.verdict = combine_verdicts(verdicts);
   if (out.verdict == "held") {
     out.reason =
         fmt::format("all {} rule{} held", claim.rules.size(), claim.rules.size() == 1 ? "" : "s");

@@ -1,4 +1,5 @@
-#include "results/claims_tradeoff.h"
+// Judging the trade-off rules, kinds "front" and "matched" (claims.h).
+#include "results/claims_judging.h"
 
 #include <fmt/format.h>
 
@@ -6,47 +7,12 @@
 #include <cmath>
 #include <limits>
 
-#include "config/json_checks.h"
-#include "scanbench/core/errors.h"
 #include "scanbench/core/timing.h"
 #include "scanbench/harness/records.h"
 
 namespace scanbench::harness {
 
 namespace {
-
-[[noreturn]] void fail(const std::string& where, const std::string& what) {
-  throw ParamError(fmt::format("{}: {}", where, what));
-}
-
-std::string text(const Json& j, const std::string& key, const std::string& where, bool required,
-                 const std::string& def = "") {
-  if (!j.contains(key)) {
-    if (required) fail(where + "/" + key, "missing");
-    return def;
-  }
-  if (!j[key].is_string() || j[key].get<std::string>().empty()) {
-    fail(where + "/" + key, "expected a non-empty string");
-  }
-  return j[key].get<std::string>();
-}
-
-double positive(const Json& j, const std::string& key, const std::string& where, double def) {
-  if (!j.contains(key)) return def;
-  if (!j[key].is_number() || !std::isfinite(j[key].get<double>()) || j[key].get<double>() <= 0) {
-    fail(where + "/" + key, "expected a positive finite number, got " + j[key].dump());
-  }
-  return j[key].get<double>();
-}
-
-ClaimSelector selector(const Json& j, const std::string& key, const std::string& where) {
-  if (!j.contains(key)) fail(where + "/" + key, "missing (a selector)");
-  return parse_claim_selector(j[key], where + "/" + key);
-}
-
-std::string num(double v) {
-  return std::isnan(v) ? "n/a" : fmt::format("{:.4g}", v);
-}
 
 /// One record as a point of a trade-off: its error, its cost (median of its samples) and, for a
 /// time.* cost, the samples of its repeats.
@@ -131,21 +97,9 @@ std::vector<const Point*> front(const std::vector<Point>& pts) {
 std::string front_text(const std::vector<const Point*>& f) {
   std::string s;
   for (const Point* p : f)
-    s +=
-        fmt::format("{}{} ({}, {})", s.empty() ? "" : " ", p->label(), num(p->cost), num(p->error));
+    s += fmt::format("{}{} ({}, {})", s.empty() ? "" : " ", p->label(), claim_number(p->cost),
+                     claim_number(p->error));
   return s;
-}
-
-bool beats(double a, const std::string& op, double b) {
-  return op == "<=" ? a <= b : a < b;
-}
-
-std::string combine(const std::vector<std::string>& v) {
-  if (std::find(v.begin(), v.end(), "failed") != v.end()) return "failed";
-  if (v.empty() || std::find(v.begin(), v.end(), "inconclusive") != v.end()) {
-    return "inconclusive";
-  }
-  return "held";
 }
 
 /// One group of a "front" rule: the verdict, with what was measured and why.
@@ -169,21 +123,23 @@ std::string judge_front_group(const ClaimRule& rule, const std::vector<const Jso
     for (const Point* p : fa)
       if (p->error <= rule.factor * b->error && (!a || p->cost < a->cost)) a = p;
     if (!a) continue;
-    std::string v = beats(a->cost, rule.op, b->cost) ? "held" : "failed";
+    std::string v = op_holds(a->cost, rule.op, b->cost) ? "held" : "failed";
     if (timing && (a->samples.size() > 1 || b->samples.size() > 1)) {
       const auto [amin, amax] = std::minmax_element(a->samples.begin(), a->samples.end());
       const auto [bmin, bmax] = std::minmax_element(b->samples.begin(), b->samples.end());
       if (*amin <= *bmax && *bmin <= *amax) {
         v = "inconclusive";
         reasons.push_back(fmt::format("at b {} the cost samples overlap ([{}, {}] vs [{}, {}])",
-                                      b->label(), num(*amin), num(*amax), num(*bmin), num(*bmax)));
+                                      b->label(), claim_number(*amin), claim_number(*amax),
+                                      claim_number(*bmin), claim_number(*bmax)));
       }
     }
     if (v == "failed") {
       reasons.push_back(
           fmt::format("at b {} (cost {}, error {}) the cheapest a as accurate, {}, "
                       "costs {}",
-                      b->label(), num(b->cost), num(b->error), a->label(), num(a->cost)));
+                      b->label(), claim_number(b->cost), claim_number(b->error), a->label(),
+                      claim_number(a->cost)));
     }
     verdicts.push_back(v);
     pairs.push_back({{"b", b->label()},
@@ -204,7 +160,7 @@ std::string judge_front_group(const ClaimRule& rule, const std::vector<const Jso
   }
   for (const auto& r : reasons)
     why += (why.empty() ? "" : ", ") + r;
-  return combine(verdicts);
+  return combine_verdicts(verdicts);
 }
 
 /// One group of a "matched" rule.
@@ -230,97 +186,32 @@ std::string judge_matched_group(const ClaimRule& rule, const std::vector<const J
   std::vector<std::string> verdicts;
   std::string sizes;
   for (const auto& p : pa) {
-    sizes += fmt::format("{}{} {}", sizes.empty() ? "" : ", ", p.label(), num(p.cost));
+    sizes += fmt::format("{}{} {}", sizes.empty() ? "" : ", ", p.label(), claim_number(p.cost));
     if (p.cost < band_lo || p.cost > band_hi) continue;
-    const bool ok = rule.op == "<"    ? p.error < ref
-                    : rule.op == "<=" ? p.error <= ref
-                    : rule.op == ">"  ? p.error > ref
-                    : rule.op == ">=" ? p.error >= ref
-                                      : p.error == ref;
+    const bool ok = op_holds(p.error, rule.op, ref);
     verdicts.push_back(ok ? "held" : "failed");
     measured += fmt::format("{}{} ({} {}): {} vs {} (ratio {:.3g})", measured.empty() ? "" : ", ",
-                            p.label(), rule.match_quantity, num(p.cost), num(p.error), num(ref),
-                            p.error / ref);
+                            p.label(), rule.match_quantity, claim_number(p.cost),
+                            claim_number(p.error), claim_number(ref), p.error / ref);
     if (!ok) {
       why += fmt::format("{}{}: {} {} {} does not hold", why.empty() ? "" : ", ", p.label(),
-                         num(p.error), rule.op, num(ref));
+                         claim_number(p.error), rule.op, claim_number(ref));
     }
   }
   gj["band"] = {band_lo, band_hi};
   gj["reference"] = ref;
   if (verdicts.empty()) {
-    why = fmt::format("no a record in the band [{}, {}] of {}{} (a: {})", num(band_lo),
-                      num(band_hi), rule.match_quantity,
+    why = fmt::format("no a record in the band [{}, {}] of {}{} (a: {})", claim_number(band_lo),
+                      claim_number(band_hi), rule.match_quantity,
                       band_lo > band_hi ? " (empty: its lower end lies above its upper end)" : "",
                       sizes);
     measured = "no a record in the band";
     return "inconclusive";
   }
-  return combine(verdicts);
+  return combine_verdicts(verdicts);
 }
 
 }  // namespace
-
-ClaimRule parse_tradeoff_rule(const Json& j, const std::string& where) {
-  ClaimRule r;
-  r.kind = j["kind"].get<std::string>();
-  const bool is_front = r.kind == "front";
-  if (is_front) {
-    check_keys(j, where,
-               {"what", "kind", "quantity", "per", "a", "b", "cost", "cost_b", "exclude_steps",
-                "factor", "op"});
-  } else {
-    check_keys(j, where, {"what", "kind", "quantity", "per", "a", "b", "factor", "op", "match"});
-  }
-  r.what = text(j, "what", where, true);
-  r.quantity = text(j, "quantity", where, true);
-  r.per = text(j, "per", where, false, "dataset");
-  if (r.per != "dataset" && r.per != "all") {
-    fail(where + "/per", "expected one of dataset, all, got '" + r.per + "'");
-  }
-  r.a = selector(j, "a", where);
-  r.b = selector(j, "b", where);
-  r.has_b = true;
-  r.factor = positive(j, "factor", where, 1.0);
-  r.op = text(j, "op", where, false, is_front ? "<" : "<=");
-  const std::vector<std::string> ops = is_front
-                                           ? std::vector<std::string>{"<", "<="}
-                                           : std::vector<std::string>{"<", "<=", ">", ">=", "=="};
-  if (std::find(ops.begin(), ops.end(), r.op) == ops.end()) {
-    fail(where + "/op", fmt::format("not used by kind {}: '{}'", r.kind, r.op));
-  }
-  if (is_front) {
-    r.cost = text(j, "cost", where, true);
-    r.cost_b = text(j, "cost_b", where, false, r.cost);
-    if (j.contains("exclude_steps")) {
-      const Json& e = j["exclude_steps"];
-      if (!e.is_array()) fail(where + "/exclude_steps", "expected a list of chain step labels");
-      for (const auto& s : e) {
-        if (!s.is_string() || s.get<std::string>().empty()) {
-          fail(where + "/exclude_steps", "expected a list of chain step labels");
-        }
-        r.exclude_steps.push_back(s.get<std::string>());
-      }
-      if (r.cost.rfind("time.", 0) != 0 || r.cost_b.rfind("time.", 0) != 0) {
-        fail(where + "/exclude_steps", "only for time.* costs");
-      }
-    }
-    return r;
-  }
-  if (!j.contains("match") || !j["match"].is_object()) {
-    fail(where + "/match", "expected {\"quantity\", \"lo\", \"hi\", ...}");
-  }
-  const Json& m = j["match"];
-  const std::string w = where + "/match";
-  check_keys(m, w, {"quantity", "ref", "lo", "lo_factor", "hi", "hi_factor"});
-  r.match_quantity = text(m, "quantity", w, true);
-  r.match_ref = text(m, "ref", w, false, r.match_quantity);
-  r.match_lo = selector(m, "lo", w);
-  r.match_hi = selector(m, "hi", w);
-  r.lo_factor = positive(m, "lo_factor", w, 1.0);
-  r.hi_factor = positive(m, "hi_factor", w, 1.0);
-  return r;
-}
 
 RuleOutcome judge_tradeoff(const ClaimRule& rule, const std::vector<Json>& records) {
   RuleOutcome out;
@@ -338,7 +229,7 @@ RuleOutcome judge_tradeoff(const ClaimRule& rule, const std::vector<Json>& recor
     if (!why.empty()) out.reason += fmt::format("{}{}: {}", out.reason.empty() ? "" : "; ", g, why);
   }
   if (verdicts.empty()) out.reason = "no records";
-  out.verdict = combine(verdicts);
+  out.verdict = combine_verdicts(verdicts);
   if (out.reason.empty()) {
     out.reason = rule.kind == "front"
                      ? fmt::format("on b's {} vs {} front, a is as accurate for less {}",

@@ -138,9 +138,7 @@ struct InferenceParams {
 CovarianceMesh infer_covariances(const Eigen::Matrix3Xd& positions, const PolygonFaces& faces,
                                  const InferenceParams& p, std::string_view where);
 
-/// Conversions between the mesh types and PolygonFaces.
-PolygonFaces faces_of(const CovarianceMesh& m);
-void set_faces(CovarianceMesh& m, const PolygonFaces& faces);
+/// A triangle mesh's faces as PolygonFaces (a covariance mesh holds PolygonFaces itself).
 PolygonFaces faces_of(const TriangleMesh& m);
 /// Triangle mesh of positions and polygon faces (n-gons fanned from their first vertex).
 TriangleMesh triangle_mesh_of(const Eigen::Matrix3Xd& positions, const PolygonFaces& faces);

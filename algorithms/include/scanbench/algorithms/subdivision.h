@@ -52,22 +52,13 @@
 #include <string_view>
 #include <vector>
 
+#include "scanbench/core/polygon_faces.h"
+
 namespace scanbench::algorithms {
 
 enum class SubdivisionScheme { Loop, CatmullClark };
 /// Loop's vertex weight beta: Loop 1987 (the default, CGAL's) or Warren's 3/(8n) (libigl).
 enum class LoopBeta { Loop, Warren };
-
-/// Polygon connectivity in compressed rows: face f has the vertices
-/// indices[offsets[f] .. offsets[f+1]), counter-clockwise seen from outside.
-struct PolygonFaces {
-  std::vector<int> offsets{0};
-  std::vector<int> indices;
-  int num_faces() const { return static_cast<int>(offsets.size()) - 1; }
-  int size(int f) const { return offsets[f + 1] - offsets[f]; }
-  void add(std::initializer_list<int> face);
-  bool all_of_size(int k) const;
-};
 
 struct SubdivisionOptions {
   SubdivisionScheme scheme = SubdivisionScheme::Loop;

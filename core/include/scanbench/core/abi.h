@@ -5,7 +5,8 @@
 // (scanbench/plugin.h); the plugin loader refuses a plugin built against another number.
 //
 // Bump it whenever a public type changes its layout or meaning (PointCloud, TriangleMesh,
-// GaussianMixture, CovarianceMesh, StageData, RunContext, ParamSchema, the registries'
-// entries, MetricInput, ClosestPoint, KdTree, NeighborGrid), or a public function its signature.
+// GaussianMixture, CovarianceMesh, PolygonFaces, StageData, RunContext, ParamSchema, the
+// registries' entries, MetricInput, ClosestPoint, KdTree, NeighborGrid), or a public function
+// its signature (2: CovarianceMesh's faces became a PolygonFaces).
 // cmake/Install.cmake reads the number from this line.
-#define SCANBENCH_ABI_VERSION 1
+#define SCANBENCH_ABI_VERSION 2

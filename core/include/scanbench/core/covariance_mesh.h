@@ -1,14 +1,15 @@
 #pragma once
 // CovarianceMesh: a polygon mesh whose vertices carry a 3D Gaussian (a mean and a symmetric
 // positive definite covariance), the control mesh of Gaussian-product subdivision (GPS paper,
-// Preiner et al. 2019, sec. 4-5: "covmesh"). Faces are general polygons stored compressed
-// (triangles for Loop, quads for Catmull-Clark, any mix as input). Values are double: the dual map
-// of GPS sec. 5 inverts covariances, and its identities (eq. 14) are tested to 1e-12.
+// Preiner et al. 2019, sec. 4-5: "covmesh"). Faces are general polygons in compressed rows
+// (PolygonFaces: triangles for Loop, quads for Catmull-Clark, any mix as input). Values are
+// double: the dual map of GPS sec. 5 inverts covariances, and its identities (eq. 14) are tested
+// to 1e-12.
 #include <Eigen/Core>
-#include <span>
 #include <string_view>
 #include <vector>
 
+#include "scanbench/core/polygon_faces.h"
 #include "scanbench/core/triangle_mesh.h"
 
 namespace scanbench {
@@ -18,30 +19,17 @@ struct CovarianceMesh {
   Eigen::Matrix3Xd means;
   /// 6 x v symmetric covariances stored as (xx, xy, xz, yy, yz, zz), one per vertex.
   Eigen::Matrix<double, 6, Eigen::Dynamic> covariances;
-  /// Face f holds face_vertices[face_offsets[f] .. face_offsets[f + 1]); face_offsets has
-  /// num_faces() + 1 entries (a single 0 for a mesh without faces).
-  std::vector<int> face_offsets{0};
-  std::vector<int> face_vertices;
+  /// The polygons (polygon_faces.h); a mesh without faces is a valid covariance point set.
+  PolygonFaces faces;
   /// Local origin (see stage_data.h, "Local origin"): the world position of vertex i is
   /// origin + means.col(i) in double; zero for data near the world origin.
   Eigen::Vector3d origin = Eigen::Vector3d::Zero();
 
   Eigen::Index num_vertices() const { return means.cols(); }
-  Eigen::Index num_faces() const { return static_cast<Eigen::Index>(face_offsets.size()) - 1; }
-  int face_size(Eigen::Index f) const {
-    return face_offsets[static_cast<std::size_t>(f) + 1] -
-           face_offsets[static_cast<std::size_t>(f)];
-  }
-  std::span<const int> face(Eigen::Index f) const {
-    return {face_vertices.data() + face_offsets[static_cast<std::size_t>(f)],
-            static_cast<std::size_t>(face_size(f))};
-  }
-  /// True when every face has exactly `n` vertices (and there is at least one face).
-  bool all_faces_have(int n) const;
+  Eigen::Index num_faces() const { return faces.num_faces(); }
 
   /// Sets the vertex count (means and covariances uninitialised) and removes every face.
   void resize(Eigen::Index v);
-  void add_face(std::span<const int> vertices);
 
   Eigen::Matrix3d covariance(Eigen::Index i) const;
   /// Stores the symmetric part of `c`.

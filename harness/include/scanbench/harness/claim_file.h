@@ -51,7 +51,7 @@ struct ClaimRule {
   double abs = 0.0;
   std::string param;  ///< argmin
   double lo = 0.0, hi = 0.0;
-  // Kinds "front" and "matched" (trade-offs over two sweeps; results/claims_tradeoff.h).
+  // Kinds "front" and "matched" (trade-offs over two sweeps; claims.h).
   std::string cost, cost_b;                ///< front: cost quantities of a and b
   std::vector<std::string> exclude_steps;  ///< front: chain steps left out of a time.* cost
   std::string match_quantity, match_ref;   ///< matched: the size of a, and of the band's records

@@ -17,8 +17,25 @@
 //    "tolerance": for "==", relative (default 1e-6), "abs": absolute (default 0),
 //    "param", "range": [lo, hi]  for "argmin": the value of the sweep parameter `param` at which
 //            the statistic of the `a` records is lowest must lie in [lo, hi]}
-//   and two trade-off kinds, "front" (Pareto fronts of cost against error) and "matched" (judged
-//   within a budget band), documented in harness/src/results/claims_tradeoff.h.
+//   and two trade-off kinds, each over a sweep of each method's own accuracy parameter:
+//   {"kind": "front", "quantity": <error, lower is better>, "cost": <cost of a, lower is better>,
+//    "cost_b": <cost of b> (default: cost), "exclude_steps": [<chain step label>, ...],
+//    "factor": f (default 1), "op": "<" | "<=" (default "<"), "a": selector, "b": selector}
+//     Pareto fronts (cost, error) of the a and b records of a group (one point per record: a
+//     sweep point, its time the median of its repeats). For each point of b's front, the cheapest
+//     a point whose error is at most f x b's must cost `op` b's cost. Held when every such b point
+//     is beaten and there is one; failed when one is not; inconclusive when no a point reaches
+//     any b point's error, or (time.* costs) when the deciding points' repeat samples overlap.
+//     exclude_steps: the seconds of these chain steps (timing.phases, per repeat) are left out of
+//     a time.* cost, e.g. a consolidation step both methods share.
+//   {"kind": "matched", "quantity": q, "op": ... (default "<="), "factor": f, "a": selector,
+//    "b": selector, "match": {"quantity": <size of a>, "ref": <size of the band's records>
+//    (default: quantity), "lo": selector, "lo_factor": x (default 1), "hi": selector,
+//    "hi_factor": y (default 1)}}
+//     The a records whose match quantity lies in [x lo, y hi] (a budget band, e.g. bytes between
+//     Poisson depth 7's and a third of depth 8's) must each satisfy a.q op f b.q. Inconclusive
+//     when no a record lies in the band (the sizes are the reason), so an operating point outside
+//     the budget is never judged; no a record is chosen, every one in the band is judged.
 //   selector: {"variant": label, "point": {"<sweep key>": value, ...}, "dataset": label}
 //            (every given field must match; "point" values compare numerically).
 // Verdicts: "held", "failed" or "inconclusive" with a reason. A rule is inconclusive when a
