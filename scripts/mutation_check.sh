@@ -131,6 +131,7 @@ run_test() {
 build_targets() {
   local log=${*: -1} args=()
   for t in "${@:1:$#-1}"; do args+=(--target "$t"); done
+  # shellcheck disable=SC2034,SC1091  # `here` is read by ccache-env.sh
   (here=$scratch && source "$scratch/scripts/ccache-env.sh" &&
     cmake --build "$build" -j"$(nproc)" "${args[@]}") >>"$log" 2>&1
 }
