@@ -86,12 +86,18 @@ find "$scratch" -mindepth 1 -maxdepth 1 ! -name build -exec rm -rf {} +
   while IFS= read -r -d '' f; do [[ -e $f ]] && printf '%s\0' "$f"; done |
   tar --null -T - -cf -) | tar -xpf - -C "$scratch"
 
-# Per-file compilation and no -Werror for the algorithms library, in the scratch build only.
-cat >"$work/per_file.cmake" <<'EOF'
-# Written by scripts/mutation_check.sh: runs after project(scanbench) in the scratch build.
+# The algorithms library one file per translation unit (a mutation recompiles one file), with the
+# precompiled headers of a per-file build (SCANBENCH_UNITY=0; the call is copied from
+# algorithms/CMakeLists.txt) and without -Werror (a mutation may leave a variable unused): in the
+# scratch build only, through a file CMake includes after project(scanbench).
+pch=$(grep -o 'scanbench_precompile(scanbench_algorithms[^)]*)' "$scratch/algorithms/CMakeLists.txt" || true)
+cat >"$work/per_file.cmake" <<EOF
+# Written by scripts/mutation_check.sh for its scratch build.
 function(scanbench_mutation_setup)
   set_target_properties(scanbench_algorithms PROPERTIES UNITY_BUILD OFF)
   set_property(TARGET scanbench_algorithms APPEND PROPERTY COMPILE_OPTIONS -Wno-error)
+  set(CMAKE_UNITY_BUILD OFF)
+  $pch
 endfunction()
 cmake_language(DEFER CALL scanbench_mutation_setup)
 EOF
