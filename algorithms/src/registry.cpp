@@ -142,15 +142,21 @@ void register_reconstruction_family(AlgorithmRegistry& reg) {
       "Screened Poisson reconstruction (Kazhdan and Hoppe 2013) through COLMAP 3.8: needs oriented "
       "normals. docs/algorithms/reconstruction.md",
       poisson, kPointsToMesh));
-  reg.add(make_entry<CgalAdvancingFrontParams>(
+  // Both CGAL meshers order facets by heap address: each runs in its own process in a job.
+  auto front = make_entry<CgalAdvancingFrontParams>(
       "peer.cgal_advancing_front",
       "CGAL 5.5 advancing-front surface reconstruction (Cohen-Steiner and Da 2004; peer). "
       "docs/algorithms/reconstruction.md",
-      cgal_advancing_front, kPointsToMesh));
-  reg.add(make_entry<CgalScaleSpaceParams>("peer.cgal_scale_space",
-                                           "CGAL 5.5 scale-space surface reconstruction (Digne et "
-                                           "al. 2011; peer). docs/algorithms/reconstruction.md",
-                                           cgal_scale_space, kPointsToMesh));
+      cgal_advancing_front, kPointsToMesh);
+  front.fn.own_process = true;
+  reg.add(std::move(front));
+  auto scale_space = make_entry<CgalScaleSpaceParams>(
+      "peer.cgal_scale_space",
+      "CGAL 5.5 scale-space surface reconstruction (Digne et al. 2011; peer). "
+      "docs/algorithms/reconstruction.md",
+      cgal_scale_space, kPointsToMesh);
+  scale_space.fn.own_process = true;
+  reg.add(std::move(scale_space));
 }
 
 // Open3D 0.16 (libopen3d-dev) and PCL 1.13 (pcl-tools programs) peers (docs/algorithms/peers.md,

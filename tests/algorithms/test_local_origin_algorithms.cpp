@@ -105,8 +105,9 @@ std::pair<Eigen::Index, double> summary(const StageData& d, DataKind primary) {
   return {p.cols(), p.cols() > 0 ? s / static_cast<double>(p.cols()) : 0.0};
 }
 
+/// The entries whose output follows heap addresses (a job runs them in a fresh process).
 bool address_ordered(const std::string& name) {
-  return name == "peer.cgal_advancing_front" || name == "peer.cgal_scale_space";
+  return algorithms::registry().at(name).fn.own_process;
 }
 
 class LocalOriginAll : public ::testing::Test {

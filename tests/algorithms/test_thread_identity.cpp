@@ -17,6 +17,7 @@
 #include "scanbench/algorithms/registry.h"
 #include "scanbench/core/io.h"
 #include "scanbench/core/procedural.h"
+#include "scanbench/harness/chain.h"
 #include "scanbench/metrics/evaluate.h"
 #include "scanbench/metrics/ground_truth.h"
 #include "scanbench/metrics/registry.h"
@@ -113,10 +114,11 @@ StageData every_kind() {
 // CGAL's advancing-front meshing (Cohen-Steiner and Da 2004; CGAL 5.5) breaks ties between
 // candidate facets by handle address, and the scale-space reconstruction's alpha-shape mesher
 // (force_manifold) iterates maps keyed by vertex and union-find handles: a second call in the
-// same process (another heap history) can give another mesh. These entries are compared as the
-// bytes of `scanbench algo` outputs, each run in a fresh process at 1, 2 and 7 threads.
+// same process (another heap history) can give another mesh. These entries are `own_process`
+// (a job runs them in a fresh process) and are compared as the bytes of `scanbench algo`
+// outputs, each run in a fresh process at 1, 2 and 7 threads.
 bool address_ordered(const std::string& name) {
-  return name == "peer.cgal_advancing_front" || name == "peer.cgal_scale_space";
+  return algorithms::registry().at(name).fn.own_process;
 }
 
 /// The output file of `scanbench algo name` on `input` at `threads` threads, as bytes.
@@ -176,6 +178,48 @@ TEST(ThreadIdentity, EveryAlgorithmAt1_2_7Threads) {
     ++n;
   }
   EXPECT_EQ(n, static_cast<int>(algorithms::registry().entries().size()));
+}
+
+// A job's chain hands an own-process step to `scanbench algo` in a fresh process (harness
+// chain.h): PCA normals on 1, 2 and 7 threads, then each CGAL mesher, give the same mesh bytes on
+// the fandisk block whose scale-space mesh differed between in-process runs (docs: the
+// reconstruction family page). Not every in-process run differs, so this pins the invariant, and
+// that the step ran out of process.
+TEST(ThreadIdentity, OwnProcessStepsInAChainRepeatAt1_2_7Threads) {
+  ASSERT_EQ(setenv("SCANBENCH_EXE", test::sb().c_str(), 1), 0);
+  FandiskBlockParams fp;
+  const StageData scan{small_scan(2, make_fandisk_block(fp)).cloud};
+  ASSERT_GT(scan.points.size(), 500);
+  int own = 0;
+  for (const auto& e : algorithms::registry().entries()) {
+    if (!e.fn.own_process) continue;
+    SCOPED_TRACE(e.name);
+    ++own;
+    const auto& pca = algorithms::registry().at("normals.pca");
+    Json chain = Json::array();
+    chain.push_back({{"algorithm", "normals.pca"},
+                     {"label", "pca"},
+                     {"params", pca.params.validate(Json::object(), "pca")}});
+    chain.push_back(
+        {{"algorithm", e.name},
+         {"label", "mesh"},
+         {"params", e.params.validate(algorithms::fixtures::required_params(e.name), e.name)}});
+    std::map<std::string, std::string> ref;
+    for (int t : kThreads) {
+      RunContext ctx(9, t);
+      const harness::ChainRun r = harness::run_chain(chain, scan, ctx, false);
+      ASSERT_TRUE(r.output.mesh && r.output.mesh->num_faces() > 0) << t << " threads";
+      // The last step ran as a program (its peak memory noted), not in this process.
+      EXPECT_GT(ctx.program_peak_rss_kb(), 0) << t << " threads";
+      if (t == 1) {
+        ref = blobs(r.output);
+      } else {
+        expect_same_bits(ref, blobs(r.output), t);
+      }
+    }
+  }
+  EXPECT_EQ(own, 2);  // peer.cgal_advancing_front, peer.cgal_scale_space
+  unsetenv("SCANBENCH_EXE");
 }
 
 /// What a metric is scored on: a ground truth, an output cloud (with PCA normals), the scan and a

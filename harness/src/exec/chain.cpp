@@ -2,6 +2,7 @@
 
 #include <algorithm>
 
+#include "exec/own_process.h"
 #include "exec/proc_memory.h"
 #include "scanbench/core/io.h"
 #include "scanbench/core/timing.h"
@@ -23,7 +24,11 @@ ChainRun run_chain(const Json& chain, StageData input, RunContext& ctx, bool mea
     const long rss0 = mem ? status_kb("VmRSS") : -1;
     ctx.reset_program_peak_rss();
     const double t0 = wall_seconds();
-    StageData next = entry.fn(cur, step.at("params"), ctx);
+    // A step whose output follows heap addresses runs in a fresh process (own_process.h).
+    const std::optional<std::string> exe =
+        entry.fn.own_process ? own_process_exe() : std::optional<std::string>();
+    StageData next = exe ? run_in_own_process(*exe, entry, step.at("params"), cur, ctx)
+                         : entry.fn(cur, step.at("params"), ctx);
     const double dt = wall_seconds() - t0;
     const long hwm = mem ? status_kb("VmHWM") : -1;
     if (rss0 >= 0 && hwm >= 0) {

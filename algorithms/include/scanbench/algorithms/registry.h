@@ -26,6 +26,10 @@ struct StageIo {
 /// other kind carried over from the input (StageData::carry).
 struct Algorithm {
   StageIo io;
+  /// The step's output depends on heap addresses (CGAL meshers that order by handle address), so
+  /// the same call can give another result after other work in the process: a job runs it in a
+  /// fresh `scanbench algo` process (harness chain.h), where it repeats at any thread count.
+  bool own_process = false;
   std::function<StageData(const StageData& input, const Json& params, RunContext& ctx)> run;
 
   StageData operator()(const StageData& input, const Json& params, RunContext& ctx) const {
@@ -42,6 +46,7 @@ struct Algorithm {
     j["consumes"] = c;
     j["produces"] = p;
     j["primary"] = kind_name(io.primary);
+    if (own_process) j["own_process"] = true;
   }
 };
 
