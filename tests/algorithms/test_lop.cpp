@@ -189,14 +189,14 @@ TEST_F(KernelOracle, BatchedKernelsEqualPerParticleKernels) {
 }
 
 // Queries off the grid (outside its bounding box, in empty cells) and coinciding points. The
-// cells radius/8 make the grid's box too large for the dense cell table (binary searches); the
-// others use the table.
+// cells radius/8 make the grid's box too large for the dense cell table (per-column table),
+// radius/32 its columns too (binary searches); the others use the dense table.
 TEST(NeighborGrid, RangesHoldEveryPointWithinTheRadius) {
   const PointCloud c = noisy_sphere(800, 1.0f, 0.05f, 9);
   Eigen::Matrix3Xf pts = c.positions;
   pts.col(5) = pts.col(4);  // a duplicate
   const float radius = 0.3f;
-  for (const float cell : {radius / 2, radius, radius / 3, radius / 8}) {
+  for (const float cell : {radius / 2, radius, radius / 3, radius / 8, radius / 32}) {
     const detail::NeighborGrid grid(pts, cell);
     Eigen::Matrix3Xf queries(3, 60);
     for (Eigen::Index i = 0; i < 60; ++i)
@@ -232,13 +232,14 @@ TEST(NeighborGrid, RangesHoldEveryPointWithinTheRadius) {
 
 // The radix sort of cell keys equals std::sort of the (key, index) pairs: repeated keys, compact
 // keys (few digit passes) and keys using all 64 bits.
-// One query at a time, anywhere (outside the box, in empty cells), for both cell lookups.
+// One query at a time, anywhere (outside the box, in empty cells), for the three cell lookups
+// (dense table, per-column table, binary search).
 TEST(NeighborGrid, RangesNearHoldEveryPointWithinTheRadius) {
   const PointCloud c = noisy_sphere(600, 1.0f, 0.05f, 4);
   const Eigen::Matrix3Xf& pts = c.positions;
   const float radius = 0.25f;
   std::vector<detail::GridRange> ranges;
-  for (const float cell : {radius / 2, radius, radius / 8}) {
+  for (const float cell : {radius / 2, radius, radius / 8, radius / 32}) {
     const detail::NeighborGrid grid(pts, cell);
     for (int i = 0; i < 80; ++i) {
       const Eigen::Vector3f q =

@@ -9,9 +9,12 @@
 
 namespace scanbench::algorithms::detail {
 
-NeighborGrid::NeighborGrid(const Eigen::Matrix3Xf& points, float cell)
+NeighborGrid::NeighborGrid(const Eigen::Matrix3Xf& points, float cell,
+                           const std::vector<Eigen::Index>* rank)
     : n_(points.cols()), cell_(cell), inv_cell_(1.0f / cell) {
   const auto n = static_cast<std::size_t>(n_);
+  if (rank && rank->size() != n)
+    throw std::logic_error("NeighborGrid: the rank is not a permutation of the points");
   const std::size_t padded = n + static_cast<std::size_t>(kPad);
   // Dummies: far away (their squared distance overflows to +inf) and of weight 0.
   x_.assign(padded, std::numeric_limits<float>::max());
@@ -37,10 +40,11 @@ NeighborGrid::NeighborGrid(const Eigen::Matrix3Xf& points, float cell)
       c.x = std::min(c.x, dims_[0] - 1);
       c.y = std::min(c.y, dims_[1] - 1);
       c.z = std::min(c.z, dims_[2] - 1);
-      keys[static_cast<std::size_t>(i)] = {key(c.x, c.y, c.z), i};
+      const Eigen::Index at = rank ? (*rank)[static_cast<std::size_t>(i)] : i;
+      keys[static_cast<std::size_t>(at)] = {key(c.x, c.y, c.z), i};
     }
   });
-  radix_sort(keys, [](const auto& e) { return e.first; });  // (key, index) order
+  radix_sort(keys, [](const auto& e) { return e.first; });  // (key, rank) order
   for (std::size_t k = 0; k < n; ++k) {
     const Eigen::Index i = keys[k].second;
     x_[k] = points(0, i);
@@ -58,20 +62,30 @@ NeighborGrid::NeighborGrid(const Eigen::Matrix3Xf& points, float cell)
     }
   }
   cell_begin_.push_back(n_);
-  // A dense table costs 4 bytes per cell of the box: allowed up to 8 per point (32 bytes, the
-  // size of the sorted arrays) and while occupied-cell numbers fit 32 bits.
+  // A dense table costs 4 bytes per cell of the box, a column table 4 per column: allowed up to
+  // 8 per point (32 bytes, the size of the sorted arrays) and while occupied-cell numbers fit 32
+  // bits.
   const double box =
       static_cast<double>(dims_[0]) * static_cast<double>(dims_[1]) * static_cast<double>(dims_[2]);
-  if (box <= 8.0 * static_cast<double>(n_) + 4096.0 &&
-      cell_key_.size() < std::numeric_limits<std::uint32_t>::max()) {
-    dense_first_.resize(static_cast<std::size_t>(box) + 1);
+  const double columns = static_cast<double>(dims_[0]) * static_cast<double>(dims_[1]);
+  const double budget = 8.0 * static_cast<double>(n_) + 4096.0;
+  if (cell_key_.size() >= std::numeric_limits<std::uint32_t>::max()) return;
+  // first[k]: the occupied cells whose key divided by `per` is below k (one entry per k).
+  const auto first_table = [&](std::size_t entries, std::uint64_t per) {
+    std::vector<std::uint32_t> first(entries + 1);
     std::size_t c = 0;
-    for (std::size_t k = 0; k < dense_first_.size(); ++k) {
-      while (c < cell_key_.size() && cell_key_[c] < k)
+    for (std::size_t k = 0; k < first.size(); ++k) {
+      while (c < cell_key_.size() && cell_key_[c] / per < k)
         ++c;
-      dense_first_[k] = static_cast<std::uint32_t>(c);
+      first[k] = static_cast<std::uint32_t>(c);
     }
-  }
+    return first;
+  };
+  if (box <= budget)
+    dense_first_ = first_table(static_cast<std::size_t>(box), 1);
+  else if (columns <= budget)
+    column_first_ =
+        first_table(static_cast<std::size_t>(columns), static_cast<std::uint64_t>(dims_[2]));
 }
 
 void NeighborGrid::set_weights(const Eigen::VectorXf& w) {
@@ -114,6 +128,14 @@ std::pair<std::size_t, std::size_t> NeighborGrid::column(std::int64_t cx, std::i
   if (!dense_first_.empty())
     return {dense_first_[static_cast<std::size_t>(key(cx, cy, z0))],
             dense_first_[static_cast<std::size_t>(key(cx, cy, z1)) + 1]};
+  if (!column_first_.empty()) {
+    const std::size_t col = static_cast<std::size_t>(cx) * static_cast<std::size_t>(dims_[1]) +
+                            static_cast<std::size_t>(cy);
+    const auto begin = cell_z_.begin();
+    const auto a = std::lower_bound(begin + column_first_[col], begin + column_first_[col + 1], z0);
+    const auto b = std::upper_bound(a, begin + column_first_[col + 1], z1);
+    return {static_cast<std::size_t>(a - begin), static_cast<std::size_t>(b - begin)};
+  }
   const auto a = std::lower_bound(cell_key_.begin(), cell_key_.end(), key(cx, cy, z0));
   const auto b = std::upper_bound(a, cell_key_.end(), key(cx, cy, z1));
   return {static_cast<std::size_t>(a - cell_key_.begin()),

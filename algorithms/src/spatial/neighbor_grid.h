@@ -42,8 +42,12 @@ class NeighborGrid {
   /// loads of up to kPad floats from any position below size() stay inside the arrays.
   static constexpr Eigen::Index kPad = 16;
 
-  /// Sorts the columns of `points` (finite coordinates) into cubic cells of side `cell` > 0.
-  NeighborGrid(const Eigen::Matrix3Xf& points, float cell);
+  /// Sorts the columns of `points` (finite coordinates) into cubic cells of side `cell` > 0; the
+  /// points of one cell in index order, or in the order of `rank` when given (a permutation of
+  /// 0..n-1, rank[i] the place of point i): a caller that stores its points in another order
+  /// than their identity (clop_project's spatial order) gets the sums of the identity order.
+  NeighborGrid(const Eigen::Matrix3Xf& points, float cell,
+               const std::vector<Eigen::Index>* rank = nullptr);
 
   Eigen::Index size() const { return n_; }
   float cell() const { return cell_; }
@@ -104,6 +108,11 @@ class NeighborGrid {
   // of occupied cells with a smaller key, so that column() reads two entries instead of two
   // binary searches. Empty otherwise.
   std::vector<std::uint32_t> dense_first_;
+  // Otherwise, when the box has few enough columns (cx, cy): the same per column, so that
+  // column() searches by z only within the column's own occupied cells (a few) instead of all.
+  // The box's cells grow as N^1.5 when the cell side shrinks as 1/sqrt(N) (a surface sampled N
+  // times), its columns as N: large grids stay off the binary searches over every cell.
+  std::vector<std::uint32_t> column_first_;
 };
 
 template <class F>

@@ -140,7 +140,8 @@ Json growth_run(const Json& clop_chain, const PaperCase& pc, const ResampleBench
                       {"h", h},
                       {"median_s", med.wall_s},
                       {"cpu_s", med.cpu_s},
-                      {"peak_bytes_per_point", per_point}});
+                      {"peak_bytes_per_point", per_point},
+                      {"phases", c.last.phases}});
     fmt::print("clop at {:>9} points, h {:.4f}: {:8.3f} s ({:.3f} CPU s), peak {:.0f} B/point\n",
                big.scan.size(), h, med.wall_s, med.cpu_s, per_point);
   }
