@@ -58,9 +58,37 @@ Vector3d eq23_monte_carlo(const GaussianMixture& m, const Vector3d& q, double h,
   return num / den;
 }
 
-TEST(ClopOracle, InitialIterationMatchesMonteCarloOfEq23) {
-  const double h = 0.5;
+std::vector<Vector3d> as_double(const Eigen::Matrix3Xf& q) {
+  std::vector<Vector3d> out(static_cast<std::size_t>(q.cols()));
+  for (std::size_t i = 0; i < out.size(); ++i)
+    out[i] = q.col(static_cast<Eigen::Index>(i)).cast<double>();
+  return out;
+}
+
+// The set-up of the projection tests: a noisy unit sphere of n points (radial noise 0.01, the
+// given seed), CLOP's parameters (h 5% of the diagonal, mu 0.45, `iterations`) and the HEM
+// mixture of the points at that h.
+class ClopOracle : public testing::Test {
+ protected:
+  void make(int n, std::uint64_t seed, int iterations) {
+    c = fixtures::noisy_sphere(n, 1.0f, 0.01f, seed);
+    const double diag = c.bbox().diagonal();
+    p.h = 0.05;
+    p.mu = 0.45;
+    p.iterations = iterations;
+    h = p.h * diag;
+    RunContext mctx(2);
+    m = hem_mixture(c.positions, hem_params_of(p), h, diag, mctx);
+  }
+
+  PointCloud c;
+  ClopParams p;
+  double h = 0.0;
   GaussianMixture m;
+};
+
+TEST_F(ClopOracle, InitialIterationMatchesMonteCarloOfEq23) {
+  h = 0.5;
   m.resize(3);
   const Eigen::Vector3f means[3] = {
       {0.10f, 0.02f, 0.01f}, {-0.05f, 0.12f, -0.03f}, {0.02f, -0.08f, 0.09f}};
@@ -74,7 +102,6 @@ TEST(ClopOracle, InitialIterationMatchesMonteCarloOfEq23) {
     m.means.col(s) = means[s];
     m.set_covariance(s, covs[s]);
   }
-  ClopParams p;
   p.iterations = 1;  // eq. 24 only
   for (const Eigen::Vector3f& q0 :
        {Eigen::Vector3f(0.0f, 0.0f, 0.0f), Eigen::Vector3f(0.15f, -0.1f, 0.05f)}) {
@@ -198,16 +225,8 @@ double max_distance(const std::vector<Vector3d>& a, const std::vector<Vector3d>&
   return worst;
 }
 
-TEST(ClopOracle, ProjectionLoopMatchesBruteForceRepulsion) {
-  const PointCloud c = fixtures::noisy_sphere(2000, 1.0f, 0.01f, 4);
-  const double diag = c.bbox().diagonal();
-  ClopParams p;
-  p.h = 0.05;
-  p.mu = 0.45;
-  p.iterations = 5;  // eq. 24, then 4 steps: F2 computed at steps 0, 2, 3 when interleaved
-  const double h = p.h * diag;
-  RunContext mctx(2);
-  const GaussianMixture m = hem_mixture(c.positions, hem_params_of(p), h, diag, mctx);
+TEST_F(ClopOracle, ProjectionLoopMatchesBruteForceRepulsion) {
+  make(2000, 4, 5);  // eq. 24, then 4 steps: F2 computed at steps 0, 2, 3 when interleaved
   const Eigen::Matrix3Xf q0 = c.positions.leftCols(1000);
   const Brute brute{m, h, h};
   // Float against double over 5 iterations: 2e-5 h held on the sse2 build; a build for AVX2/FMA
@@ -236,23 +255,12 @@ TEST(ClopOracle, ProjectionLoopMatchesBruteForceRepulsion) {
         RunContext ctx(3);
         clop_project(m, q, p, h, ctx);
         const auto want = brute.project(q0, p.iterations, p.mu, cutoff * h, interleave, weighted);
-        std::vector<Vector3d> got(want.size());
-        for (std::size_t i = 0; i < got.size(); ++i)
-          got[i] = q.col(static_cast<Eigen::Index>(i)).cast<double>();
-        EXPECT_LT(max_distance(got, want), tol);
+        EXPECT_LT(max_distance(as_double(q), want), tol);
       }
 }
 
-TEST(ClopOracle, AuthorsFirstIterationIsEq24AtTwiceTheKernel) {
-  const PointCloud c = fixtures::noisy_sphere(2000, 1.0f, 0.01f, 5);
-  const double diag = c.bbox().diagonal();
-  ClopParams p;
-  p.h = 0.05;
-  p.mu = 0.45;
-  p.iterations = 3;
-  const double h = p.h * diag;
-  RunContext mctx(2);
-  const GaussianMixture m = hem_mixture(c.positions, hem_params_of(p), h, diag, mctx);
+TEST_F(ClopOracle, AuthorsFirstIterationIsEq24AtTwiceTheKernel) {
+  make(2000, 5, 3);
   const Eigen::Matrix3Xf q0 = c.positions.leftCols(500);
   const Brute paper{m, h, h}, authors{m, h, 2 * h};
   const auto want = authors.project(q0, p.iterations, p.mu, 0.5 * h, true, false);
@@ -263,10 +271,7 @@ TEST(ClopOracle, AuthorsFirstIterationIsEq24AtTwiceTheKernel) {
   Eigen::Matrix3Xf q = q0;
   RunContext ctx(3);
   clop_project(m, q, p, h, ctx);
-  std::vector<Vector3d> got(want.size());
-  for (std::size_t i = 0; i < got.size(); ++i)
-    got[i] = q.col(static_cast<Eigen::Index>(i)).cast<double>();
-  EXPECT_LT(max_distance(got, want), 5e-5 * h);
+  EXPECT_LT(max_distance(as_double(q), want), 5e-5 * h);
 }
 
 // clop_project stores the particles in a spatial order while it iterates (cache locality at
@@ -274,16 +279,8 @@ TEST(ClopOracle, AuthorsFirstIterationIsEq24AtTwiceTheKernel) {
 // bit, with and without the repulsion's weights (the grid orders the particles of a cell by
 // index either way). Shuffled particles, so that the two orders differ; cells of h/4 hold
 // several particles each, so that the order within a cell matters.
-TEST(ClopOracle, SpatialStorageOrderGivesTheSameBits) {
-  const PointCloud c = fixtures::noisy_sphere(6000, 1.0f, 0.01f, 6);
-  const double diag = c.bbox().diagonal();
-  ClopParams p;
-  p.h = 0.05;
-  p.mu = 0.45;
-  p.iterations = 4;
-  const double h = p.h * diag;
-  RunContext mctx(2);
-  const GaussianMixture m = hem_mixture(c.positions, hem_params_of(p), h, diag, mctx);
+TEST_F(ClopOracle, SpatialStorageOrderGivesTheSameBits) {
+  make(6000, 6, 4);
   Eigen::Matrix3Xf q0(3, 5000);
   Rng rng(11);
   std::vector<Eigen::Index> pick(static_cast<std::size_t>(c.size()));
