@@ -149,8 +149,8 @@ class NeighborGrid {
   }
   /// The sorted positions of the points of fine cell f.
   GridRange fine_range(std::size_t f) const { return {fine_begin_[f], fine_begin_[f + 1]}; }
-  /// The centre of the bounding box of fine cell f's points and their largest distance from it
-  /// (float, |p - centre| as Eigen's norm).
+  /// With GridLayout::split > 1: the centre of the bounding box of fine cell f's points and their
+  /// largest distance from it (float, |p - centre| as Eigen's norm).
   const Eigen::Vector3f& fine_centre(std::size_t f) const { return fine_centre_[f]; }
   float fine_reach(std::size_t f) const { return fine_reach_[f]; }
 
