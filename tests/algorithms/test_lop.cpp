@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -258,6 +259,101 @@ TEST(NeighborGrid, RangesNearHoldEveryPointWithinTheRadius) {
         }
       }
     }
+  }
+}
+
+// The exact-quotient layout with fine cells (mixture.hem level 0): every point is in cell
+// floor((p - lo) / width) computed in double, the points of a cell are ordered by (fine cell,
+// index), the fine cells partition their cell and their centre and reach bound their points,
+// and cells_in_box visits exactly the occupied cells of a box in increasing order. The cloud sits
+// far from the origin (coordinates with few fraction bits).
+TEST(NeighborGrid, ExactQuotientCellsWithFineCells) {
+  Rng rng(23);
+  Eigen::Matrix3Xf pts(3, 3000);
+  for (Eigen::Index i = 0; i < pts.cols(); ++i)
+    for (int d = 0; d < 3; ++d)
+      pts(d, i) = 1000.0f + static_cast<float>(rng.uniform());
+  pts.col(7) = pts.col(3);  // a duplicate
+  const double width = 0.0937;
+  const Eigen::Vector3d lo = pts.rowwise().minCoeff().cast<double>();
+  for (const int split : {1, 3}) {
+    detail::GridLayout layout;
+    layout.cell = width;
+    layout.rule = detail::GridLayout::Rule::kExactQuotient;
+    layout.split = split;
+    const detail::NeighborGrid grid(pts, layout);
+    ASSERT_EQ(grid.size(), pts.cols());
+    std::vector<char> seen(static_cast<std::size_t>(pts.cols()), 0);
+    for (std::size_t c = 0; c < grid.cells(); ++c) {
+      const auto coords = grid.cell_coords(c);
+      const auto [f0, f1] = grid.fine_cells(c);
+      ASSERT_LT(f0, f1);
+      EXPECT_EQ(grid.fine_range(f0).begin, grid.cell_range(c).begin);
+      EXPECT_EQ(grid.fine_range(f1 - 1).end, grid.cell_range(c).end);
+      if (c > 0) {
+        EXPECT_LT(grid.cell_coords(c - 1), coords);
+      }
+      for (std::size_t f = f0; f < f1; ++f) {
+        const detail::GridRange r = grid.fine_range(f);
+        ASSERT_LT(r.begin, r.end);
+        if (f > f0) {
+          EXPECT_EQ(grid.fine_range(f - 1).end, r.begin);
+        }
+        std::array<std::int64_t, 3> fine{};
+        for (Eigen::Index k = r.begin; k < r.end; ++k) {
+          const Eigen::Index i = grid.index(k);
+          seen[static_cast<std::size_t>(i)] = 1;
+          const Eigen::Vector3f p(grid.x()[k], grid.y()[k], grid.z()[k]);
+          ASSERT_EQ(p, Eigen::Vector3f(pts.col(i)));
+          if (k > r.begin) {
+            EXPECT_LT(grid.index(k - 1), i);
+          }
+          std::array<std::int64_t, 3> fk{};
+          for (int d = 0; d < 3; ++d) {
+            const double t = static_cast<double>(p[d]) - lo[d];
+            const auto u = static_cast<std::size_t>(d);
+            EXPECT_EQ(coords[u], static_cast<std::int64_t>(std::floor(t / width)));
+            fk[u] = static_cast<std::int64_t>(std::floor(t / (width / split))) - coords[u] * split;
+            EXPECT_GE(t, grid.cell_corner(coords)[d] - lo[d] - 1e-9 * width);
+          }
+          if (k == r.begin) fine = fk;
+          EXPECT_EQ(fk, fine);
+          if (split > 1) {
+            EXPECT_LE((p - grid.fine_centre(f)).norm(), grid.fine_reach(f));
+          }
+        }
+        if (f > f0) {  // fine cells of a cell in (x, y, z) order
+          const Eigen::Index prev = grid.fine_range(f - 1).begin;
+          std::array<std::int64_t, 3> fp{};
+          for (int d = 0; d < 3; ++d) {
+            const double t = static_cast<double>(pts(d, grid.index(prev))) - lo[d];
+            fp[static_cast<std::size_t>(d)] =
+                static_cast<std::int64_t>(std::floor(t / (width / split))) -
+                coords[static_cast<std::size_t>(d)] * split;
+          }
+          EXPECT_LT(fp, fine);
+        }
+      }
+    }
+    EXPECT_EQ(std::count(seen.begin(), seen.end(), 1), pts.cols());
+    // cells_in_box against a filter of every cell.
+    const detail::NeighborGrid::Coords a{2, 1, 3}, b{5, 9, 4};
+    std::vector<std::size_t> got, want;
+    grid.cells_in_box(a, b, [&](std::size_t c) { got.push_back(c); });
+    for (std::size_t c = 0; c < grid.cells(); ++c) {
+      const auto k = grid.cell_coords(c);
+      if (k[0] >= a[0] && k[0] <= b[0] && k[1] >= a[1] && k[1] <= b[1] && k[2] >= a[2] &&
+          k[2] <= b[2])
+        want.push_back(c);
+    }
+    EXPECT_FALSE(want.empty());
+    EXPECT_EQ(got, want);
+    // coords_of a point: the coordinates of the cell that holds it.
+    for (std::size_t c = 0; c < grid.cells(); ++c)
+      for (Eigen::Index k = grid.cell_range(c).begin; k < grid.cell_range(c).end; ++k)
+        if (grid.index(k) % 97 == 0) {
+          EXPECT_EQ(grid.coords_of(pts.col(grid.index(k))), grid.cell_coords(c));
+        }
   }
 }
 

@@ -3,11 +3,9 @@
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
-#include <tbb/parallel_sort.h>
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -20,6 +18,7 @@
 #include "mixtures/hem_internal.h"
 #include "scanbench/core/kdtree.h"
 #include "scanbench/core/simd_dispatch.h"
+#include "spatial/neighbor_grid.h"
 #include "spatial/simd_exp.h"
 
 // Eigen's packet types (__m128, __m256, __m512) carry vector attributes that GCC reports as
@@ -64,216 +63,95 @@ Eigen::SelfAdjointEigenSolver<Matrix3d> eigen_decomposition(const Matrix3d& a) {
   return es;
 }
 
-// Points sorted into a two-level grid: coarse cubes of width `width`, each split into split^3
-// fine cubes. Every point within `width` of a point lies in the 3 x 3 x 3 block of coarse cells
-// around that point's cell, so a neighbour search of radius <= width needs no tree: it reads the
-// block's contiguous ranges of the sorted coordinates.
-//
-// Not the shared spatial/neighbor_grid.h (which hem_merge.cpp uses): the level-0 sums (eq. 12
-// moments, eq. 25 densities) are added in this grid's order, and that order differs from the
-// shared grid's in two ways that would change the mixture's bits. Cells are found in double,
-// floor((p - lo) / width) with an exact subtraction, which box_distance2's 1e-9 width margin
-// relies on; NeighborGrid finds them in float, floor((p - lo) * (1 / cell)), which puts a few
-// points in another cell (0 to 2 in random clouds of 100,000 points). Within a cell the points
-// are ordered by fine cell (the density pass evaluates each pair once per pair of fine cells,
-// bounded by their centres and reach); NeighborGrid orders them by index and has no fine cells.
-// NeighborGrid cannot take the double rule without changing the bits of WLOP, CLOP and its
-// other users, nor hold both rules without being two grids in one.
-struct Grid {
-  double width = 0.0;
-  Vector3d origin = Vector3d::Zero();   // cell (i, j, k) spans origin + width * [i, i + 1) x ...
-  std::vector<Index> order;             // point indices in grid order
-  std::vector<float> x, y, z;           // their coordinates (structure of arrays)
-  std::vector<std::uint64_t> key;       // coarse cells, ascending
-  std::vector<std::size_t> start;       // coarse cell c: positions start[c] .. start[c + 1]
-  std::vector<std::size_t> fine_first;  // coarse cell c: fine cells fine_first[c] .. [c + 1]
-  std::vector<std::size_t> fine_start;  // fine cell f: positions fine_start[f] .. [f + 1]
-  std::vector<Vector3f> fine_centre;    // bounding-box centre of a fine cell's points
-  std::vector<float> fine_reach;        // largest distance of its points from that centre
+// The level-0 grids are the project's neighbour grid (spatial/neighbor_grid.h) with cubes of
+// width W located by the exact quotient floor((p - lo) / W) in double (box_distance2's 1e-9 width
+// margin relies on it), each split into split^3 fine cubes by which the points of a cube are
+// ordered (the density pass bounds each pair of fine cells by their centres and reach). Every
+// point within W of a point lies in the 3 x 3 x 3 block of cubes around that point's cube, so a
+// neighbour search of radius <= W needs no tree: it reads the block's contiguous ranges of the
+// sorted coordinates. The sums below (eq. 12 moments, eq. 25 densities) are added in the grid's
+// order.
+using detail::GridLayout;
+using detail::NeighborGrid;
 
-  std::size_t cells() const { return key.size(); }
-
-  // Position ranges of the existing coarse cells of the block around cell c, in key order.
-  void block(std::size_t c, std::vector<Range>& out) const {
-    out.clear();
-    constexpr std::uint64_t kMask = (std::uint64_t{1} << 21) - 1;
-    const std::uint64_t k = key[c];
-    const auto ix = static_cast<std::int64_t>(k >> 42),
-               iy = static_cast<std::int64_t>((k >> 21) & kMask),
-               iz = static_cast<std::int64_t>(k & kMask);
-    for (std::int64_t dx = -1; dx <= 1; ++dx)
-      for (std::int64_t dy = -1; dy <= 1; ++dy) {
-        const std::int64_t a = ix + dx, b = iy + dy;
-        if (a < 0 || b < 0 || a > static_cast<std::int64_t>(kMask) ||
-            b > static_cast<std::int64_t>(kMask))
-          continue;
-        // The three cells (a, b, iz - 1 .. iz + 1) are consecutive keys: one search.
-        const std::uint64_t lo_key = (static_cast<std::uint64_t>(a) << 42) |
-                                     (static_cast<std::uint64_t>(b) << 21) |
-                                     static_cast<std::uint64_t>(std::max<std::int64_t>(iz - 1, 0));
-        const std::uint64_t hi_key =
-            (static_cast<std::uint64_t>(a) << 42) | (static_cast<std::uint64_t>(b) << 21) |
-            static_cast<std::uint64_t>(std::min<std::int64_t>(iz + 1, kMask));
-        const auto first = std::lower_bound(key.begin(), key.end(), lo_key);
-        const auto last = std::upper_bound(first, key.end(), hi_key);
-        if (first != last)
-          out.emplace_back(start[static_cast<std::size_t>(first - key.begin())],
-                           start[static_cast<std::size_t>(last - key.begin())]);
-      }
-  }
-
-  struct Cell {
-    std::size_t begin, end;  // positions
-    Vector3d lo;             // lower corner of the cube (upper: lo + width)
-  };
-  // The existing cells of the block around cell c, cell c first, then in key order.
-  void block_cells(std::size_t c, std::vector<Cell>& out) const {
-    constexpr std::uint64_t kMask = (std::uint64_t{1} << 21) - 1;
-    const std::uint64_t k = key[c];
-    cells_around({static_cast<std::int64_t>(k >> 42), static_cast<std::int64_t>((k >> 21) & kMask),
-                  static_cast<std::int64_t>(k & kMask)},
-                 1, out);
-    const auto own = std::find_if(out.begin(), out.end(),
-                                  [&](const Cell& cell) { return cell.begin == start[c]; });
-    std::rotate(out.begin(), own, own + 1);
-  }
-
-  // Integer cell coordinates of q (q may lie outside the grid's points).
-  std::array<std::int64_t, 3> coords(const Vector3d& q) const {
-    std::array<std::int64_t, 3> c{};
-    for (int d = 0; d < 3; ++d) {
-      const double t = std::floor((q(d) - origin(d)) / width);
-      c[static_cast<std::size_t>(d)] =
-          static_cast<std::int64_t>(std::clamp(t, -4.0 * (1 << 21), 4.0 * (1 << 21)));
-    }
-    return c;
-  }
-
-  // The existing cells within `span` cells of coordinates c on every axis, in key order: they
-  // hold every point within span * width * (1 - 1e-5) of any point of cell c.
-  void cells_around(const std::array<std::int64_t, 3>& c, std::int64_t span,
-                    std::vector<Cell>& out) const {
-    out.clear();
-    constexpr std::int64_t kMask = (std::int64_t{1} << 21) - 1;
-    auto corner = [&](std::uint64_t k) {
-      return Vector3d(origin.x() + width * static_cast<double>(k >> 42),
-                      origin.y() + width * static_cast<double>((k >> 21) & kMask),
-                      origin.z() + width * static_cast<double>(k & kMask));
-    };
-    auto make_key = [](std::int64_t a, std::int64_t b, std::int64_t z) {
-      return (static_cast<std::uint64_t>(a) << 42) | (static_cast<std::uint64_t>(b) << 21) |
-             static_cast<std::uint64_t>(z);
-    };
-    const std::int64_t zlo = std::max<std::int64_t>(c[2] - span, 0);
-    const std::int64_t zhi = std::min<std::int64_t>(c[2] + span, kMask);
-    if (zlo > zhi) return;
-    const double columns = (2.0 * static_cast<double>(span) + 1.0) * (2.0 * span + 1.0);
-    if (columns >= static_cast<double>(key.size())) {  // a huge span: every cell, in key order
-      for (std::size_t ci = 0; ci < key.size(); ++ci)
-        out.push_back({start[ci], start[ci + 1], corner(key[ci])});
-      return;
-    }
-    for (std::int64_t a = std::max<std::int64_t>(c[0] - span, 0);
-         a <= std::min<std::int64_t>(c[0] + span, kMask); ++a)
-      for (std::int64_t b = std::max<std::int64_t>(c[1] - span, 0);
-           b <= std::min<std::int64_t>(c[1] + span, kMask); ++b) {
-        // The cells (a, b, zlo .. zhi) are consecutive keys: one search.
-        const std::uint64_t last_key = make_key(a, b, zhi);
-        for (auto it = std::lower_bound(key.begin(), key.end(), make_key(a, b, zlo));
-             it != key.end() && *it <= last_key; ++it) {
-          const auto ci = static_cast<std::size_t>(it - key.begin());
-          out.push_back({start[ci], start[ci + 1], corner(*it)});
-        }
-      }
-  }
-
-  // A lower bound of the squared distance from q to the points of `cell`: the distance to its
-  // cube grown by 1e-9 width (points sit in their cube up to the rounding of the cell index),
-  // shrunk by 1e-6 relative (the float distances it is compared with).
-  double box_distance2(const Vector3d& q, const Cell& cell) const {
-    const double hair = 1e-9 * width;
-    const Vector3d below = cell.lo - q - Vector3d::Constant(hair);
-    const Vector3d above = q - (cell.lo + Vector3d::Constant(width + hair));
-    return below.cwiseMax(above).cwiseMax(0.0).squaredNorm() * (1.0 - 1e-6);
-  }
-};
-
-Grid make_grid(const Eigen::Matrix3Xf& pts, double width, int split) {
-  const Index n = pts.cols();
+// A grid of cubes of width >= `width` (at most 2^20 per axis), split into split^3 fine cubes.
+NeighborGrid make_grid(const Eigen::Matrix3Xf& pts, double width, int split) {
   const Vector3f lo = pts.rowwise().minCoeff();
   const Vector3f hi = pts.rowwise().maxCoeff();
-  constexpr double kAxisCells = 1 << 20;  // 21-bit keys per axis never clamp
-  Grid g;
-  g.width = std::max(width, static_cast<double>((hi - lo).maxCoeff()) / kAxisCells);
-  if (!(g.width > 0.0) || !std::isfinite(g.width)) g.width = 1.0;
-  g.origin = lo.cast<double>();
-  const double fine = g.width / split;
-  struct Entry {
-    std::uint64_t key;
-    std::uint32_t sub;
-    Index i;
-    bool operator<(const Entry& o) const {
-      return key != o.key ? key < o.key : sub != o.sub ? sub < o.sub : i < o.i;
+  constexpr double kAxisCells = 1 << 20;
+  double w = std::max(width, static_cast<double>((hi - lo).maxCoeff()) / kAxisCells);
+  if (!(w > 0.0) || !std::isfinite(w)) w = 1.0;
+  return NeighborGrid(pts, GridLayout{w, GridLayout::Rule::kExactQuotient, split, nullptr});
+}
+
+// One occupied cube of a level-0 grid.
+struct Cell {
+  std::size_t begin, end;  // positions
+  Vector3d lo;             // lower corner of the cube (upper: lo + width)
+};
+
+Cell cell_at(const NeighborGrid& g, std::size_t c) {
+  const detail::GridRange r = g.cell_range(c);
+  return {static_cast<std::size_t>(r.begin), static_cast<std::size_t>(r.end),
+          g.cell_corner(g.cell_coords(c))};
+}
+
+// Position ranges of the occupied cells of the block around cell c, one per column of the
+// block, in key order.
+void block_ranges(const NeighborGrid& g, std::size_t c, std::vector<Range>& out) {
+  out.clear();
+  const NeighborGrid::Coords k = g.cell_coords(c);
+  for (std::int64_t dx = -1; dx <= 1; ++dx)
+    for (std::int64_t dy = -1; dy <= 1; ++dy) {
+      // The three cells (x, y, z - 1 .. z + 1) are consecutive: one range.
+      std::size_t first = std::numeric_limits<std::size_t>::max(), last = 0;
+      g.cells_in_box({k[0] + dx, k[1] + dy, k[2] - 1}, {k[0] + dx, k[1] + dy, k[2] + 1},
+                     [&](std::size_t ci) {
+                       first = std::min(first, ci);
+                       last = ci + 1;
+                     });
+      if (first < last)
+        out.emplace_back(static_cast<std::size_t>(g.cell_range(first).begin),
+                         static_cast<std::size_t>(g.cell_range(last - 1).end));
     }
-  };
-  std::vector<Entry> e(static_cast<std::size_t>(n));
-  tbb::parallel_for(tbb::blocked_range<Index>(0, n, 4096), [&](const tbb::blocked_range<Index>& r) {
-    for (Index i = r.begin(); i < r.end(); ++i) {
-      std::uint64_t key = 0;
-      std::uint32_t sub = 0;
-      for (int d = 0; d < 3; ++d) {
-        const double t = static_cast<double>(pts(d, i)) - static_cast<double>(lo(d));  // exact
-        const auto c =
-            static_cast<std::uint64_t>(std::clamp(std::floor(t / g.width), 0.0, kAxisCells));
-        const auto f = static_cast<std::uint32_t>(
-            std::clamp(std::floor(t / fine) - static_cast<double>(c) * split, 0.0, split - 1.0));
-        key = (key << 21) | c;
-        sub = sub * static_cast<std::uint32_t>(split) + f;
-      }
-      e[static_cast<std::size_t>(i)] = {key, sub, i};
-    }
-  });
-  tbb::parallel_sort(e.begin(), e.end());  // a total order: the same result for any thread count
-  g.order.resize(e.size());
-  g.x.resize(e.size());
-  g.y.resize(e.size());
-  g.z.resize(e.size());
-  for (std::size_t k = 0; k < e.size(); ++k) {
-    const Index i = e[k].i;
-    g.order[k] = i;
-    g.x[k] = pts(0, i);
-    g.y[k] = pts(1, i);
-    g.z[k] = pts(2, i);
-    if (k == 0 || e[k].key != e[k - 1].key) {
-      g.key.push_back(e[k].key);
-      g.start.push_back(k);
-      g.fine_first.push_back(g.fine_start.size());
-    }
-    if (k == 0 || e[k].key != e[k - 1].key || e[k].sub != e[k - 1].sub) g.fine_start.push_back(k);
+}
+
+// The occupied cells within `span` cells of coordinates c on every axis, in key order: they
+// hold every point within span * width * (1 - 1e-5) of any point of cell c.
+void cells_around(const NeighborGrid& g, const NeighborGrid::Coords& c, std::int64_t span,
+                  std::vector<Cell>& out) {
+  out.clear();
+  constexpr std::int64_t kAxisMax = (std::int64_t{1} << 21) - 1;  // beyond any level-0 grid
+  if (std::max<std::int64_t>(c[2] - span, 0) > std::min<std::int64_t>(c[2] + span, kAxisMax))
+    return;
+  const double columns = (2.0 * static_cast<double>(span) + 1.0) * (2.0 * span + 1.0);
+  if (columns >= static_cast<double>(g.cells())) {  // a huge span: every cell, in key order
+    for (std::size_t ci = 0; ci < g.cells(); ++ci)
+      out.push_back(cell_at(g, ci));
+    return;
   }
-  g.start.push_back(e.size());
-  g.fine_first.push_back(g.fine_start.size());
-  g.fine_start.push_back(e.size());
-  const std::size_t nf = g.fine_start.size() - 1;
-  g.fine_centre.resize(nf);
-  g.fine_reach.resize(nf);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nf, 256), [&](const auto& r) {
-    for (std::size_t f = r.begin(); f != r.end(); ++f) {
-      const std::size_t b = g.fine_start[f], end = g.fine_start[f + 1];
-      Vector3f mn(g.x[b], g.y[b], g.z[b]), mx = mn;
-      for (std::size_t k = b + 1; k < end; ++k) {
-        mn = mn.cwiseMin(Vector3f(g.x[k], g.y[k], g.z[k]));
-        mx = mx.cwiseMax(Vector3f(g.x[k], g.y[k], g.z[k]));
-      }
-      const Vector3f centre = 0.5f * (mn + mx);
-      float reach = 0.0f;
-      for (std::size_t k = b; k < end; ++k)
-        reach = std::max(reach, (Vector3f(g.x[k], g.y[k], g.z[k]) - centre).norm());
-      g.fine_centre[f] = centre;
-      g.fine_reach[f] = reach * (1.0f + kSlack);
-    }
-  });
-  return g;
+  g.cells_in_box({c[0] - span, c[1] - span, c[2] - span}, {c[0] + span, c[1] + span, c[2] + span},
+                 [&](std::size_t ci) { out.push_back(cell_at(g, ci)); });
+}
+
+// The occupied cells of the block around cell c, cell c first, then in key order.
+void block_cells(const NeighborGrid& g, std::size_t c, std::vector<Cell>& out) {
+  cells_around(g, g.cell_coords(c), 1, out);
+  const auto begin = static_cast<std::size_t>(g.cell_range(c).begin);
+  const auto own =
+      std::find_if(out.begin(), out.end(), [&](const Cell& cell) { return cell.begin == begin; });
+  std::rotate(out.begin(), own, own + 1);
+}
+
+// A lower bound of the squared distance from q to the points of `cell`: the distance to its
+// cube grown by 1e-9 width (points sit in their cube up to the rounding of the cell index),
+// shrunk by 1e-6 relative (the float distances it is compared with).
+double box_distance2(const NeighborGrid& g, const Vector3d& q, const Cell& cell) {
+  const double width = g.width();
+  const double hair = 1e-9 * width;
+  const Vector3d below = cell.lo - q - Vector3d::Constant(hair);
+  const Vector3d above = q - (cell.lo + Vector3d::Constant(width + hair));
+  return below.cwiseMax(above).cwiseMax(0.0).squaredNorm() * (1.0 - 1e-6);
 }
 
 // GCC/Clang vector extensions: 4 floats, portable SIMD for the nearest-neighbour scans of the
@@ -340,11 +218,11 @@ float pairwise_sum(const Packet& p) {
 // both points. Partial sums are added in 2^-b fixed point: integer sums are exact and
 // order-free, so the result is the same for any thread count.
 template <class Packet>
-std::vector<double> density_weights_impl(const Grid& g, double h) {
+std::vector<double> density_weights_impl(const NeighborGrid& g, double h) {
   namespace ei = Eigen::internal;
   constexpr std::size_t kLanes = ei::unpacket_traits<Packet>::size;
   static_assert(kLanes <= Candidates::kMaxLanes);
-  const std::size_t n = g.order.size();
+  const auto n = static_cast<std::size_t>(g.size());
   const auto hf = static_cast<float>(h);
   const float c2 = hf * hf;
   const float k_theta = -16.0f / c2;
@@ -362,20 +240,23 @@ std::vector<double> density_weights_impl(const Grid& g, double h) {
     Candidates own, cand;
     std::vector<float> col;
     for (std::size_t c = rr.begin(); c != rr.end(); ++c) {
-      g.block(c, ranges);
-      for (std::size_t f = g.fine_first[c]; f < g.fine_first[c + 1]; ++f) {
-        const std::size_t own_b = g.fine_start[f], own_e = g.fine_start[f + 1];
+      block_ranges(g, c, ranges);
+      const auto [fine_b, fine_e] = g.fine_cells(c);
+      for (std::size_t f = fine_b; f < fine_e; ++f) {
+        const auto own_b = static_cast<std::size_t>(g.fine_range(f).begin),
+                   own_e = static_cast<std::size_t>(g.fine_range(f).end);
         own.reserve(own_e - own_b);
         own.size = 0;
         for (std::size_t k = own_b; k < own_e; ++k, ++own.size) {
-          own.x[own.size] = g.x[k];
-          own.y[own.size] = g.y[k];
-          own.z[own.size] = g.z[k];
+          own.x[own.size] = g.x()[k];
+          own.y[own.size] = g.y()[k];
+          own.z[own.size] = g.z()[k];
           own.pos[own.size] = k;
         }
         own.pad(kLanes);
-        const Vector3f centre = g.fine_centre[f];
-        const float reach = hf * (1.0f + kSlack) + g.fine_reach[f];
+        const Vector3f centre = g.fine_centre(f);
+        const float own_reach = g.fine_reach(f) * (1.0f + kSlack);
+        const float reach = hf * (1.0f + kSlack) + own_reach;
         const float reach2 = reach * reach;
         // Branch-free compaction.
         std::size_t bound = 0;
@@ -385,11 +266,11 @@ std::vector<double> density_weights_impl(const Grid& g, double h) {
         std::size_t m = 0;
         for (const auto& [b, e] : ranges)
           for (std::size_t k = std::max(b, own_e); k < e; ++k) {
-            const float dx = g.x[k] - centre.x(), dy = g.y[k] - centre.y(),
-                        dz = g.z[k] - centre.z();
-            cand.x[m] = g.x[k];
-            cand.y[m] = g.y[k];
-            cand.z[m] = g.z[k];
+            const float dx = g.x()[k] - centre.x(), dy = g.y()[k] - centre.y(),
+                        dz = g.z()[k] - centre.z();
+            cand.x[m] = g.x()[k];
+            cand.y[m] = g.y()[k];
+            cand.z[m] = g.z()[k];
             cand.pos[m] = k;
             m += dx * dx + dy * dy + dz * dz <= reach2 ? 1 : 0;
           }
@@ -435,12 +316,13 @@ std::vector<double> density_weights_impl(const Grid& g, double h) {
       total[k] += s[k];
   std::vector<double> v(n);
   for (std::size_t k = 0; k < n; ++k)
-    v[static_cast<std::size_t>(g.order[k])] = static_cast<double>(total[k]) / scale;
+    v[static_cast<std::size_t>(g.index(static_cast<Index>(k)))] =
+        static_cast<double>(total[k]) / scale;
   return v;
 }
 
 // The density pass with the packet of the active ISA (scanbench/core/simd.h).
-std::vector<double> density_weights(const Grid& g, double h) {
+std::vector<double> density_weights(const NeighborGrid& g, double h) {
   return simd::with_packet(
       [&](auto tag) { return density_weights_impl<typename decltype(tag)::type>(g, h); });
 }
@@ -449,19 +331,19 @@ std::vector<double> density_weights(const Grid& g, double h) {
 // ((dx^2 + dy^2) + dz^2), four at a time: `visit(i, d2)` sees only the groups in which any lane
 // passes `below`.
 template <class Below, class Visit>
-inline void scan_cell(const Grid& g, const Vector3f& q, const Grid::Cell& cell, Below&& below,
+inline void scan_cell(const NeighborGrid& g, const Vector3f& q, const Cell& cell, Below&& below,
                       Visit&& visit) {
   std::size_t i = cell.begin;
   for (; i + 4 <= cell.end; i += 4) {
-    const Float4 dx = load4(g.x.data() + i) - q.x(), dy = load4(g.y.data() + i) - q.y(),
-                 dz = load4(g.z.data() + i) - q.z();
+    const Float4 dx = load4(g.x() + i) - q.x(), dy = load4(g.y() + i) - q.y(),
+                 dz = load4(g.z() + i) - q.z();
     const Float4 dd = dx * dx + dy * dy + dz * dz;
     if (!any_lane(below(dd))) continue;
     for (int l = 0; l < 4; ++l)
       visit(i + static_cast<std::size_t>(l), dd[l]);
   }
   for (; i < cell.end; ++i) {
-    const float dx = g.x[i] - q.x(), dy = g.y[i] - q.y(), dz = g.z[i] - q.z();
+    const float dx = g.x()[i] - q.x(), dy = g.y()[i] - q.y(), dz = g.z()[i] - q.z();
     visit(i, dx * dx + dy * dy + dz * dz);
   }
 }
@@ -496,16 +378,16 @@ class Level0 {
     // (nearest neighbours), within span * W * (1 - slack) in the cells within `span` (radius r).
     // A point whose neighbours reach further (span > kMaxSpan) asks the kd-tree.
     g_.emplace(make_grid(pts_, std::max(3.0, 2.0 * p_.init_radius_factor) * spacing, 2));
-    guaranteed_ = static_cast<float>(g_->width) * (1.0f - 4.0f * kSlack);
+    guaranteed_ = static_cast<float>(g_->width()) * (1.0f - 4.0f * kSlack);
     nn_.assign(static_cast<std::size_t>(n), 0.0);
     comps_ = Components(static_cast<std::size_t>(n));
     if (kernel_density_) density_.assign(static_cast<std::size_t>(n), 1.0);
 
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, g_->cells(), 4), [&](const auto& rr) {
-      std::vector<Grid::Cell> block, wide;
+      std::vector<Cell> block, wide;
       std::vector<float> best(static_cast<std::size_t>(k_nn_));
       for (std::size_t c = rr.begin(); c != rr.end(); ++c) {
-        g_->block_cells(c, block);
+        block_cells(*g_, c, block);
         const double r_max = nearest_in_block(c, block, best);
         initial_in_cell(c, r_max, block, wide);
       }
@@ -562,7 +444,7 @@ class Level0 {
     double spacing = 0.0;
     std::vector<double> all((static_cast<std::size_t>(n) + 60) / 61);
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, all.size(), 16), [&](const auto& r) {
-      std::vector<Grid::Cell> block;
+      std::vector<Cell> block;
       std::vector<float> best(static_cast<std::size_t>(k_query_));
       for (std::size_t k = r.begin(); k != r.end(); ++k) {
         const Index j = static_cast<Index>(k) * 61;
@@ -570,13 +452,13 @@ class Level0 {
           all[k] = tree_nn(j);
           continue;
         }
-        const Grid& dg = *density_grid_;
+        const NeighborGrid& dg = *density_grid_;
         const Vector3f qf = pts_.col(j);
-        dg.cells_around(dg.coords(qf.cast<double>()), 1, block);
+        cells_around(dg, dg.coords_of(qf), 1, block);
         std::fill(best.begin(), best.end(), std::numeric_limits<float>::infinity());
-        for (const Grid::Cell& cell : block)
+        for (const Cell& cell : block)
           for (std::size_t i = cell.begin; i < cell.end; ++i) {
-            const float dx = qf.x() - dg.x[i], dy = qf.y() - dg.y[i], dz = qf.z() - dg.z[i];
+            const float dx = qf.x() - dg.x()[i], dy = qf.y() - dg.y()[i], dz = qf.z() - dg.z()[i];
             const float d = dx * dx + dy * dy + dz * dz;
             if (!(d < best.back())) continue;
             auto at = best.end() - 1;
@@ -584,7 +466,7 @@ class Level0 {
               *at = *(at - 1);
             *at = d;
           }
-        const auto reach = static_cast<float>(dg.width) * (1.0f - 4.0f * kSlack);
+        const auto reach = static_cast<float>(dg.width()) * (1.0f - 4.0f * kSlack);
         all[k] = best.back() <= reach * reach ? mean_nn(best) : tree_nn(j);
       }
     });
@@ -661,15 +543,15 @@ class Level0 {
 
   // Nearest-neighbour distances (nn_) of the points of grid cell c from its block (span 1);
   // returns the largest eq. 12 radius among them.
-  double nearest_in_block(std::size_t c, const std::vector<Grid::Cell>& block,
-                          std::vector<float>& best) {
-    const Grid& g = *g_;
+  double nearest_in_block(std::size_t c, const std::vector<Cell>& block, std::vector<float>& best) {
+    const NeighborGrid& g = *g_;
     const int k_nn = k_nn_, k_query = k_query_;
     const float guaranteed = guaranteed_;
     double r_max = 0.0;
-    for (std::size_t k = g.start[c]; k < g.start[c + 1]; ++k) {
-      const Index j = g.order[k];
-      const Vector3f qf(g.x[k], g.y[k], g.z[k]);
+    const detail::GridRange own = g.cell_range(c);
+    for (auto k = static_cast<std::size_t>(own.begin); k < static_cast<std::size_t>(own.end); ++k) {
+      const Index j = g.index(static_cast<Index>(k));
+      const Vector3f qf(g.x()[k], g.y()[k], g.z()[k]);
       const Vector3d q = qf.cast<double>();
       // The k_nn smallest positive distances and the zeros (duplicates, the point itself
       // included: all in its own cell, visited first). A cell farther than the current k-th
@@ -677,8 +559,8 @@ class Level0 {
       int zeros = 0;
       std::fill(best.begin(), best.end(), std::numeric_limits<float>::infinity());
       float worst = best.back();
-      for (const Grid::Cell& cell : block) {
-        if (g.box_distance2(q, cell) > static_cast<double>(worst)) continue;
+      for (const Cell& cell : block) {
+        if (box_distance2(g, q, cell) > static_cast<double>(worst)) continue;
         scan_cell(
             g, qf, cell, [&](Float4 dd) { return dd < worst; },
             [&](std::size_t, float d) {
@@ -718,25 +600,21 @@ class Level0 {
   // Eq. 12 for the points of grid cell c from the cells within `span` of it: they hold every
   // point within span * guaranteed of the cell's points; a point reaching further asks the
   // kd-tree. Points with only duplicates among their nearest wait for initial_of_duplicates().
-  void initial_in_cell(std::size_t c, double r_max, const std::vector<Grid::Cell>& block,
-                       std::vector<Grid::Cell>& wide) {
-    const Grid& g = *g_;
+  void initial_in_cell(std::size_t c, double r_max, const std::vector<Cell>& block,
+                       std::vector<Cell>& wide) {
+    const NeighborGrid& g = *g_;
     const float guaranteed = guaranteed_;
     const std::int64_t span = std::min<std::int64_t>(
         static_cast<std::int64_t>(std::floor(r_max / guaranteed)) + 1, kMaxSpan);
-    const std::vector<Grid::Cell>* cells = &block;
+    const std::vector<Cell>* cells = &block;
     if (span > 1) {
-      constexpr std::uint64_t kMask = (std::uint64_t{1} << 21) - 1;
-      const std::uint64_t key = g.key[c];
-      g.cells_around(
-          {static_cast<std::int64_t>(key >> 42), static_cast<std::int64_t>((key >> 21) & kMask),
-           static_cast<std::int64_t>(key & kMask)},
-          span, wide);
+      cells_around(g, g.cell_coords(c), span, wide);
       cells = &wide;
     }
     const auto reach = static_cast<float>(span) * guaranteed;
-    for (std::size_t k = g.start[c]; k < g.start[c + 1]; ++k) {
-      const Index j = g.order[k];
+    const detail::GridRange own = g.cell_range(c);
+    for (auto k = static_cast<std::size_t>(own.begin); k < static_cast<std::size_t>(own.end); ++k) {
+      const Index j = g.index(static_cast<Index>(k));
       const double nnd = nn_[static_cast<std::size_t>(j)];
       if (!(nnd > 0.0)) continue;  // only duplicates: r needs the median, below
       const double r = p_.init_radius_factor * nnd;
@@ -745,16 +623,16 @@ class Level0 {
         tree_initial(j, r);
         continue;
       }
-      const Vector3f qf(g.x[k], g.y[k], g.z[k]);
+      const Vector3f qf(g.x()[k], g.y()[k], g.z()[k]);
       const Vector3d q = qf.cast<double>();
       const float pre = rf * rf * (1.0f + 4.0f * kSlack);
       set_initial(j, r, [&](auto&& f) {
-        for (const Grid::Cell& cell : *cells) {
-          if (g.box_distance2(q, cell) > r * r) continue;
+        for (const Cell& cell : *cells) {
+          if (box_distance2(g, q, cell) > r * r) continue;
           scan_cell(
               g, qf, cell, [&](Float4 dd) { return dd <= pre; },
               [&](std::size_t i, float d) {
-                if (d <= pre) f(g.x[i], g.y[i], g.z[i]);
+                if (d <= pre) f(g.x()[i], g.y()[i], g.z()[i]);
               });
         }
       });
@@ -788,8 +666,8 @@ class Level0 {
   const double k_theta_;
   mutable std::once_flag tree_once_;
   mutable std::optional<KdTree> tree_storage_;
-  std::optional<Grid> density_grid_;  // cells of width >= h (weighted only)
-  std::optional<Grid> g_;             // the grid of the neighbour searches
+  std::optional<NeighborGrid> density_grid_;  // cells of width >= h (weighted only)
+  std::optional<NeighborGrid> g_;             // the grid of the neighbour searches
   float guaranteed_ = 0.0f;
   std::vector<double> density_;  // v_j of eq. 25
   std::vector<double> nn_;       // per point: mean distance to its k_nn nearest distinct points

@@ -11,10 +11,19 @@ namespace scanbench::algorithms::detail {
 
 NeighborGrid::NeighborGrid(const Eigen::Matrix3Xf& points, float cell,
                            const std::vector<Eigen::Index>* rank)
-    : n_(points.cols()), cell_(cell), inv_cell_(1.0f / cell) {
+    : NeighborGrid(points, GridLayout{cell, GridLayout::Rule::kReciprocal, 1, rank}) {}
+
+NeighborGrid::NeighborGrid(const Eigen::Matrix3Xf& points, const GridLayout& layout)
+    : n_(points.cols()),
+      rule_(layout.rule),
+      width_(layout.cell),
+      cell_(static_cast<float>(layout.cell)),
+      inv_cell_(1.0f / static_cast<float>(layout.cell)) {
   const auto n = static_cast<std::size_t>(n_);
-  if (rank && rank->size() != n)
+  if (layout.rank && layout.rank->size() != n)
     throw std::logic_error("NeighborGrid: the rank is not a permutation of the points");
+  if (layout.split < 1 || layout.split > 1024)
+    throw std::logic_error("NeighborGrid: the split is not in 1..1024");
   const std::size_t padded = n + static_cast<std::size_t>(kPad);
   // Dummies: far away (their squared distance overflows to +inf) and of weight 0.
   x_.assign(padded, std::numeric_limits<float>::max());
@@ -26,12 +35,27 @@ NeighborGrid::NeighborGrid(const Eigen::Matrix3Xf& points, float cell,
   point_key_.resize(n);
   if (n_ == 0) {
     cell_begin_.push_back(0);
+    fine_first_.push_back(0);
+    fine_begin_.push_back(0);
     return;
   }
   lo_ = points.rowwise().minCoeff();
   const Eigen::Vector3f hi = points.rowwise().maxCoeff();
   for (int d = 0; d < 3; ++d)
-    dims_[d] = static_cast<std::int64_t>(std::floor((hi[d] - lo_[d]) * inv_cell_)) + 1;
+    dims_[d] = axis_cell(d, hi[d]) + 1;
+  sort_points(points, layout);
+  column_tables();
+}
+
+void NeighborGrid::sort_points(const Eigen::Matrix3Xf& points, const GridLayout& layout) {
+  const auto n = static_cast<std::size_t>(n_);
+  const std::vector<Eigen::Index>* rank = layout.rank;
+  const int split = layout.split;
+  // Per point (original index): its fine cell within its cell, (x, y, z) order; with split 1
+  // the array stays empty.
+  std::vector<std::uint32_t> fine_of(split > 1 ? n : 0);
+  const double fine_width = width_ / split;
+  const float inv_fine = 1.0f / static_cast<float>(fine_width);
   std::vector<std::pair<std::uint64_t, Eigen::Index>> keys(n);
   tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, n_, 4096), [&](const auto& r) {
     for (Eigen::Index i = r.begin(); i != r.end(); ++i) {
@@ -42,8 +66,24 @@ NeighborGrid::NeighborGrid(const Eigen::Matrix3Xf& points, float cell,
       c.z = std::min(c.z, dims_[2] - 1);
       const Eigen::Index at = rank ? (*rank)[static_cast<std::size_t>(i)] : i;
       keys[static_cast<std::size_t>(at)] = {key(c.x, c.y, c.z), i};
+      if (split == 1) continue;
+      std::uint32_t sub = 0;
+      const std::int64_t own[3] = {c.x, c.y, c.z};
+      for (int d = 0; d < 3; ++d) {
+        const float v = points(d, i);
+        const double t =
+            rule_ == GridLayout::Rule::kReciprocal
+                ? std::floor(static_cast<double>((v - lo_[d]) * inv_fine))
+                : std::floor((static_cast<double>(v) - static_cast<double>(lo_[d])) / fine_width);
+        const double f = std::clamp(t - static_cast<double>(own[d]) * split, 0.0, split - 1.0);
+        sub = sub * static_cast<std::uint32_t>(split) + static_cast<std::uint32_t>(f);
+      }
+      fine_of[static_cast<std::size_t>(i)] = sub;
     }
   });
+  // Stable passes: (fine cell, rank) order, then (key, fine cell, rank).
+  if (split > 1)
+    radix_sort(keys, [&](const auto& e) { return fine_of[static_cast<std::size_t>(e.second)]; });
   radix_sort(keys, [](const auto& e) { return e.first; });  // (key, rank) order
   for (std::size_t k = 0; k < n; ++k) {
     const Eigen::Index i = keys[k].second;
@@ -62,6 +102,52 @@ NeighborGrid::NeighborGrid(const Eigen::Matrix3Xf& points, float cell,
     }
   }
   cell_begin_.push_back(n_);
+  fine_tables(fine_of);
+}
+
+void NeighborGrid::fine_tables(const std::vector<std::uint32_t>& fine_of) {
+  const auto n = static_cast<std::size_t>(n_);
+  if (fine_of.empty()) {  // one fine cell per cell; no centres (nobody asks without a split)
+    fine_first_.resize(cell_begin_.size());
+    for (std::size_t c = 0; c < fine_first_.size(); ++c)
+      fine_first_[c] = c;
+    fine_begin_ = cell_begin_;
+    return;
+  }
+  std::size_t c = 0;
+  for (std::size_t k = 0; k < n; ++k) {
+    const std::uint32_t sub = fine_of[static_cast<std::size_t>(index_[k])];
+    const bool new_cell = static_cast<Eigen::Index>(k) == cell_begin_[c];
+    if (new_cell) fine_first_.push_back(fine_begin_.size());
+    if (new_cell || sub != fine_of[static_cast<std::size_t>(index_[k - 1])])
+      fine_begin_.push_back(static_cast<Eigen::Index>(k));
+    if (new_cell) ++c;
+  }
+  fine_first_.push_back(fine_begin_.size());
+  fine_begin_.push_back(n_);
+  const std::size_t nf = fine_begin_.size() - 1;
+  fine_centre_.resize(nf);
+  fine_reach_.resize(nf);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nf, 256), [&](const auto& r) {
+    for (std::size_t f = r.begin(); f != r.end(); ++f) {
+      const auto b = static_cast<std::size_t>(fine_begin_[f]),
+                 end = static_cast<std::size_t>(fine_begin_[f + 1]);
+      Eigen::Vector3f mn(x_[b], y_[b], z_[b]), mx = mn;
+      for (std::size_t k = b + 1; k < end; ++k) {
+        mn = mn.cwiseMin(Eigen::Vector3f(x_[k], y_[k], z_[k]));
+        mx = mx.cwiseMax(Eigen::Vector3f(x_[k], y_[k], z_[k]));
+      }
+      const Eigen::Vector3f centre = 0.5f * (mn + mx);
+      float reach = 0.0f;
+      for (std::size_t k = b; k < end; ++k)
+        reach = std::max(reach, (Eigen::Vector3f(x_[k], y_[k], z_[k]) - centre).norm());
+      fine_centre_[f] = centre;
+      fine_reach_[f] = reach;
+    }
+  });
+}
+
+void NeighborGrid::column_tables() {
   // A dense table costs 4 bytes per cell of the box, a column table 4 per column: allowed up to
   // 8 per point (32 bytes, the size of the sorted arrays) and while occupied-cell numbers fit 32
   // bits.
@@ -88,6 +174,17 @@ NeighborGrid::NeighborGrid(const Eigen::Matrix3Xf& points, float cell,
         first_table(static_cast<std::size_t>(columns), static_cast<std::uint64_t>(dims_[2]));
 }
 
+NeighborGrid::Coords NeighborGrid::cell_coords(std::size_t c) const {
+  const std::uint64_t k = cell_key_[c];
+  const auto dy = static_cast<std::uint64_t>(dims_[1]), dz = static_cast<std::uint64_t>(dims_[2]);
+  return {static_cast<std::int64_t>(k / dz / dy), static_cast<std::int64_t>(k / dz % dy),
+          static_cast<std::int64_t>(k % dz)};
+}
+
+NeighborGrid::Coords NeighborGrid::coords_of(const Eigen::Vector3f& q) const {
+  return {axis_cell(0, q.x()), axis_cell(1, q.y()), axis_cell(2, q.z())};
+}
+
 void NeighborGrid::set_weights(const Eigen::VectorXf& w) {
   for (Eigen::Index k = 0; k < n_; ++k)
     w_[static_cast<std::size_t>(k)] = w[index_[static_cast<std::size_t>(k)]];
@@ -98,12 +195,8 @@ void NeighborGrid::ranges_near(const Eigen::Vector3f& q, float radius,
   out.clear();
   if (n_ == 0) return;
   const float r2 = radius * radius;
-  const auto lo = [&](int d) {
-    return static_cast<std::int64_t>(std::floor((q[d] - radius - lo_[d]) * inv_cell_));
-  };
-  const auto hi = [&](int d) {
-    return static_cast<std::int64_t>(std::floor((q[d] + radius - lo_[d]) * inv_cell_));
-  };
+  const auto lo = [&](int d) { return axis_cell(d, q[d] - radius); };
+  const auto hi = [&](int d) { return axis_cell(d, q[d] + radius); };
   const std::int64_t x0 = std::max<std::int64_t>(lo(0), 0), x1 = std::min(hi(0), dims_[0] - 1);
   const std::int64_t y0 = std::max<std::int64_t>(lo(1), 0), y1 = std::min(hi(1), dims_[1] - 1);
   const std::int64_t z0 = lo(2), z1 = hi(2);

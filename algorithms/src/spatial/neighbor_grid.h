@@ -14,12 +14,21 @@
 //
 // Determinism: a query's ranges and their order depend only on the query position and the grid,
 // never on the thread count or on the other queries.
+//
+// The same grid serves mixture.hem's level 0 (CLOP paper Algorithm 1 lines 1-9): its neighbour
+// searches walk the occupied cells around a cell (cells_in_box, with box distance bounds from
+// cell_corner), and its eq. 25 density pass the fine cells (GridLayout::split). Its bounds need
+// cells exact to 1e-9 of their width, hence GridLayout::Rule::kExactQuotient; the kernels above
+// keep the float rule their ranges were written for (the rules place 0 to 2 points in 100,000
+// in another cell, which changes the order of their sums, so one rule for both would change
+// the bits of one of them).
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
 #include <Eigen/Core>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -36,21 +45,49 @@ struct GridRange {
   Eigen::Index end = 0;
 };
 
+/// How a NeighborGrid places its points: cubic cells of side `cell` (> 0) from the points'
+/// lower corner lo, cell (x, y, z) spanning lo + cell * [x, x + 1) x [y, y + 1) x [z, z + 1).
+struct GridLayout {
+  enum class Rule {
+    /// floor((p - lo) * (1 / cell)) in float (the projection kernels' rule).
+    kReciprocal,
+    /// floor((p - lo) / cell) in double: the subtraction is exact and the quotient correctly
+    /// rounded, so a point lies in its cell's cube up to 1e-9 of the side (mixture.hem level 0).
+    kExactQuotient,
+  };
+  double cell = 1.0;
+  Rule rule = Rule::kReciprocal;
+  /// Fine cells per axis of a cell: with split > 1 the points of a cell are ordered by fine cell
+  /// (cubes of side cell / split, found by the same rule, in (x, y, z) order), and each fine
+  /// cell's range, centre and reach are kept (fine_cells()).
+  int split = 1;
+  /// When given, a permutation of 0..n-1 (rank[i] the place of point i): the points of one
+  /// (fine) cell are in the order of `rank` instead of index order, so a caller that stores its
+  /// points in another order than their identity (clop_project's spatial order) gets the sums
+  /// of the identity order.
+  const std::vector<Eigen::Index>* rank = nullptr;
+};
+
 class NeighborGrid {
  public:
   /// Float lanes the sorted arrays are padded with (far-away dummies of weight 0), so that SIMD
   /// loads of up to kPad floats from any position below size() stay inside the arrays.
   static constexpr Eigen::Index kPad = 16;
 
-  /// Sorts the columns of `points` (finite coordinates) into cubic cells of side `cell` > 0; the
-  /// points of one cell in index order, or in the order of `rank` when given (a permutation of
-  /// 0..n-1, rank[i] the place of point i): a caller that stores its points in another order
-  /// than their identity (clop_project's spatial order) gets the sums of the identity order.
+  /// Cell coordinates (x, y, z).
+  using Coords = std::array<std::int64_t, 3>;
+
+  /// Sorts the columns of `points` (finite coordinates) into cubic cells of side `cell` > 0
+  /// (the float rule); the points of one cell in index order, or in the order of `rank`.
   NeighborGrid(const Eigen::Matrix3Xf& points, float cell,
                const std::vector<Eigen::Index>* rank = nullptr);
+  /// Sorts the columns of `points` (finite coordinates) into the cells of `layout`.
+  NeighborGrid(const Eigen::Matrix3Xf& points, const GridLayout& layout);
 
   Eigen::Index size() const { return n_; }
   float cell() const { return cell_; }
+  /// The cell side as given to the layout.
+  double width() const { return width_; }
   /// Sorted coordinates and weights (weights are 1 until set_weights()).
   const float* x() const { return x_.data(); }
   const float* y() const { return y_.data(); }
@@ -74,15 +111,66 @@ class NeighborGrid {
   /// column by column in increasing (x, y): one query anywhere, not necessarily in the grid.
   void ranges_near(const Eigen::Vector3f& q, float radius, std::vector<GridRange>& out) const;
 
+  // Cell by cell: the occupied cells are numbered 0..cells()-1 in (x, y, z) order.
+
+  /// Number of occupied cells.
+  std::size_t cells() const { return cell_key_.size(); }
+  /// The sorted positions of the points of occupied cell c.
+  GridRange cell_range(std::size_t c) const { return {cell_begin_[c], cell_begin_[c + 1]}; }
+  /// The coordinates of occupied cell c.
+  Coords cell_coords(std::size_t c) const;
+  /// The coordinates of the cell of q by the grid's rule (q anywhere; with kExactQuotient
+  /// clamped to +-2^40, with kReciprocal within the int64 range).
+  Coords coords_of(const Eigen::Vector3f& q) const;
+  /// Lower corner of cell `c`, lo + width() * c in double.
+  Eigen::Vector3d cell_corner(const Coords& c) const {
+    const Eigen::Vector3d lo = lo_.cast<double>();
+    return {lo.x() + width_ * static_cast<double>(c[0]),
+            lo.y() + width_ * static_cast<double>(c[1]),
+            lo.z() + width_ * static_cast<double>(c[2])};
+  }
+  /// Calls f(c) for every occupied cell c with coordinates in [lo, hi] (per axis, inclusive), in
+  /// increasing c, column (x, y) by column.
+  template <class F>
+  void cells_in_box(const Coords& lo, const Coords& hi, F&& f) const {
+    const std::int64_t x1 = std::min(hi[0], dims_[0] - 1), y1 = std::min(hi[1], dims_[1] - 1);
+    for (std::int64_t cx = std::max<std::int64_t>(lo[0], 0); cx <= x1; ++cx)
+      for (std::int64_t cy = std::max<std::int64_t>(lo[1], 0); cy <= y1; ++cy) {
+        const auto [a, b] = column(cx, cy, lo[2], hi[2]);
+        for (std::size_t c = a; c < b; ++c)
+          f(c);
+      }
+  }
+
+  /// With GridLayout::split > 1: the fine cells of occupied cell c are [first, last) (in sorted
+  /// order, each non-empty); otherwise every cell is one fine cell.
+  std::pair<std::size_t, std::size_t> fine_cells(std::size_t c) const {
+    return {fine_first_[c], fine_first_[c + 1]};
+  }
+  /// The sorted positions of the points of fine cell f.
+  GridRange fine_range(std::size_t f) const { return {fine_begin_[f], fine_begin_[f + 1]}; }
+  /// With GridLayout::split > 1: the centre of the bounding box of fine cell f's points and their
+  /// largest distance from it (float, |p - centre| as Eigen's norm).
+  const Eigen::Vector3f& fine_centre(std::size_t f) const { return fine_centre_[f]; }
+  float fine_reach(std::size_t f) const { return fine_reach_[f]; }
+
  private:
   struct Cell {
     std::int64_t x, y, z;
   };
-  Cell cell_of(float px, float py, float pz) const {
-    return {static_cast<std::int64_t>(std::floor((px - lo_.x()) * inv_cell_)),
-            static_cast<std::int64_t>(std::floor((py - lo_.y()) * inv_cell_)),
-            static_cast<std::int64_t>(std::floor((pz - lo_.z()) * inv_cell_))};
+  /// Cell coordinate along axis d of the value v (by the grid's rule).
+  std::int64_t axis_cell(int d, float v) const {
+    if (rule_ == GridLayout::Rule::kReciprocal)
+      return static_cast<std::int64_t>(std::floor((v - lo_[d]) * inv_cell_));
+    const double t = std::floor((static_cast<double>(v) - static_cast<double>(lo_[d])) / width_);
+    return static_cast<std::int64_t>(std::clamp(t, -kFar, kFar));
   }
+  Cell cell_of(float px, float py, float pz) const {
+    return {axis_cell(0, px), axis_cell(1, py), axis_cell(2, pz)};
+  }
+  void sort_points(const Eigen::Matrix3Xf& points, const GridLayout& layout);
+  void fine_tables(const std::vector<std::uint32_t>& fine_of);
+  void column_tables();
   std::uint64_t key(std::int64_t cx, std::int64_t cy, std::int64_t cz) const {
     return (static_cast<std::uint64_t>(cx) * static_cast<std::uint64_t>(dims_[1]) +
             static_cast<std::uint64_t>(cy)) *
@@ -93,7 +181,11 @@ class NeighborGrid {
   std::pair<std::size_t, std::size_t> column(std::int64_t cx, std::int64_t cy, std::int64_t z0,
                                              std::int64_t z1) const;
 
+  static constexpr double kFar = 1099511627776.0;  // 2^40: beyond any grid, no overflow
+
   Eigen::Index n_ = 0;
+  GridLayout::Rule rule_ = GridLayout::Rule::kReciprocal;
+  double width_ = 1.0;
   float cell_ = 1.0f, inv_cell_ = 1.0f;
   Eigen::Vector3f lo_ = Eigen::Vector3f::Zero();
   std::int64_t dims_[3] = {1, 1, 1};
@@ -104,6 +196,10 @@ class NeighborGrid {
   std::vector<std::int64_t> cell_z_;      // their z coordinate
   std::vector<Eigen::Index> cell_begin_;  // points of cell c: [cell_begin_[c], cell_begin_[c+1])
   std::vector<std::uint64_t> point_key_;  // per sorted point: its cell key
+  std::vector<std::size_t> fine_first_;   // fine cells of cell c: [fine_first_[c], [c + 1])
+  std::vector<Eigen::Index> fine_begin_;  // points of fine cell f: [fine_begin_[f], [f + 1])
+  std::vector<Eigen::Vector3f> fine_centre_;
+  std::vector<float> fine_reach_;
   // When the grid's box has few enough cells: per cell key (and one past the last), the number
   // of occupied cells with a smaller key, so that column() reads two entries instead of two
   // binary searches. Empty otherwise.
@@ -184,8 +280,7 @@ void NeighborGrid::for_each_query(const Eigen::Matrix3Xf& queries, float radius,
       for (std::size_t k = starts[qc]; k < starts[qc + 1]; ++k) {
         const Eigen::Index i = order[k].second;
         const float qx = queries(0, i), qy = queries(1, i), qz = queries(2, i);
-        const auto zlo = static_cast<std::int64_t>(std::floor((qz - radius - lo_.z()) * inv_cell_));
-        const auto zhi = static_cast<std::int64_t>(std::floor((qz + radius - lo_.z()) * inv_cell_));
+        const std::int64_t zlo = axis_cell(2, qz - radius), zhi = axis_cell(2, qz + radius);
         ranges.clear();
         for (const Column& col : cols) {
           const float ex = std::max({col.x0 - qx, qx - col.x1, 0.0f});

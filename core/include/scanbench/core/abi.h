@@ -7,6 +7,7 @@
 // Bump it whenever a public type changes its layout or meaning (PointCloud, TriangleMesh,
 // GaussianMixture, CovarianceMesh, PolygonFaces, StageData, RunContext, ParamSchema, the
 // registries' entries, MetricInput, ClosestPoint, KdTree, NeighborGrid), or a public function
-// its signature (2: CovarianceMesh's faces became a PolygonFaces).
+// its signature (2: CovarianceMesh's faces became a PolygonFaces; 3: NeighborGrid gained a
+// layout, the exact-quotient cell rule and fine cells).
 // cmake/Install.cmake reads the number from this line.
-#define SCANBENCH_ABI_VERSION 2
+#define SCANBENCH_ABI_VERSION 3
