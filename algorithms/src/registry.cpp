@@ -1,6 +1,7 @@
 #include "scanbench/algorithms/registry.h"
 
 #include <concepts>
+#include <utility>
 
 #include "scanbench/algorithms/bhattacharyya_triangulation.h"
 #include "scanbench/algorithms/bilateral_normals.h"
@@ -31,6 +32,13 @@ constexpr StageIo kPointsAndMixtureToPoints{DataKind::Points | DataKind::Mixture
                                             DataKind::Points};
 // Reconstructions: points in, a triangle mesh out (the points ride along).
 constexpr StageIo kPointsToMesh{DataKind::Points, DataKind::Mesh, DataKind::Mesh};
+
+// Registers an entry that runs in its own process in a job (Algorithm::own_process): for steps
+// whose output depends on heap addresses, so that a job's bytes do not depend on what ran before.
+void add_own_process(AlgorithmRegistry& reg, AlgorithmRegistry::Entry entry) {
+  entry.fn.own_process = true;
+  reg.add(std::move(entry));
+}
 
 // The LOP family (docs/algorithms/lop-family.md): HEM, CLOP, CSW, PCA normals, LOP, WLOP.
 void register_lop_family(AlgorithmRegistry& reg) {
@@ -143,20 +151,16 @@ void register_reconstruction_family(AlgorithmRegistry& reg) {
       "normals. docs/algorithms/reconstruction.md",
       poisson, kPointsToMesh));
   // Both CGAL meshers order facets by heap address: each runs in its own process in a job.
-  auto front = make_entry<CgalAdvancingFrontParams>(
-      "peer.cgal_advancing_front",
-      "CGAL 5.5 advancing-front surface reconstruction (Cohen-Steiner and Da 2004; peer). "
-      "docs/algorithms/reconstruction.md",
-      cgal_advancing_front, kPointsToMesh);
-  front.fn.own_process = true;
-  reg.add(std::move(front));
-  auto scale_space = make_entry<CgalScaleSpaceParams>(
-      "peer.cgal_scale_space",
-      "CGAL 5.5 scale-space surface reconstruction (Digne et al. 2011; peer). "
-      "docs/algorithms/reconstruction.md",
-      cgal_scale_space, kPointsToMesh);
-  scale_space.fn.own_process = true;
-  reg.add(std::move(scale_space));
+  add_own_process(reg, make_entry<CgalAdvancingFrontParams>(
+                           "peer.cgal_advancing_front",
+                           "CGAL 5.5 advancing-front surface reconstruction (Cohen-Steiner and Da "
+                           "2004; peer). docs/algorithms/reconstruction.md",
+                           cgal_advancing_front, kPointsToMesh));
+  add_own_process(reg, make_entry<CgalScaleSpaceParams>(
+                           "peer.cgal_scale_space",
+                           "CGAL 5.5 scale-space surface reconstruction (Digne et al. 2011; peer). "
+                           "docs/algorithms/reconstruction.md",
+                           cgal_scale_space, kPointsToMesh));
 }
 
 // Open3D 0.16 (libopen3d-dev) and PCL 1.13 (pcl-tools programs) peers (docs/algorithms/peers.md,

@@ -114,6 +114,24 @@ TEST(ClaimRules, InconclusiveWhenJobFailedNoRecordMissingQuantityOrWithinMargin)
   EXPECT_EQ(judge_rule(r, {}).verdict, "inconclusive");
 }
 
+TEST(ClaimRules, ARuleNamingADatasetIsJudgedOnThatDatasetOnly) {
+  const std::vector<Json> recs = {
+      record("d1", "x", {{"err", 1.0}}), record("d1", "y", {{"err", 2.0}}),
+      record("d2", "x", {{"err", 5.0}}), record("d2", "y", {{"err", 4.0}})};
+  ClaimRule r = compare_rule("x", "<", "y");
+  r.a.dataset = r.b.dataset = "d1";
+  RuleOutcome o = judge_rule(r, recs);
+  EXPECT_EQ(o.verdict, "held") << o.reason;  // d2 (where x loses) is not this rule's dataset
+  EXPECT_EQ(o.groups.size(), 1u);
+  EXPECT_EQ(o.measured.find("d2"), std::string::npos) << o.measured;
+  r.a.dataset = r.b.dataset = "d2";
+  EXPECT_EQ(judge_rule(r, recs).verdict, "failed");
+  r.a.dataset = r.b.dataset = "d3";  // named, but no record: nothing judged
+  o = judge_rule(r, recs);
+  EXPECT_EQ(o.verdict, "inconclusive");
+  EXPECT_NE(o.reason.find("no records"), std::string::npos) << o.reason;
+}
+
 TEST(ClaimRules, TimingSamplesMustNotOverlap) {
   std::vector<Json> recs = {record("d1", "fast", {}, Json::object(), {1.0, 1.1, 1.2}),
                             record("d1", "slow", {}, Json::object(), {2.0, 2.1, 2.2})};

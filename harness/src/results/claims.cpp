@@ -90,7 +90,7 @@ void inconclusive_group(RuleOutcome& out, std::vector<std::string>& verdicts,
 RuleOutcome judge_argmin(const ClaimRule& rule, const std::vector<Json>& records) {
   RuleOutcome out;
   std::vector<std::string> verdicts, reasons, measured;
-  for (const auto& [g, recs] : claim_groups(records, rule.per)) {
+  for (const auto& [g, recs] : claim_groups(records, rule)) {
     Side side = select_side(recs, rule.a, rule, "a");
     Json gj = {{"group", g}};
     if (!side.problem.empty()) {
@@ -150,11 +150,18 @@ RuleOutcome judge_argmin(const ClaimRule& rule, const std::vector<Json>& records
 }  // namespace
 
 std::vector<std::pair<std::string, std::vector<const Json*>>> claim_groups(
-    const std::vector<Json>& records, const std::string& per) {
+    const std::vector<Json>& records, const ClaimRule& rule) {
+  const bool per_dataset = rule.per != "all";
+  auto excluded = [&](const std::string& g) {
+    for (const ClaimSelector* s : {&rule.a, &rule.b, &rule.match_lo, &rule.match_hi})
+      if (!s->dataset.empty() && s->dataset != g) return true;
+    return false;
+  };
   std::vector<std::pair<std::string, std::vector<const Json*>>> groups;
   for (const auto& r : records) {
     const std::string g =
-        per == "all" ? "all" : r.value("dataset", Json::object()).value("label", std::string("?"));
+        per_dataset ? r.value("dataset", Json::object()).value("label", std::string("?")) : "all";
+    if (per_dataset && excluded(g)) continue;
     auto it =
         std::find_if(groups.begin(), groups.end(), [&](const auto& x) { return x.first == g; });
     if (it == groups.end()) {
@@ -193,7 +200,7 @@ RuleOutcome judge_rule(const ClaimRule& rule, const std::vector<Json>& records) 
   RuleOutcome out;
   std::vector<std::string> verdicts, reasons, measured;
   const bool timing = rule.quantity.rfind("time.", 0) == 0;
-  for (const auto& [g, recs] : claim_groups(records, rule.per)) {
+  for (const auto& [g, recs] : claim_groups(records, rule)) {
     Json gj = {{"group", g}};
     Side a = select_side(recs, rule.a, rule, "a");
     Side b;

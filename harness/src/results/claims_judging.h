@@ -9,10 +9,11 @@
 
 namespace scanbench::harness {
 
-/// The records grouped per dataset (in order of first appearance) or in one group "all"
-/// (`per`: a rule's "per").
+/// The records grouped per dataset (in order of first appearance) or in one group "all" (the
+/// rule's "per"). A dataset group that one of the rule's selectors cannot match (it names another
+/// dataset) is left out: the rule says nothing about that dataset.
 std::vector<std::pair<std::string, std::vector<const Json*>>> claim_groups(
-    const std::vector<Json>& records, const std::string& per);
+    const std::vector<Json>& records, const ClaimRule& rule);
 
 /// Verdicts combined: failed if any failed, else inconclusive if any was (or there is none),
 /// else held.

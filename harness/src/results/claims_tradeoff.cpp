@@ -216,7 +216,7 @@ std::string judge_matched_group(const ClaimRule& rule, const std::vector<const J
 RuleOutcome judge_tradeoff(const ClaimRule& rule, const std::vector<Json>& records) {
   RuleOutcome out;
   std::vector<std::string> verdicts;
-  for (const auto& [g, recs] : claim_groups(records, rule.per)) {
+  for (const auto& [g, recs] : claim_groups(records, rule)) {
     Json gj = {{"group", g}};
     std::string measured, why;
     const std::string v = rule.kind == "front" ? judge_front_group(rule, recs, gj, measured, why)
