@@ -46,6 +46,9 @@ DatasetRegistry build_registry() {
       &make_torus));
   r.add(procedural<CubeParams>(
       "cube", "Axis-aligned cube with 12 sharp 90-degree edges and 8 corners.", &make_cube));
+  r.add(procedural<PlateParams>(
+      "plate", "Thin square plate: a plane to within its thickness (GPF Fig. 4), with sharp rims.",
+      &make_plate));
   r.add(procedural<FandiskBlockParams>(
       "fandisk_block",
       "Fandisk-like extruded block: sharp convex and concave creases plus a G1 cylindrical "

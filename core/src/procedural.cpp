@@ -166,6 +166,22 @@ TriangleMesh make_cube(const CubeParams& p) {
   return b.build();
 }
 
+TriangleMesh make_plate(const PlateParams& p) {
+  require(p.size > 0.0 && std::isfinite(p.size), "plate", "size must be positive");
+  require(p.thickness > 0.0 && std::isfinite(p.thickness) && p.thickness <= p.size, "plate",
+          "thickness must be positive and at most the size");
+  require(p.resolution >= 1 && p.resolution <= 2048, "plate", "resolution must be in [1, 2048]");
+  const int n = p.resolution;
+  const double h = 0.5 * p.size;
+  const double t = 0.5 * p.thickness;
+  MeshBuilder b;
+  cube_lattice(b, n, [&](int x, int y, int z) {
+    return Eigen::Vector3d(lerp_exact(-h, h, x, n), lerp_exact(-h, h, y, n),
+                           lerp_exact(-t, t, z, n));
+  });
+  return b.build();
+}
+
 TriangleMesh make_fandisk_block(const FandiskBlockParams& p) {
   require(p.depth > 0.0 && std::isfinite(p.depth), "fandisk_block", "depth must be positive");
   require(p.fillet_radius >= 0.05 && p.fillet_radius <= 0.6, "fandisk_block",

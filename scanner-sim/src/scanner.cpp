@@ -77,6 +77,9 @@ void ScannerParams::declare(ParamDeclarer<ScannerParams>& d) {
          "probability that an output point is a uniform outlier in the enlarged bbox");
   d.real("outlier_box_scale", &P::outlier_box_scale, Range::closed(1, 10), "",
          "outliers are uniform in the bbox grown by this factor about its centre (Berger: 1.1)");
+  d.real("outlier_box_min", &P::outlier_box_min, Range::closed(0, 10), "diag",
+         "each side of the outlier box widened about its centre to at least this (0 = none): "
+         "room for outliers off a flat model's plane");
   d.text("kind", &P::kind,
          "range (the range scanner), photo (rendered images through COLMAP's sparse "
          "triangulation) or photo_dense (COLMAP's patch_match_stereo: needs a CUDA build)");
@@ -613,6 +616,13 @@ ScannerEngine::Run::Run(const ScannerEngine& engine, RunContext& ctx)
   f_out_ = p.outlier_fraction;
   flying_prob_ = p.flying_pixel_prob;
   obox_ = e_.box_.scaled(static_cast<float>(p.outlier_box_scale));
+  const float box_min = static_cast<float>(p.outlier_box_min) * diag;
+  for (int k = 0; k < 3; ++k) {  // only the sides shorter than the minimum move
+    if (obox_.max[k] - obox_.min[k] >= box_min) continue;
+    const float c = 0.5f * (obox_.min[k] + obox_.max[k]);
+    obox_.min[k] = c - 0.5f * box_min;
+    obox_.max[k] = c + 0.5f * box_min;
+  }
   need_ = (e_.sub_rays_ + 1) / 2;
 
   const std::uint64_t pixel_seed = ctx.stream_seed("scan.pixels");

@@ -97,6 +97,23 @@ TEST(Procedural, CubeHasExactVolumeAndSharpEdges) {
   EXPECT_EQ(sharp, 12 * 5);
 }
 
+TEST(Procedural, PlateIsAThinClosedBox) {
+  PlateParams p;
+  p.size = 2.0;
+  p.thickness = 0.1;
+  p.resolution = 4;
+  const TriangleMesh m = make_plate(p);
+  expect_solid(m, "plate");
+  EXPECT_NEAR(m.signed_volume(), 2.0 * 2.0 * 0.1, 1e-6);
+  EXPECT_NEAR(m.area(), 2.0 * 4.0 + 4.0 * 2.0 * 0.1, 1e-5);
+  EXPECT_EQ(m.num_faces(), 12 * 16);
+  const BoundingBox b = m.bbox();
+  EXPECT_FLOAT_EQ(b.extent().z(), 0.1f);
+  EXPECT_FLOAT_EQ(b.extent().x(), 2.0f);
+  p.thickness = 3.0;  // thicker than wide: not a plate
+  EXPECT_THROW(make_plate(p), ParamError);
+}
+
 TEST(Procedural, FandiskBlockHasCreasesAndASmoothFillet) {
   FandiskBlockParams p;
   const TriangleMesh m = make_fandisk_block(p);
@@ -244,8 +261,8 @@ TEST(Datasets, EveryEntryLoadsByNameOrSkipsWhenItsFileIsAbsent) {
     if (e.fn.file.empty()) expect_solid(m, e.name.c_str());
   }
   for (const char* n :
-       {"sphere", "torus", "cube", "fandisk_block", "ripple", "bunny", "fandisk", "armadillo",
-        "camel", "elephant", "man", "eight", "cow", "knot", "hand", "femur"})
+       {"sphere", "torus", "cube", "plate", "fandisk_block", "ripple", "bunny", "fandisk",
+        "armadillo", "camel", "elephant", "man", "eight", "cow", "knot", "hand", "femur"})
     EXPECT_TRUE(names.count(n)) << n;
   if (missing > 0) GTEST_SKIP() << missing << " file datasets absent (run scripts/setup.sh)";
 }

@@ -173,7 +173,7 @@ TEST_F(EvalCli, BadInputExitsWithOneLine) {
 }
 
 TEST_F(EvalCli, BenchDistanceWritesRatios) {
-  ASSERT_EQ(run("bench distance --dataset sphere --points 20000 --repeats 1 --json " +
+  ASSERT_EQ(run("bench distance --dataset sphere --points 20000 --repeats 2 --json " +
                     (dir_ / "b.json").string(),
                 dir_ / "log.txt"),
             0)
@@ -185,9 +185,23 @@ TEST_F(EvalCli, BenchDistanceWritesRatios) {
   EXPECT_EQ(b["queries"].get<int>(), 20000);
   // The split of the field path is reported too.
   ASSERT_TRUE(b["field_sampling_median_seconds"].is_number());
-  EXPECT_EQ(b["exact_seconds"].size(), 1u);
+  EXPECT_EQ(b["exact_seconds"].size(), 2u);
   EXPECT_TRUE(b["timed"].is_string());
   EXPECT_GE(b["fallbacks"].get<int>(), 300);  // the 2% far queries take the exact fallback
+  // Each repeat is a pair: the summary is of the per-repeat ratios, and "every repeat" is judged
+  // on the worst of them.
+  const Json& r = b["ratios"];
+  const Json& s = r["exact_over_field_summary"];
+  ASSERT_EQ(r["exact_over_field_per_repeat"].size(), 2u);
+  EXPECT_EQ(s["n"].get<int>(), 2);
+  EXPECT_DOUBLE_EQ(s["min"].get<double>(), r["exact_over_field_min"].get<double>());
+  EXPECT_LE(s["min"].get<double>(), s["median"].get<double>());
+  EXPECT_LE(s["median"].get<double>(), s["max"].get<double>());
+  EXPECT_LE(s["ci_low"].get<double>(), s["ci_high"].get<double>());
+  EXPECT_EQ(r["verdict_every_repeat"].get<std::string>(),
+            r["exact_over_field_min"].get<double>() >= 5.0 ? "met" : "missed");
+  EXPECT_TRUE(r["verdict_median"].is_string());
+  EXPECT_TRUE(b["load_before"].is_number());
 }
 
 }  // namespace

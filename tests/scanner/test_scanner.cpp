@@ -13,6 +13,7 @@
 #include "scanbench/core/errors.h"
 #include "scanbench/core/io.h"
 #include "scanbench/core/paths.h"
+#include "scanbench/core/procedural.h"
 #include "scanbench/scanner/registry.h"
 #include "scanbench/scanner/scanner.h"
 #include "scanbench/scanner/throughput.h"
@@ -319,6 +320,45 @@ TEST(Scanner, UniformOutlierShareIsBinomial) {
   for (int k = 0; k < 3; ++k)
     EXPECT_NEAR(mean[k], box.center()[k], 4.0 * ext[k] / std::sqrt(12.0 * outliers));
   EXPECT_EQ(s.record["counts"]["uniform_outliers"].get<double>(), outliers);
+}
+
+// outlier_box_min widens only the sides of the scaled box that are shorter than it, about the
+// centre: on a thin plate the outliers fill a slab of that height, and a minimum below every side
+// changes no bit of the scan.
+TEST(Scanner, OutlierBoxMinWidensOnlyTheNarrowSides) {
+  PlateParams pp;
+  pp.resolution = 4;
+  const TriangleMesh m = make_plate(pp);
+  const float diag = m.bbox().diagonal();
+  ScannerParams p = small(4, 48);
+  p.outlier_fraction = 0.3;
+  RunContext ctx(12);
+  const Scan flat = scan(m, p, ctx);
+  p.outlier_box_min = 0.001;  // below every side of the scaled box (its z side is 0.011)
+  const Scan same = scan(m, p, ctx);
+  ASSERT_EQ(flat.cloud.positions, same.cloud.positions);
+  p.outlier_box_min = 0.5;
+  const Scan tall = scan(m, p, ctx);
+  const BoundingBox scaled = m.bbox().scaled(1.1f);
+  const float half_z = 0.25f * diag;
+  double outliers = 0, mean_z = 0, max_z = 0;
+  for (Eigen::Index i = 0; i < tall.cloud.size(); ++i) {
+    if (tall.cloud.properties.at("outlier")[i] == 0.0f) continue;
+    const Eigen::Vector3f q = tall.cloud.positions.col(i);
+    for (int k = 0; k < 2; ++k) {  // x and y keep the scaled box (1.1 > 0.5 diag)
+      ASSERT_GE(q[k], scaled.min[k]);
+      ASSERT_LE(q[k], scaled.max[k]);
+    }
+    ASSERT_LE(std::abs(q.z()), half_z * (1.0f + 1e-6f));
+    outliers += 1;
+    mean_z += q.z();
+    max_z = std::max(max_z, static_cast<double>(std::abs(q.z())));
+  }
+  ASSERT_GT(outliers, 100);
+  // Uniform over the slab's height: the largest |z| is near its half height and the mean near 0
+  // (sd of a uniform coordinate is height / sqrt(12)).
+  EXPECT_GT(max_z, 0.9 * half_z);
+  EXPECT_NEAR(mean_z / outliers, 0.0, 4.0 * 2.0 * half_z / std::sqrt(12.0 * outliers));
 }
 
 TEST(Scanner, GrazingDropoutRemovesExactlyTheSteepHits) {

@@ -62,6 +62,23 @@ struct CubeParams {
 };
 TriangleMesh make_cube(const CubeParams& p);
 
+/// A square plate: the box [-size/2, size/2]^2 x [-thickness/2, thickness/2], closed. Thinner than
+/// the noise of a scan it stands for a plane (GPF Fig. 4 and Fig. 18, first row), with a solid's
+/// ground truth (its two faces are one surface to within the thickness).
+struct PlateParams {
+  double size = 1.0;
+  double thickness = 0.01;
+  int resolution = 16;
+  static void declare(ParamDeclarer<PlateParams>& d) {
+    d.real("size", &PlateParams::size, Range::above(0.0), "model", "edge length of the square");
+    d.real("thickness", &PlateParams::thickness, Range::above(0.0), "model",
+           "thickness (at most the size)");
+    d.integer("resolution", &PlateParams::resolution, Range::closed(1, 2048), "",
+              "grid cells per edge (the thickness too)");
+  }
+};
+TriangleMesh make_plate(const PlateParams& p);
+
 /// A fandisk-like block: the profile below extruded along y over [-depth/2, depth/2], with flat
 /// end caps. The profile is the region {(x, z): -1 <= x <= 1, 0 <= z <= top(x)} where the top
 /// runs, from right to left:

@@ -35,7 +35,8 @@
 //                        + noise_incidence_slope * (1 / max(cos(incidence), 0.01) - 1)),
 //     i.e. constant accuracy (HELIOS++) growing linearly with range and with 1/cos(incidence).
 //  6. Uniform outliers: after each returned point, further points uniform in the bbox grown by
-//     `outlier_box_scale` about its centre (Berger et al.: 1.1) follow with probability
+//     `outlier_box_scale` about its centre (Berger et al.: 1.1), each side then widened about the
+//     centre to at least `outlier_box_min` * diag (room off a flat model's plane), follow with probability
 //     `outlier_fraction` each (a geometric run), so every output point is independently a uniform
 //     outlier with probability outlier_fraction (flying pixels aside). Flagged outlier = 1.
 // Then per scan, for round(misalign_fraction * views) scans chosen at random (SCUTSurface: 50%):
@@ -118,6 +119,7 @@ struct ScannerParams {
   double misalign_shift = 0.0;
   double outlier_fraction = 0.0;
   double outlier_box_scale = 1.1;
+  double outlier_box_min = 0.0;
   // The photogrammetric scanner (kind "photo"; see above). Ignored by the range scanner.
   std::string kind = "range";
   int image_width = 640;
