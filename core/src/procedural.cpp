@@ -115,6 +115,17 @@ void append_segment(std::vector<Eigen::Vector2d>& out, const Eigen::Vector2d a,
     out.emplace_back(lerp_exact(a.x(), b.x(), k, n), lerp_exact(a.y(), b.y(), k, n));
 }
 
+// The closed box [-half, half] (per axis) on the n^3 lattice of cube_lattice: the cube and the plate.
+TriangleMesh centred_box(const Eigen::Vector3d& half, int n) {
+  MeshBuilder b;
+  cube_lattice(b, n, [&](int x, int y, int z) {
+    return Eigen::Vector3d(lerp_exact(-half.x(), half.x(), x, n),
+                           lerp_exact(-half.y(), half.y(), y, n),
+                           lerp_exact(-half.z(), half.z(), z, n));
+  });
+  return b.build();
+}
+
 }  // namespace
 
 TriangleMesh make_sphere(const SphereParams& p) {
@@ -156,14 +167,8 @@ TriangleMesh make_torus(const TorusParams& p) {
 TriangleMesh make_cube(const CubeParams& p) {
   require(p.size > 0.0 && std::isfinite(p.size), "cube", "size must be positive");
   require(p.resolution >= 1 && p.resolution <= 2048, "cube", "resolution must be in [1, 2048]");
-  const int n = p.resolution;
   const double h = 0.5 * p.size;
-  MeshBuilder b;
-  cube_lattice(b, n, [&](int x, int y, int z) {
-    return Eigen::Vector3d(lerp_exact(-h, h, x, n), lerp_exact(-h, h, y, n),
-                           lerp_exact(-h, h, z, n));
-  });
-  return b.build();
+  return centred_box({h, h, h}, p.resolution);
 }
 
 TriangleMesh make_plate(const PlateParams& p) {
@@ -171,15 +176,8 @@ TriangleMesh make_plate(const PlateParams& p) {
   require(p.thickness > 0.0 && std::isfinite(p.thickness) && p.thickness <= p.size, "plate",
           "thickness must be positive and at most the size");
   require(p.resolution >= 1 && p.resolution <= 2048, "plate", "resolution must be in [1, 2048]");
-  const int n = p.resolution;
   const double h = 0.5 * p.size;
-  const double t = 0.5 * p.thickness;
-  MeshBuilder b;
-  cube_lattice(b, n, [&](int x, int y, int z) {
-    return Eigen::Vector3d(lerp_exact(-h, h, x, n), lerp_exact(-h, h, y, n),
-                           lerp_exact(-t, t, z, n));
-  });
-  return b.build();
+  return centred_box({h, h, 0.5 * p.thickness}, p.resolution);
 }
 
 TriangleMesh make_fandisk_block(const FandiskBlockParams& p) {

@@ -36,8 +36,8 @@
 //     i.e. constant accuracy (HELIOS++) growing linearly with range and with 1/cos(incidence).
 //  6. Uniform outliers: after each returned point, further points uniform in the bbox grown by
 //     `outlier_box_scale` about its centre (Berger et al.: 1.1), each side then widened about the
-//     centre to at least `outlier_box_min` * diag (room off a flat model's plane), follow with probability
-//     `outlier_fraction` each (a geometric run), so every output point is independently a uniform
+//     centre to at least `outlier_box_min` * diag (room off a flat model's plane), follow with
+//     probability `outlier_fraction` each (a geometric run), so every output point is independently a uniform
 //     outlier with probability outlier_fraction (flying pixels aside). Flagged outlier = 1.
 // Then per scan, for round(misalign_fraction * views) scans chosen at random (SCUTSurface: 50%):
 //  7. Misalignment (registration error, Berger et al.): rotation by `misalign_deg` about a random
