@@ -2,7 +2,8 @@
 // Block model, about 33K points with 1.5% noise), from claim gpf-table1-timing. GPF's normals
 // (the chain's steps before filter.gpf: PCA, then bilateral filtering) are timed as their own
 // case each round and counted in GPF's total, as Table 1 counts them; `gpf_only` is GPF alone on
-// those normals. The EAR chain's normals are shared when its steps equal GPF's.
+// those normals. The EAR chain's normals are shared when its steps equal GPF's. --scaling adds
+// GPF's chain on 1 vs 2 threads (gpf_threads_2_over_1, target >= 1.8), interleaved.
 #include <fmt/format.h>
 
 #include "scanbench/core/run_context.h"
@@ -118,7 +119,22 @@ Json bench_filter(const FilterBenchOptions& opts) {
                    {})};
   for (const PairedRatio& r : ratios)
     fmt::print("{}\n", describe(r));
+  Json thread_rounds;
+  if (o.scaling) {
+    // GPF's whole chain (PCA and bilateral normals, then filter.gpf) on 1 and 2 threads.
+    std::vector<ChainCase> th = {{"gpf_1t", gpf, &pc.scan, 1, {}},
+                                 {"gpf_2t", gpf, &pc.scan, 2, {}}};
+    std::vector<TimedCase> tt;
+    for (ChainCase& c : th)
+      tt.push_back(timed_case(c, o.seed));
+    const Rounds tr = run_rounds(tt, o.rounds, o.warmup, print_round);
+    ratios.push_back(
+        paired_ratio(tr, "gpf_threads_2_over_1", "gpf_1t", "gpf_2t", Target{1.8}, o.seed));
+    fmt::print("{}\n", describe(ratios.back()));
+    thread_rounds = to_json(tr);
+  }
   Json out = paper_case_json("filter", pc, o);
+  if (o.scaling) out["thread_rounds"] = thread_rounds;
   out["input"] = {{"p2plane_mean", in_m.value("p2plane_mean_rel", 0.0)},
                   {"p2plane_edge", in_m.value("edge_p2plane_mean_rel", 0.0)}};
   out["cases"] = cases;

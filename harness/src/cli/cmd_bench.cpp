@@ -79,9 +79,11 @@ void add_bench_filter(CLI::App* bench, Cli& cli) {
       bench, cli, "filter",
       "GPF paper Table 1 case (claim gpf-table1-timing): GPF (normals counted) vs WLOP, CLOP and "
       "the EAR chain in interleaved rounds (median ratios with 95% intervals, p2plane near sharp "
-      "edges)",
+      "edges; --scaling: GPF on 1 vs 2 threads)",
       "About 10K points and 3 rounds (a smoke run)", &bench_filter,
       [](CLI::App* sub, FilterBenchOptions& o) {
+        sub->add_flag("--scaling", o.scaling,
+                      "Also GPF's chain (normals included) on 1 vs 2 threads, interleaved");
         add_case_options(sub, o.points, o.dataset, 10000000L);
       });
 }

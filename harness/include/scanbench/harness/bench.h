@@ -100,6 +100,7 @@ Json bench_resample(const ResampleBenchOptions& o);
 struct FilterBenchOptions : BenchOptions {
   std::string dataset;  ///< empty: the claim's (fandisk_block)
   long points = 0;
+  bool scaling = false;  ///< also GPF's chain on 1 vs 2 threads (gpf_threads_2_over_1)
 };
 /// GPF Table 1's Block case: the claim's GPF chain (normals timed as their own case and counted in
 /// GPF's total, as Table 1 counts them), WLOP, CLOP and the EAR chain.
