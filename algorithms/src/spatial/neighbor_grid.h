@@ -193,7 +193,7 @@ class NeighborGrid {
   std::vector<Eigen::Index> index_;       // sorted position -> original index
   std::vector<Eigen::Index> position_;    // original index -> sorted position
   std::vector<std::uint64_t> cell_key_;   // occupied cells, increasing
-  std::vector<std::int64_t> cell_z_;      // their z coordinate
+  std::vector<std::int32_t> cell_z_;      // their z coordinate (dims_[2] < 2^31, checked)
   std::vector<Eigen::Index> cell_begin_;  // points of cell c: [cell_begin_[c], cell_begin_[c+1])
   std::vector<std::uint64_t> point_key_;  // per sorted point: its cell key
   std::vector<std::size_t> fine_first_;   // fine cells of cell c: [fine_first_[c], [c + 1])
