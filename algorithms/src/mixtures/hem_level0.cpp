@@ -373,6 +373,7 @@ class Level0 {
     }
     double spacing = typical_spacing();
     if (!(spacing > 0.0)) spacing = std::max(h_abs_ * 0.1, std::sqrt(abs_floor_) * 10.0);
+    density_grid_.reset();  // its last use: the grid of the searches below takes its place
 
     // Grid cells of width W: every neighbour within W * (1 - slack) of a point is in its block
     // (nearest neighbours), within span * W * (1 - slack) in the cells within `span` (radius r).
