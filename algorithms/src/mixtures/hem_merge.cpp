@@ -146,15 +146,25 @@ class MergeLevel {
     build_search();
     collect_children();
     normalisers();
+    // The search is done: its grid and tree go before the merged components are allocated.
+    grid_.reset();
+    tree_storage_.reset();
+    centers_.resize(3, 0);
     const Index n = static_cast<Index>(comps_.size());
-    Components next(parents_.size());
+    const double neg_inf = -std::numeric_limits<double>::infinity();
+    const auto orphans = static_cast<std::size_t>(std::count(cmax_.begin(), cmax_.end(), neg_inf));
+    // Sized once: growing by push_back would hold the old and a doubled block at once (the
+    // first level's merge is CLOP's peak of memory).
+    Components next;
+    next.reserve(parents_.size() + orphans);
+    next.resize(parents_.size());
     tbb::parallel_for(tbb::blocked_range<Index>(0, np_, 64),
                       [&](const tbb::blocked_range<Index>& r) {
                         for (Index k = r.begin(); k < r.end(); ++k)
                           merge_children(k, next[static_cast<std::size_t>(k)]);
                       });
     for (Index i = 0; i < n; ++i)  // orphans, carried unchanged
-      if (cmax_[static_cast<std::size_t>(i)] == -std::numeric_limits<double>::infinity())
+      if (cmax_[static_cast<std::size_t>(i)] == neg_inf)
         next.push_back(comps_[static_cast<std::size_t>(i)]);
     return next;
   }
@@ -297,6 +307,7 @@ class MergeLevel {
                             auto& set = block_sets_[static_cast<std::size_t>(b)];
                             for (Index k = b * kBlock; k < std::min(np, (b + 1) * kBlock); ++k)
                               children_of<PacketD>(k, sc, set);
+                            set.shrink_to_fit();  // no doubling slack kept per block
                           }
                         });
     });
