@@ -15,6 +15,7 @@
 #include "lop/projection_kernels.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/simd_dispatch.h"
+#include "spatial/grid_packets.h"
 #include "spatial/simd_exp.h"
 
 // Eigen's packet types carry vector attributes that GCC reports as ignored when they are template
@@ -29,51 +30,12 @@ namespace {
 
 namespace ei = Eigen::internal;
 
-const detail::LaneMasks& kMasks = detail::kLaneMasks;
-constexpr int kMaskLanes = detail::kPacketLanes;
-
-// Calls body(t, dx, dy, dz, r2, inside) for every packet of grid points in the ranges that holds
-// at least one point within `radius` of q (d = p_t - q; `inside` masks the lanes within the
-// radius, inside the range and not at sorted position `self`). Fixed order: range by range.
-// Packet is the float packet of the active ISA (scanbench/core/simd.h).
-template <class Packet, class Body>
-void for_each_packet(const detail::NeighborGrid& g, const Eigen::Vector3f& q, float radius,
-                     Eigen::Index self, const detail::GridRange* ranges, std::size_t count,
-                     Body&& body) {
-  constexpr int kLanes = ei::unpacket_traits<Packet>::size;
-  static_assert(kLanes <= kMaskLanes && kLanes <= detail::NeighborGrid::kPad);
-  const Packet qx = ei::pset1<Packet>(q.x()), qy = ei::pset1<Packet>(q.y()),
-               qz = ei::pset1<Packet>(q.z());
-  const Packet r2max = ei::pset1<Packet>(radius * radius);
-  for (std::size_t r = 0; r < count; ++r) {
-    const Eigen::Index end = ranges[r].end;
-    for (Eigen::Index t = ranges[r].begin; t < end; t += kLanes) {
-      const Packet dx = ei::psub(ei::ploadu<Packet>(g.x() + t), qx);
-      const Packet dy = ei::psub(ei::ploadu<Packet>(g.y() + t), qy);
-      const Packet dz = ei::psub(ei::ploadu<Packet>(g.z() + t), qz);
-      const Packet r2 = ei::padd(ei::padd(ei::pmul(dx, dx), ei::pmul(dy, dy)), ei::pmul(dz, dz));
-      Packet inside = ei::pcmp_le(r2, r2max);
-      if (end - t < kLanes)
-        inside = ei::pand(inside, ei::ploadu<Packet>(kMasks.first + kMaskLanes - (end - t)));
-      if (self >= t && self < t + kLanes)
-        inside = ei::pand(inside, ei::ploadu<Packet>(kMasks.hole + kMaskLanes - (self - t)));
-      if (!ei::predux_any(inside)) continue;
-      body(t, dx, dy, dz, r2, inside);
-    }
-  }
-}
+using detail::for_each_packet;
+using detail::sorted_values;
 
 template <class Packet>
 Packet load(const std::vector<float>& a, Eigen::Index t) {
   return ei::ploadu<Packet>(a.data() + t);
-}
-
-// Per-point values in the grid's sorted order, padded with zeros like the grid's arrays.
-std::vector<float> sorted(const detail::NeighborGrid& g, const float* values, Eigen::Index stride) {
-  std::vector<float> out(static_cast<std::size_t>(g.size() + detail::NeighborGrid::kPad), 0.0f);
-  for (Eigen::Index k = 0; k < g.size(); ++k)
-    out[static_cast<std::size_t>(k)] = values[g.index(k) * stride];
-  return out;
 }
 
 }  // namespace
@@ -83,7 +45,7 @@ Problem::Problem(Eigen::Matrix3Xf v, Eigen::Matrix3Xf b, float h)
   // Input cells as wide as the data radius (3 x 3 columns per query): the data balls hold only a
   // few tens of points, and finer cells (kernels::grid_cell) cost more per column than they skip.
   for (int d = 0; d < 3; ++d)
-    sb_[d] = sorted(grid_, b_.data() + d, 3);
+    sb_[d] = sorted_values(grid_, b_.data() + d, 3);
   set_h(h);
 }
 
@@ -91,7 +53,7 @@ void Problem::set_h(float h) {
   h_ = h;
   rho_ = kernels::density_weights(grid_, v_, h_, repulsion_radius());
   const Eigen::VectorXf inv = rho_.cwiseInverse();
-  sinv_rho_ = sorted(grid_, inv.data(), 1);
+  sinv_rho_ = sorted_values(grid_, inv.data(), 1);
 }
 
 namespace {
@@ -270,7 +232,7 @@ Step em_step_impl(const Problem& problem, const Eigen::Matrix3Xf& x, const Eigen
   pgrid.set_weights(s.particle_weights);
   std::vector<float> pb[3];
   for (int d = 0; d < 3; ++d)
-    pb[d] = sorted(pgrid, xb.data() + d, 3);
+    pb[d] = sorted_values(pgrid, xb.data() + d, 3);
 
   s.data.resize(3, m);
   s.repulsion.resize(3, m);

@@ -1,4 +1,5 @@
 #include "lop/projection_kernels.h"
+#include "spatial/grid_packets.h"
 #include "spatial/simd_exp.h"
 
 #include <fmt/format.h>
@@ -64,9 +65,6 @@ void alpha_in_place(Eigen::Index n, float h, Scratch& s) {
   r2 = (k * r2).exp() / s.b.head(n);
 }
 
-const detail::LaneMasks& kMasks = detail::kLaneMasks;
-constexpr int kMaskLanes = detail::kPacketLanes;
-
 // Sums over the grid points within `radius` of q (vectorised, fixed order: range by range):
 //   s = sum_t g_t, d = sum_t g_t (p_t - q),  g_t = kernel(r_t^2) * weight_t
 // where kernel is theta (Alpha = false) or alpha with the eps*h clamp (Alpha = true), and weight_t
@@ -80,47 +78,30 @@ std::pair<float, Eigen::Vector3f> kernel_sums(const detail::NeighborGrid& g,
                                               Eigen::Index self, const detail::GridRange* ranges,
                                               std::size_t count) {
   namespace ei = Eigen::internal;
-  constexpr int kLanes = ei::unpacket_traits<Packet>::size;
-  static_assert(kLanes <= kMaskLanes && kLanes <= detail::NeighborGrid::kPad);
-  const Packet qx = ei::pset1<Packet>(q.x()), qy = ei::pset1<Packet>(q.y()),
-               qz = ei::pset1<Packet>(q.z());
-  const Packet r2max = ei::pset1<Packet>(radius * radius);
   const Packet kk = ei::pset1<Packet>(-kThetaFactor / (h * h));
   const Packet floor2 = ei::pset1<Packet>(kClampRatio * kClampRatio * h * h);
   Packet sw = ei::pset1<Packet>(0.0f), sx = sw, sy = sw, sz = sw;
-  const float* px = g.x();
-  const float* py = g.y();
-  const float* pz = g.z();
   const float* pw = g.weight();
-  for (std::size_t r = 0; r < count; ++r) {
-    const Eigen::Index end = ranges[r].end;
-    for (Eigen::Index t = ranges[r].begin; t < end; t += kLanes) {
-      const Packet dx = ei::psub(ei::ploadu<Packet>(px + t), qx);
-      const Packet dy = ei::psub(ei::ploadu<Packet>(py + t), qy);
-      const Packet dz = ei::psub(ei::ploadu<Packet>(pz + t), qz);
-      const Packet r2 = ei::padd(ei::padd(ei::pmul(dx, dx), ei::pmul(dy, dy)), ei::pmul(dz, dz));
-      Packet inside = ei::pcmp_le(r2, r2max);
-      if (end - t < kLanes)
-        inside = ei::pand(inside, ei::ploadu<Packet>(kMasks.first + kMaskLanes - (end - t)));
-      if (self >= t && self < t + kLanes)
-        inside = ei::pand(inside, ei::ploadu<Packet>(kMasks.hole + kMaskLanes - (self - t)));
-      // Skipping a packet wholly outside the support adds nothing but +0 to the sums.
-      if (!ei::predux_any(inside)) continue;
-      Packet k;
-      if constexpr (Alpha) {
-        const Packet rc2 = ei::pmax(r2, floor2);
-        k = ei::pdiv(detail::fast_pexp(ei::pmul(kk, rc2)), ei::psqrt(rc2));
-      } else {
-        k = detail::fast_pexp(ei::pmul(kk, r2));
-      }
-      if constexpr (Weighted) k = ei::pmul(k, ei::ploadu<Packet>(pw + t));
-      k = ei::pand(k, inside);
-      sw = ei::padd(sw, k);
-      sx = ei::padd(sx, ei::pmul(k, dx));
-      sy = ei::padd(sy, ei::pmul(k, dy));
-      sz = ei::padd(sz, ei::pmul(k, dz));
-    }
-  }
+  // Packets wholly outside the support are skipped: they would add nothing but +0 to the sums.
+  detail::for_each_packet<Packet>(g, q, radius, self, ranges, count,
+                                  [&](Eigen::Index t, const Packet& dx, const Packet& dy,
+                                      const Packet& dz, const Packet& r2, const Packet& inside) {
+                                    Packet k;
+                                    if constexpr (Alpha) {
+                                      const Packet rc2 = ei::pmax(r2, floor2);
+                                      k = ei::pdiv(detail::fast_pexp(ei::pmul(kk, rc2)),
+                                                   ei::psqrt(rc2));
+                                    } else {
+                                      k = detail::fast_pexp(ei::pmul(kk, r2));
+                                    }
+                                    if constexpr (Weighted)
+                                      k = ei::pmul(k, ei::ploadu<Packet>(pw + t));
+                                    k = ei::pand(k, inside);
+                                    sw = ei::padd(sw, k);
+                                    sx = ei::padd(sx, ei::pmul(k, dx));
+                                    sy = ei::padd(sy, ei::pmul(k, dy));
+                                    sz = ei::padd(sz, ei::pmul(k, dz));
+                                  });
   return {ei::predux(sw), Eigen::Vector3f(ei::predux(sx), ei::predux(sy), ei::predux(sz))};
 }
 
