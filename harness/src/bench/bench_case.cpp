@@ -130,6 +130,26 @@ TimedCase timed_case(ChainCase& c, std::uint64_t seed) {
           }};
 }
 
+Json thread_scaling(const std::vector<std::pair<std::string, Json>>& methods,
+                    const PointCloud& scan, const BenchOptions& o,
+                    std::vector<PairedRatio>& ratios) {
+  std::vector<ChainCase> cases;
+  for (const auto& [name, chain] : methods)
+    for (int threads : {1, 2})
+      cases.push_back({fmt::format("{}_{}t", name, threads), chain, &scan, threads, {}});
+  std::vector<TimedCase> timed;
+  for (ChainCase& c : cases)
+    timed.push_back(timed_case(c, o.seed));
+  const Rounds r = run_rounds(timed, o.rounds, o.warmup, print_round);
+  for (const auto& [name, chain] : methods) {
+    ratios.push_back(paired_ratio(r, fmt::format("{}_threads_2_over_1", name),
+                                  fmt::format("{}_1t", name), fmt::format("{}_2t", name),
+                                  Target{1.8}, o.seed));
+    fmt::print("{}\n", describe(ratios.back()));
+  }
+  return to_json(r);
+}
+
 void print_round(int round) {
   fmt::print("  round {}{}\n", round < 0 ? "warm-up " : "", round < 0 ? -round : round + 1);
   std::fflush(stdout);

@@ -119,20 +119,9 @@ Json bench_filter(const FilterBenchOptions& opts) {
                    {})};
   for (const PairedRatio& r : ratios)
     fmt::print("{}\n", describe(r));
-  Json thread_rounds;
-  if (o.scaling) {
-    // GPF's whole chain (PCA and bilateral normals, then filter.gpf) on 1 and 2 threads.
-    std::vector<ChainCase> th = {{"gpf_1t", gpf, &pc.scan, 1, {}},
-                                 {"gpf_2t", gpf, &pc.scan, 2, {}}};
-    std::vector<TimedCase> tt;
-    for (ChainCase& c : th)
-      tt.push_back(timed_case(c, o.seed));
-    const Rounds tr = run_rounds(tt, o.rounds, o.warmup, print_round);
-    ratios.push_back(
-        paired_ratio(tr, "gpf_threads_2_over_1", "gpf_1t", "gpf_2t", Target{1.8}, o.seed));
-    fmt::print("{}\n", describe(ratios.back()));
-    thread_rounds = to_json(tr);
-  }
+  // GPF's whole chain (PCA and bilateral normals, then filter.gpf) on 1 and 2 threads.
+  const Json thread_rounds =
+      o.scaling ? thread_scaling({{"gpf", gpf}}, pc.scan, o, ratios) : Json();
   Json out = paper_case_json("filter", pc, o);
   if (o.scaling) out["thread_rounds"] = thread_rounds;
   out["input"] = {{"p2plane_mean", in_m.value("p2plane_mean_rel", 0.0)},

@@ -90,27 +90,6 @@ Json phase_ratios(const ChainRun& cl, const ChainRun& wl) {
   return by_phase;
 }
 
-/// --scaling, threads: CLOP and WLOP on 1 and 2 threads, interleaved; adds the 2-over-1 ratios.
-/// Returns the rounds.
-Json thread_scaling(const Json& clop_chain, const Json& wlop_chain, const PaperCase& pc,
-                    const ResampleBenchOptions& o, std::vector<PairedRatio>& ratios) {
-  std::vector<ChainCase> th = {{"clop_1t", clop_chain, &pc.scan, 1, {}},
-                               {"clop_2t", clop_chain, &pc.scan, 2, {}},
-                               {"wlop_1t", wlop_chain, &pc.scan, 1, {}},
-                               {"wlop_2t", wlop_chain, &pc.scan, 2, {}}};
-  std::vector<TimedCase> tt;
-  for (ChainCase& c : th)
-    tt.push_back(timed_case(c, o.seed));
-  const Rounds tr = run_rounds(tt, o.rounds, o.warmup, print_round);
-  for (const char* m : {"clop", "wlop"}) {
-    ratios.push_back(paired_ratio(tr, fmt::format("{}_threads_2_over_1", m),
-                                  fmt::format("{}_1t", m), fmt::format("{}_2t", m), Target{1.8},
-                                  o.seed));
-    fmt::print("{}\n", describe(ratios.back()));
-  }
-  return to_json(tr);
-}
-
 /// --scaling, growth: one CLOP run per size (medians of `rounds`), h scaled as 1/sqrt(N) to keep
 /// the neighbourhoods; peak memory per point; the growth exponent of the time.
 Json growth_run(const Json& clop_chain, const PaperCase& pc, const ResampleBenchOptions& o) {
@@ -215,7 +194,8 @@ Json bench_resample(const ResampleBenchOptions& opts) {
   out["cgal_peers_compiled_with"] = {{"isa", std::string(simd::name(simd::compiled()))},
                                      {"flags", std::string(simd::compile_flags())}};
   if (o.scaling) {
-    out["thread_rounds"] = thread_scaling(clop_chain, wlop_chain, pc, o, ratios);
+    out["thread_rounds"] =
+        thread_scaling({{"clop", clop_chain}, {"wlop", wlop_chain}}, pc.scan, o, ratios);
     out["scaling"] = growth_run(clop_chain, pc, o);
   }
   out["ratios"] = ratios_json(ratios);

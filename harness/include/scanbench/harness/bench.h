@@ -69,6 +69,13 @@ TimedCase timed_case(ChainCase& c, std::uint64_t seed);
 /// The rounds' progress line: "  round 3", "  round warm-up 1".
 void print_round(int round);
 
+/// 1 vs 2 threads: each (name, chain) of `methods` on `scan` with 1 and 2 threads, all in one
+/// set of interleaved rounds (o.rounds after o.warmup); appends `<name>_threads_2_over_1`
+/// (target >= 1.8) per method to `ratios` and prints it. Returns the rounds' JSON.
+Json thread_scaling(const std::vector<std::pair<std::string, Json>>& methods,
+                    const PointCloud& scan, const BenchOptions& o,
+                    std::vector<PairedRatio>& ratios);
+
 /// The head of a paper-case bench's JSON: benchmark, claim, context, dataset, scan_points,
 /// scanner_params, threads, seed.
 Json paper_case_json(const std::string& benchmark, const PaperCase& pc, const BenchOptions& o);
