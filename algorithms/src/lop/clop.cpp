@@ -46,7 +46,8 @@ struct Precomputed {
   float f[32];  // 31 used; 128 bytes
 };
 
-constexpr int kShells = 8;
+// Bins of the candidates' order by their reach from the centre of a cell of particles.
+constexpr int kReachBins = 32;
 // Particles per occupied cell below which the attraction's cells widen (docs/performance.md: 16
 // rather than 6 made the Camel case's attraction 1.5x faster at 70K and 1.3x at 834K points).
 constexpr double kMinOccupancy = 16.0;
@@ -76,6 +77,9 @@ struct CellScratch {
   std::vector<int> shell;
   std::vector<float> soa;
   std::vector<float> valid;  // all-ones bit pattern for real candidates, 0 for the padding
+  // Per candidate (in ids order) its bound m of gather_cell; per packet the least m of it and
+  // of the packets after it.
+  std::vector<float> m, m_sorted, packet_m;
 };
 
 // The components of `m` (weights, means, covariances) in the order of a grid of cubic cells of
@@ -109,10 +113,14 @@ GaussianMixture spatially_sorted(const GaussianMixture& m, double cell) {
 }
 
 class PreparedMixture {
+  bool skip_out_of_reach_;  // skip the packets out of reach of a particle (gather_cell)
+
  public:
   // h: the attraction's kernel width; h_initial: the first iteration's (eq. 24).
-  PreparedMixture(const GaussianMixture& mixture, double h, double h_initial)
-      : sorted_(spatially_sorted(mixture, h)),
+  PreparedMixture(const GaussianMixture& mixture, double h, double h_initial,
+                  bool skip_out_of_reach)
+      : skip_out_of_reach_(skip_out_of_reach),
+        sorted_(spatially_sorted(mixture, h)),
         cell_(static_cast<float>(h / 4.0)),
         index_(sorted_, kClopFitSigmas[0] * kClopFitSigmas[0] * h * h,
                kClopFitSigmas[0] * kClopFitSigmas[0] * h * h) {
@@ -122,6 +130,9 @@ class PreparedMixture {
       s2_[j] = static_cast<float>(kClopFitSigmas[j] * kClopFitSigmas[j] * h * h);
     s2_[3] = static_cast<float>(h_initial * h_initial / 32.0);
     pre_.resize(static_cast<std::size_t>(k));
+    // Per component, for the widest kernels (j = 0, 3): 1 / lambda_min and lambda_max / lambda_min
+    // of Lambda (the largest eigenvalue of Lambda^-1 and its condition number).
+    std::vector<std::array<double, 4>> spectra(static_cast<std::size_t>(k));
     tbb::parallel_for(tbb::blocked_range<Index>(0, k, 256), [&](const auto& r) {
       for (Index s = r.begin(); s != r.end(); ++s) {
         const Eigen::Matrix3d cov = m.covariance(s).cast<double>();
@@ -132,6 +143,14 @@ class PreparedMixture {
           const double var =
               j < 3 ? kClopFitSigmas[j] * kClopFitSigmas[j] * h * h : h_initial * h_initial / 32.0;
           const Eigen::Matrix3d lambda = cov + var * Eigen::Matrix3d::Identity();
+          if (j == 0 || j == 3) {
+            Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es;
+            es.computeDirect(lambda, Eigen::EigenvaluesOnly);
+            const double lo = es.eigenvalues()(0), hi = es.eigenvalues()(2);
+            auto& sp = spectra[static_cast<std::size_t>(s)];
+            sp[j == 0 ? 0 : 2] = lo > 0.0 ? 1.0 / lo : std::numeric_limits<double>::infinity();
+            sp[j == 0 ? 1 : 3] = lo > 0.0 ? hi / lo : std::numeric_limits<double>::infinity();
+          }
           const Eigen::Matrix3d inv = lambda.inverse();
           const double det = lambda.determinant();
           float* kj = p.f + Precomputed::kernel(j);
@@ -150,6 +169,20 @@ class PreparedMixture {
     });
     r_attraction_ = index_.radii(s2_[0]);
     r_initial_ = index_.radii(s2_[3]);
+    for (int w = 0; w < 2; ++w) {
+      double inv_min = 0.0, cond = 1.0;
+      for (const auto& sp : spectra) {
+        inv_min = std::max(inv_min, sp[2 * w]);
+        cond = std::max(cond, sp[2 * w + 1]);
+      }
+      // A term is kept when its float exponent is >= -16: the float quadratic form of a
+      // particle (six products, relative error < 1e-6 of |d|^T |A| |d| <= 3 cond d^T A d) is at
+      // least (1 - 3e-6 cond) times the exact one. Past cond 1e5 no bound is used.
+      const double slack = 1.0 - 3e-6 * cond;
+      reach_base_[w] = slack > 0.5 ? static_cast<float>(std::sqrt(32.0 / slack) * (1.0 + 1e-5))
+                                   : std::numeric_limits<float>::infinity();
+      reach_scale_[w] = static_cast<float>(std::sqrt(inv_min) * (1.0 + 1e-5) * (1.0 + 1e-5));
+    }
   }
 
   // One projection of every particle: eq. 24 (kInitial, j = 3) or eq. 22 (j = 0..2),
@@ -209,30 +242,85 @@ class PreparedMixture {
     return cell;
   }
 
-  // The candidate components of a cell (centre `center`) into sc.ids, ordered by distance shell
-  // around the centre (a stable counting sort), so that the terms out of reach of a particle,
-  // above all those of the narrow kernels, fill whole packets that are skipped.
-  void gather_cell(const Eigen::Vector3f& center, const std::vector<float>& radii,
+  // The candidate components of a cell of particles (centre `center`, its particles within
+  // delta_max of it) into sc.ids, in the order of their reach m = |mu - center|_A, with A the
+  // Lambda^-1 of the widest kernel (the first in the candidates' fields), in bins of m (a stable
+  // counting sort). A particle at delta from the centre has |mu - q|_A >= |mu - center|_A -
+  // delta sqrt(lambda_max(A)) (the triangle inequality of the A norm): every candidate with
+  // m > reach_limit(delta) is out of its reach (float exponent below -16, which drops the term
+  // and, the widest kernel first, the narrower ones), and the candidates beyond
+  // reach_limit(delta_max) are out of reach of all the cell's particles and are dropped. The
+  // out-of-reach terms of a particle thus fill whole packets at the end, which project_particle
+  // does not visit: the kept terms are those of a full scan.
+  template <bool kInitial>
+  void gather_cell(const Eigen::Vector3f& center, const std::vector<float>& radii, float delta_max,
                    CellScratch& sc) const {
+    constexpr int j0 = kInitial ? 3 : 0;
     sc.ids.clear();
     sc.d2.clear();
     index_.gather(center, radii, sc.ranges, sc.ids, sc.d2);
-    float far2 = 0.0f;
-    for (const float d : sc.d2)
-      far2 = std::max(far2, d);
-    std::array<std::size_t, kShells + 1> next{};
-    const float scale = far2 > 0.0f ? kShells / std::sqrt(far2) : 0.0f;
+    const float limit = reach_limit<kInitial>(delta_max);
+    const float to_bin = kReachBins / limit;
+    std::array<std::size_t, kReachBins + 2> next{};
+    sc.m.resize(sc.ids.size());
     sc.shell.resize(sc.ids.size());
+    std::size_t kept = 0;
     for (std::size_t k = 0; k < sc.ids.size(); ++k) {
-      sc.shell[k] = std::min(kShells - 1, static_cast<int>(std::sqrt(sc.d2[k]) * scale));
-      ++next[static_cast<std::size_t>(sc.shell[k]) + 1];
+      const float* rec = pre_[static_cast<std::size_t>(sc.ids[k])].f;
+      const float* a = rec + Precomputed::kernel(j0);
+      // In double: the bound is the exact form of the float entries (less a hair for the cast).
+      const double dx = static_cast<double>(rec[0]) - center.x(),
+                   dy = static_cast<double>(rec[1]) - center.y(),
+                   dz = static_cast<double>(rec[2]) - center.z();
+      const double quad = dx * (a[0] * dx + a[1] * dy + a[2] * dz) +
+                          dy * (a[1] * dx + a[3] * dy + a[4] * dz) +
+                          dz * (a[2] * dx + a[4] * dy + a[5] * dz);
+      const auto m = static_cast<float>(std::sqrt(std::max(quad, 0.0)) * (1.0 - 1e-6));
+      sc.ids[kept] = sc.ids[k];  // branch-free compaction
+      sc.m[kept] = m;
+      kept += m <= limit || !skip_out_of_reach_ ? 1 : 0;
     }
-    for (int b = 0; b < kShells; ++b)
+    sc.ids.resize(kept);
+    sc.m.resize(kept);
+    // Without the skipping (the test that it changes nothing), the dropped candidates follow
+    // all the others, in a bin of their own.
+    for (std::size_t k = 0; k < kept; ++k)
+      sc.shell[k] = sc.m[k] <= limit ? std::min(kReachBins - 1, static_cast<int>(sc.m[k] * to_bin))
+                                     : kReachBins;
+    for (std::size_t k = 0; k < kept; ++k)
+      ++next[static_cast<std::size_t>(sc.shell[k]) + 1];
+    for (int b = 0; b < kReachBins + 1; ++b)
       next[static_cast<std::size_t>(b) + 1] += next[static_cast<std::size_t>(b)];
-    sc.sorted.resize(sc.ids.size());
-    for (std::size_t k = 0; k < sc.ids.size(); ++k)
-      sc.sorted[next[static_cast<std::size_t>(sc.shell[k])]++] = sc.ids[k];
+    sc.sorted.resize(kept);
+    sc.m_sorted.resize(kept);
+    for (std::size_t k = 0; k < kept; ++k) {
+      const std::size_t at = next[static_cast<std::size_t>(sc.shell[k])]++;
+      sc.sorted[at] = sc.ids[k];
+      sc.m_sorted[at] = sc.m[k];
+    }
     sc.ids.swap(sc.sorted);
+    sc.m.swap(sc.m_sorted);
+  }
+
+  // The largest bound m (gather_cell) of a candidate within reach of a particle at distance
+  // delta from its cell's centre: sqrt(32) (the exponent -16, widened for the rounding of the
+  // particle's float form) plus delta sqrt(lambda_max(A)), the largest over the components.
+  template <bool kInitial>
+  float reach_limit(float delta) const {
+    constexpr int w = kInitial ? 1 : 0;
+    return reach_base_[w] + reach_scale_[w] * delta;
+  }
+
+  // The least m of the candidates from each packet of `lanes` on (padding lanes excluded).
+  static void packet_bounds(CellScratch& sc, Index padded, int lanes) {
+    const auto np = static_cast<std::size_t>(padded / lanes);
+    sc.packet_m.assign(np, std::numeric_limits<float>::infinity());
+    for (std::size_t k = 0; k < sc.m.size(); ++k) {
+      float& e = sc.packet_m[k / static_cast<std::size_t>(lanes)];
+      e = std::min(e, sc.m[k]);
+    }
+    for (std::size_t p = np; p-- > 1;)
+      sc.packet_m[p - 1] = std::min(sc.packet_m[p - 1], sc.packet_m[p]);
   }
 
   // The fields of the cell's m candidates into sc.soa (packets of kLanes candidates, padded with
@@ -366,6 +454,7 @@ class PreparedMixture {
     const float half_diag = 0.5f * std::sqrt(3.0f) * cell;
     for (float& r : radii)
       r += half_diag;
+    constexpr int kLanes = Eigen::internal::unpacket_traits<Packet>::size;
 
     const auto project_cells = [&](const tbb::blocked_range<std::size_t>& rr) {
       CellScratch sc;
@@ -376,11 +465,22 @@ class PreparedMixture {
                                          static_cast<float>((key >> 21) & ((1u << 21) - 1)),
                                          static_cast<float>(key & ((1u << 21) - 1))) +
                          Eigen::Vector3f::Constant(0.5f));
-        gather_cell(center, radii, sc);
+        float delta_max = 0.0f;
+        for (std::size_t pi = starts[c]; pi < starts[c + 1]; ++pi)
+          delta_max = std::max(delta_max, (q.col(keys[pi].second) - center).norm());
+        gather_cell<kInitial>(center, radii, delta_max, sc);
         const Index padded = fill_candidates<kInitial, Packet>(sc);
+        packet_bounds(sc, padded, kLanes);
         for (std::size_t pi = starts[c]; pi < starts[c + 1]; ++pi) {
           const Index i = keys[pi].second;
-          out.col(i) = project_particle<kInitial, Packet>(q.col(i), sc, padded);
+          // The packets within this particle's reach: a prefix (their bound grows).
+          const float limit = reach_limit<kInitial>((q.col(i) - center).norm());
+          const auto reached = skip_out_of_reach_
+                                   ? static_cast<Index>(std::upper_bound(sc.packet_m.begin(),
+                                                                         sc.packet_m.end(), limit) -
+                                                        sc.packet_m.begin())
+                                   : padded / kLanes;
+          out.col(i) = project_particle<kInitial, Packet>(q.col(i), sc, reached * kLanes);
         }
       }
     };
@@ -393,6 +493,8 @@ class PreparedMixture {
   std::vector<Precomputed> pre_;
   detail::MixtureGrid index_;
   std::vector<float> r_attraction_, r_initial_;
+  // reach_limit's terms for the attraction [0] and the first iteration [1].
+  float reach_base_[2], reach_scale_[2];
 };
 
 }  // namespace
@@ -460,13 +562,13 @@ std::vector<Index> spatial_order(const Eigen::Matrix3Xf& q, float cell) {
 
 void clop_project(const GaussianMixture& m, Eigen::Matrix3Xf& q, const ClopParams& p, double h_abs,
                   RunContext& ctx) {
-  detail::clop_project_stored(m, q, p, h_abs, ctx, true);
+  detail::clop_project_stored(m, q, p, h_abs, ctx, {});
 }
 
 namespace detail {
 
 void clop_project_stored(const GaussianMixture& m, Eigen::Matrix3Xf& q_in, const ClopParams& p,
-                         double h_abs, RunContext& ctx, bool spatial) {
+                         double h_abs, RunContext& ctx, const ClopInternals& how) {
   if (m.size() == 0) throw InputError("resample.clop: empty mixture");
   const Index n = q_in.cols();
   std::optional<PreparedMixture> pm;
@@ -479,8 +581,9 @@ void clop_project_stored(const GaussianMixture& m, Eigen::Matrix3Xf& q_in, const
   {
     auto timer = ctx.phase("init");
     // The authors' demo runs its first iteration at 2 h (see clop.h).
-    pm.emplace(m, h_abs, p.first_iteration == "authors" ? 2.0 * h_abs : h_abs);
-    if (spatial) {
+    pm.emplace(m, h_abs, p.first_iteration == "authors" ? 2.0 * h_abs : h_abs,
+               how.skip_out_of_reach);
+    if (how.spatial_order) {
       ids = spatial_order(q_in, static_cast<float>(h_abs / 4.0));
     } else {
       ids.resize(static_cast<std::size_t>(n));
