@@ -386,11 +386,12 @@ class Level0 {
 
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, g_->cells(), 4), [&](const auto& rr) {
       std::vector<Cell> block, wide;
+      std::vector<std::size_t> hits;
       std::vector<float> best(static_cast<std::size_t>(k_nn_));
       for (std::size_t c = rr.begin(); c != rr.end(); ++c) {
         block_cells(*g_, c, block);
         const double r_max = nearest_in_block(c, block, best);
-        initial_in_cell(c, r_max, block, wide);
+        initial_in_cell(c, r_max, block, wide, hits);
       }
     });
     initial_of_duplicates();
@@ -602,7 +603,7 @@ class Level0 {
   // point within span * guaranteed of the cell's points; a point reaching further asks the
   // kd-tree. Points with only duplicates among their nearest wait for initial_of_duplicates().
   void initial_in_cell(std::size_t c, double r_max, const std::vector<Cell>& block,
-                       std::vector<Cell>& wide) {
+                       std::vector<Cell>& wide, std::vector<std::size_t>& hits) {
     const NeighborGrid& g = *g_;
     const float guaranteed = guaranteed_;
     const std::int64_t span = std::min<std::int64_t>(
@@ -627,15 +628,23 @@ class Level0 {
       const Vector3f qf(g.x()[k], g.y()[k], g.z()[k]);
       const Vector3d q = qf.cast<double>();
       const float pre = rf * rf * (1.0f + 4.0f * kSlack);
-      set_initial(j, r, [&](auto&& f) {
-        for (const Cell& cell : *cells) {
-          if (box_distance2(g, q, cell) > r * r) continue;
-          scan_cell(
-              g, qf, cell, [&](Float4 dd) { return dd <= pre; },
-              [&](std::size_t i, float d) {
-                if (d <= pre) f(g.x()[i], g.y()[i], g.z()[i]);
-              });
+      // The positions within the float bound, in cell and position order (a branch-free
+      // compaction: which candidates pass is unpredictable), then eq. 12's sums over them in
+      // that order.
+      std::size_t m = 0;
+      for (const Cell& cell : *cells) {
+        if (box_distance2(g, q, cell) > r * r) continue;
+        const std::size_t size = cell.end - cell.begin;
+        if (hits.size() < m + size) hits.resize(2 * (m + size));
+        for (std::size_t i = cell.begin; i < cell.end; ++i) {
+          const float dx = g.x()[i] - qf.x(), dy = g.y()[i] - qf.y(), dz = g.z()[i] - qf.z();
+          hits[m] = i;
+          m += dx * dx + dy * dy + dz * dz <= pre ? 1 : 0;
         }
+      }
+      set_initial(j, r, [&](auto&& f) {
+        for (std::size_t t = 0; t < m; ++t)
+          f(g.x()[hits[t]], g.y()[hits[t]], g.z()[hits[t]]);
       });
     }
   }
