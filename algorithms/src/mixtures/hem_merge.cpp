@@ -258,12 +258,19 @@ class MergeLevel {
     if (rad <= kMaxCells * cell_) {
       grid.ranges_near(mu, rad, sc.ranges);
       const float r2 = rad * rad;
+      std::size_t bound = 0;
       for (const detail::GridRange& gr : sc.ranges)
-        for (Index t = gr.begin; t < gr.end; ++t) {
+        bound += static_cast<std::size_t>(gr.end - gr.begin);
+      near.resize(bound);
+      std::size_t m = 0;
+      for (const detail::GridRange& gr : sc.ranges)
+        for (Index t = gr.begin; t < gr.end; ++t) {  // branch-free compaction
           const float dx = grid.x()[t] - mu.x(), dy = grid.y()[t] - mu.y(),
                       dz = grid.z()[t] - mu.z();
-          if (dx * dx + dy * dy + dz * dz <= r2) near.push_back(grid.index(t));
+          near[m] = grid.index(t);
+          m += dx * dx + dy * dy + dz * dz <= r2 ? 1 : 0;
         }
+      near.resize(m);
     } else {
       tree().radius(mu, rad, sc.nb);
       for (const auto& hit : sc.nb)
