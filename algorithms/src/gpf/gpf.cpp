@@ -186,7 +186,8 @@ void repulsion_term(const detail::NeighborGrid& pgrid, const Eigen::Matrix3Xf& x
               const Packet cz = ei::psub(dz, ei::pmul(tt, bz));
               const Packet rt2 = ei::pmax(
                   ei::padd(ei::padd(ei::pmul(cx, cx), ei::pmul(cy, cy)), ei::pmul(cz, cz)), floor2);
-              Packet wb = ei::pdiv(detail::fast_pexp(ei::pmul(theta_k, rt2)), ei::psqrt(rt2));
+              Packet wb =
+                  ei::pmul(detail::fast_pexp(ei::pmul(theta_k, rt2)), detail::fast_prsqrt(rt2));
               wb = ei::pand(ei::pmul(wb, ei::ploadu<Packet>(pgrid.weight() + t)), inside);
               W = ei::padd(W, wb);
               Rx = ei::padd(Rx, ei::pmul(wb, cx));

@@ -89,8 +89,8 @@ std::pair<float, Eigen::Vector3f> kernel_sums(const detail::NeighborGrid& g,
                                     Packet k;
                                     if constexpr (Alpha) {
                                       const Packet rc2 = ei::pmax(r2, floor2);
-                                      k = ei::pdiv(detail::fast_pexp(ei::pmul(kk, rc2)),
-                                                   ei::psqrt(rc2));
+                                      k = ei::pmul(detail::fast_pexp(ei::pmul(kk, rc2)),
+                                                   detail::fast_prsqrt(rc2));
                                     } else {
                                       k = detail::fast_pexp(ei::pmul(kk, r2));
                                     }

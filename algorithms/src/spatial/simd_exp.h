@@ -1,5 +1,6 @@
 #pragma once
-// Internal to the algorithms module: exp() of a SIMD packet of floats for the kernel sums.
+// Internal to the algorithms module: exp() and 1 / sqrt() of a SIMD packet of floats for the
+// kernel sums.
 //
 // Why not Eigen's pexp directly: Eigen 3.4's pexp_float ends with the generic pldexp, which
 // splits 2^m into four factors so that it never overflows for any exponent (profiled: the four
@@ -42,6 +43,25 @@ Packet fast_pexp(const Packet& x_in) {
   y = ei::pmadd(y, r3, y1);
   y = ei::pmadd(y, r2, y2);
   return ei::pmax(ei::pldexp_fast_impl<Packet>::run(y, m), x_in);
+}
+
+// 1 / sqrt(x) of a packet of positive normal floats, from IEEE operations only: the classic
+// bit-level first guess (relative error < 1.8e-3) and two Newton steps y (1.5 - x y^2 / 2)
+// (< 5e-6, then a few float ulps). Lanes holding +inf give NaN (callers mask them out). Why not rsqrtps: its approximation is implementation-specific
+// (Intel and AMD return other bits), and Eigen's prsqrt starts from it; why not 1 / psqrt: the
+// division and the square root are the slowest instructions of the repulsion kernels.
+template <class Packet>
+Packet fast_prsqrt(const Packet& x) {
+  namespace ei = Eigen::internal;
+  using PacketI = typename ei::unpacket_traits<Packet>::integer_packet;
+  const PacketI guess = ei::psub(ei::pset1<PacketI>(0x5f375a86),
+                                 ei::plogical_shift_right<1>(ei::preinterpret<PacketI>(x)));
+  Packet y = ei::preinterpret<Packet>(guess);
+  const Packet minus_half_x = ei::pmul(x, ei::pset1<Packet>(-0.5f));
+  const Packet three_halves = ei::pset1<Packet>(1.5f);
+  y = ei::pmul(y, ei::pmadd(ei::pmul(minus_half_x, y), y, three_halves));
+  y = ei::pmul(y, ei::pmadd(ei::pmul(minus_half_x, y), y, three_halves));
+  return y;
 }
 
 }  // namespace scanbench::algorithms::detail
