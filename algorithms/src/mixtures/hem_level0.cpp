@@ -165,6 +165,71 @@ inline Float4 load4(const float* p) {
   return v;
 }
 
+// 16 floats for the k-nearest scan: a sorted list of the k smallest distances per lane.
+using Float16 = float __attribute__((vector_size(64)));
+using Int16 = std::int32_t __attribute__((vector_size(64)));
+
+// The k smallest positive squared distances (ascending, +inf where fewer) from q to the points
+// of `cells` (their position ranges, merged where consecutive) and the number of zero
+// distances. Per lane of 16 a sorted list of its k smallest (a min/max insertion network, no
+// branch per point); then the k smallest of the 16 lists. The distances are computed as in
+// scan_cell, so the values are the same.
+template <int K>
+void nearest_k(const NeighborGrid& g, const Vector3f& q, const std::vector<Cell>& cells,
+               float* best, int& zeros) {
+  constexpr float inf = std::numeric_limits<float>::infinity();
+  Float16 lists[K];
+  for (auto& l : lists)
+    l = Float16{} + inf;
+  Int16 zero_count{};
+  Int16 lane{};
+  for (int l = 0; l < 16; ++l)
+    lane[l] = l;
+  auto scan = [&](std::size_t b, std::size_t e) {
+    for (std::size_t i = b; i < e; i += 16) {  // the arrays are padded by kPad >= 16 floats
+      Float16 x, y, z;
+      std::memcpy(&x, g.x() + i, sizeof x);
+      std::memcpy(&y, g.y() + i, sizeof y);
+      std::memcpy(&z, g.z() + i, sizeof z);
+      const Float16 dx = x - q.x(), dy = y - q.y(), dz = z - q.z();
+      const Float16 dd = dx * dx + dy * dy + dz * dz;
+      const Int16 valid = lane < static_cast<std::int32_t>(std::min<std::size_t>(e - i, 16));
+      zero_count -= valid & (dd == 0.0f);
+      Float16 t = (valid & (dd != 0.0f)) ? dd : Float16{} + inf;
+      for (int k = 0; k < K; ++k) {
+        const Float16 lo = lists[k] < t ? lists[k] : t;
+        t = lists[k] < t ? t : lists[k];
+        lists[k] = lo;
+      }
+    }
+  };
+  std::size_t b = 0, e = 0;
+  for (const Cell& cell : cells) {
+    if (cell.begin == e && e > b) {
+      e = cell.end;
+      continue;
+    }
+    if (e > b) scan(b, e);
+    b = cell.begin;
+    e = cell.end;
+  }
+  if (e > b) scan(b, e);
+  for (int k = 0; k < K; ++k)
+    best[k] = inf;
+  for (int k = 0; k < K; ++k)
+    for (int l = 0; l < 16; ++l) {
+      const float d = lists[k][l];
+      if (!(d < best[K - 1])) continue;
+      int at = K - 1;
+      for (; at > 0 && best[at - 1] > d; --at)
+        best[at] = best[at - 1];
+      best[at] = d;
+    }
+  zeros = 0;
+  for (int l = 0; l < 16; ++l)
+    zeros += zero_count[l];
+}
+
 // Whether any lane of a comparison result is set.
 inline bool any_lane(Int4 mask) {
   std::uint64_t lo = 0, hi = 0;
@@ -543,6 +608,64 @@ class Level0 {
     });
   }
 
+  // The k_nn smallest positive squared distances from q to the points of `block` into `best`
+  // (ascending, +inf where fewer); returns the number of zero distances. nearest_k for k_nn up
+  // to 8; beyond, cell by cell, a cell farther than the current k-th nearest skipped.
+  int nearest_lists(const Vector3f& qf, const std::vector<Cell>& block,
+                    std::vector<float>& best) const {
+    int zeros = 0;
+    switch (k_nn_) {
+      case 1:
+        nearest_k<1>(*g_, qf, block, best.data(), zeros);
+        return zeros;
+      case 2:
+        nearest_k<2>(*g_, qf, block, best.data(), zeros);
+        return zeros;
+      case 3:
+        nearest_k<3>(*g_, qf, block, best.data(), zeros);
+        return zeros;
+      case 4:
+        nearest_k<4>(*g_, qf, block, best.data(), zeros);
+        return zeros;
+      case 5:
+        nearest_k<5>(*g_, qf, block, best.data(), zeros);
+        return zeros;
+      case 6:
+        nearest_k<6>(*g_, qf, block, best.data(), zeros);
+        return zeros;
+      case 7:
+        nearest_k<7>(*g_, qf, block, best.data(), zeros);
+        return zeros;
+      case 8:
+        nearest_k<8>(*g_, qf, block, best.data(), zeros);
+        return zeros;
+      default:
+        break;
+    }
+    const NeighborGrid& g = *g_;
+    const Vector3d q = qf.cast<double>();
+    std::fill(best.begin(), best.end(), std::numeric_limits<float>::infinity());
+    float worst = best.back();
+    for (const Cell& cell : block) {
+      if (box_distance2(g, q, cell) > static_cast<double>(worst)) continue;
+      scan_cell(
+          g, qf, cell, [&](Float4 dd) { return dd < worst; },
+          [&](std::size_t, float d) {
+            if (!(d < worst)) return;
+            if (d == 0.0f) {
+              ++zeros;
+              return;
+            }
+            auto at = best.end() - 1;
+            for (; at != best.begin() && *(at - 1) > d; --at)
+              *at = *(at - 1);
+            *at = d;
+            worst = best.back();
+          });
+    }
+    return zeros;
+  }
+
   // Nearest-neighbour distances (nn_) of the points of grid cell c from its block (span 1);
   // returns the largest eq. 12 radius among them.
   double nearest_in_block(std::size_t c, const std::vector<Cell>& block, std::vector<float>& best) {
@@ -554,30 +677,9 @@ class Level0 {
     for (auto k = static_cast<std::size_t>(own.begin); k < static_cast<std::size_t>(own.end); ++k) {
       const Index j = g.index(static_cast<Index>(k));
       const Vector3f qf(g.x()[k], g.y()[k], g.z()[k]);
-      const Vector3d q = qf.cast<double>();
       // The k_nn smallest positive distances and the zeros (duplicates, the point itself
-      // included: all in its own cell, visited first). A cell farther than the current k-th
-      // nearest is skipped.
-      int zeros = 0;
-      std::fill(best.begin(), best.end(), std::numeric_limits<float>::infinity());
-      float worst = best.back();
-      for (const Cell& cell : block) {
-        if (box_distance2(g, q, cell) > static_cast<double>(worst)) continue;
-        scan_cell(
-            g, qf, cell, [&](Float4 dd) { return dd < worst; },
-            [&](std::size_t, float d) {
-              if (!(d < worst)) return;
-              if (d == 0.0f) {
-                ++zeros;
-                return;
-              }
-              auto at = best.end() - 1;
-              for (; at != best.begin() && *(at - 1) > d; --at)
-                *at = *(at - 1);
-              *at = d;
-              worst = best.back();
-            });
-      }
+      // included).
+      const int zeros = nearest_lists(qf, block, best);
       // The k_query nearest hold min(zeros, k_query) duplicates (the point itself included),
       // so the wanted distances are the `want` smallest positive ones.
       const int want = std::min(k_nn, k_query - std::min(zeros, k_query));
