@@ -231,6 +231,39 @@ TEST(NeighborGrid, RangesHoldEveryPointWithinTheRadius) {
   }
 }
 
+// A batch of queries gives each query exactly the ranges it gets alone: in a batch the windows
+// of the neighbour columns slide along z from one query cell to the next; alone they are found
+// by searches. Every lookup (dense table, per-column table, binary search); the surface of a
+// sphere has columns of many consecutive occupied cells at the finer cells.
+TEST(NeighborGrid, BatchQueriesGetTheRangesOfSingleQueries) {
+  const PointCloud c = noisy_sphere(1500, 1.0f, 0.05f, 17);
+  const Eigen::Matrix3Xf& pts = c.positions;
+  const float radius = 0.2f;
+  using Ranges = std::vector<std::pair<Eigen::Index, Eigen::Index>>;
+  const auto collect = [&](const detail::NeighborGrid& grid, const Eigen::Matrix3Xf& qs) {
+    std::vector<Ranges> out(static_cast<std::size_t>(qs.cols()));
+    grid.for_each_query(
+        qs, radius, false,
+        [&](Eigen::Index i, Eigen::Index, const detail::GridRange* r, std::size_t n) {
+          for (std::size_t k = 0; k < n; ++k)
+            out[static_cast<std::size_t>(i)].emplace_back(r[k].begin, r[k].end);
+        });
+    return out;
+  };
+  for (const float cell : {radius / 2, radius / 8, radius / 32}) {
+    const detail::NeighborGrid grid(pts, cell);
+    const std::vector<Ranges> batch = collect(grid, pts);
+    std::size_t nonempty = 0;
+    for (Eigen::Index i = 0; i < pts.cols(); ++i) {
+      const Eigen::Matrix3Xf one = pts.col(i);
+      const std::vector<Ranges> alone = collect(grid, one);
+      ASSERT_EQ(batch[static_cast<std::size_t>(i)], alone[0]) << "cell " << cell << " query " << i;
+      nonempty += alone[0].empty() ? 0 : 1;
+    }
+    EXPECT_EQ(nonempty, static_cast<std::size_t>(pts.cols()));
+  }
+}
+
 // The radix sort of cell keys equals std::sort of the (key, index) pairs: repeated keys, compact
 // keys (few digit passes) and keys using all 64 bits.
 // One query at a time, anywhere (outside the box, in empty cells), for the three cell lookups

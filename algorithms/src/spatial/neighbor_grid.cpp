@@ -231,7 +231,7 @@ std::pair<std::size_t, std::size_t> NeighborGrid::column(std::int64_t cx, std::i
     const std::size_t col = static_cast<std::size_t>(cx) * static_cast<std::size_t>(dims_[1]) +
                             static_cast<std::size_t>(cy);
     const std::size_t first = column_first_[col], last = column_first_[col + 1];
-    if (first == last) return {0, 0};
+    if (first == last) return {first, first};
     const std::int32_t* z = cell_z_.data() + first;
     const auto lower_bound = [z, len0 = last - first](std::int64_t v) {
       const std::int32_t* base = z;
@@ -249,6 +249,16 @@ std::pair<std::size_t, std::size_t> NeighborGrid::column(std::int64_t cx, std::i
   const auto b = std::upper_bound(a, cell_key_.end(), key(cx, cy, z1));
   return {static_cast<std::size_t>(a - cell_key_.begin()),
           static_cast<std::size_t>(b - cell_key_.begin())};
+}
+
+std::pair<std::size_t, std::size_t> NeighborGrid::column_span(std::int64_t cx,
+                                                              std::int64_t cy) const {
+  if (!column_first_.empty()) {
+    const std::size_t col = static_cast<std::size_t>(cx) * static_cast<std::size_t>(dims_[1]) +
+                            static_cast<std::size_t>(cy);
+    return {column_first_[col], column_first_[col + 1]};
+  }
+  return column(cx, cy, 0, dims_[2] - 1);
 }
 
 }  // namespace scanbench::algorithms::detail
