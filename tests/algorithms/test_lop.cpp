@@ -250,17 +250,27 @@ TEST(NeighborGrid, BatchQueriesGetTheRangesOfSingleQueries) {
         });
     return out;
   };
+  // The points themselves, and points scaled by 0.4 ... 1.6 (inside, off and beyond the grid:
+  // query cells outside it in z next to cells inside it).
+  Eigen::Matrix3Xf scaled = pts;
+  for (Eigen::Index i = 0; i < pts.cols(); ++i)
+    scaled.col(i) *= 0.4f + 1.2f * static_cast<float>(i) / static_cast<float>(pts.cols());
   for (const float cell : {radius / 2, radius / 8, radius / 32}) {
     const detail::NeighborGrid grid(pts, cell);
-    const std::vector<Ranges> batch = collect(grid, pts);
-    std::size_t nonempty = 0;
-    for (Eigen::Index i = 0; i < pts.cols(); ++i) {
-      const Eigen::Matrix3Xf one = pts.col(i);
-      const std::vector<Ranges> alone = collect(grid, one);
-      ASSERT_EQ(batch[static_cast<std::size_t>(i)], alone[0]) << "cell " << cell << " query " << i;
-      nonempty += alone[0].empty() ? 0 : 1;
+    for (const Eigen::Matrix3Xf* qs : std::array<const Eigen::Matrix3Xf*, 2>{&pts, &scaled}) {
+      const std::vector<Ranges> batch = collect(grid, *qs);
+      std::size_t nonempty = 0;
+      for (Eigen::Index i = 0; i < qs->cols(); ++i) {
+        const Eigen::Matrix3Xf one = qs->col(i);
+        const std::vector<Ranges> alone = collect(grid, one);
+        ASSERT_EQ(batch[static_cast<std::size_t>(i)], alone[0])
+            << "cell " << cell << " query " << i;
+        nonempty += alone[0].empty() ? 0 : 1;
+      }
+      if (qs == &pts) {
+        EXPECT_EQ(nonempty, static_cast<std::size_t>(pts.cols()));
+      }
     }
-    EXPECT_EQ(nonempty, static_cast<std::size_t>(pts.cols()));
   }
 }
 

@@ -253,12 +253,43 @@ std::pair<std::size_t, std::size_t> NeighborGrid::column(std::int64_t cx, std::i
 
 std::pair<std::size_t, std::size_t> NeighborGrid::column_span(std::int64_t cx,
                                                               std::int64_t cy) const {
-  if (!column_first_.empty()) {
-    const std::size_t col = static_cast<std::size_t>(cx) * static_cast<std::size_t>(dims_[1]) +
-                            static_cast<std::size_t>(cy);
-    return {column_first_[col], column_first_[col + 1]};
+  const std::size_t col = static_cast<std::size_t>(cx) * static_cast<std::size_t>(dims_[1]) +
+                          static_cast<std::size_t>(cy);
+  return {column_first_[col], column_first_[col + 1]};
+}
+
+bool NeighborGrid::slide_windows(const Cell& c, std::int64_t reach, bool next,
+                                 std::vector<Window>& windows) const {
+  const std::int64_t z0 = std::max<std::int64_t>(c.z - reach, 0);
+  const std::int64_t z1 = std::min<std::int64_t>(c.z + reach, dims_[2] - 1);
+  if (z0 > z1) {  // a query cell beyond the grid in z: no window
+    for (Window& w : windows)
+      w = {0, 0, 0};
+    return false;
   }
-  return column(cx, cy, 0, dims_[2] - 1);
+  if (next) {
+    for (Window& w : windows) {
+      while (w.a < w.end && cell_z_[w.a] < z0)
+        ++w.a;
+      w.b = std::max(w.b, w.a);
+      while (w.b < w.end && cell_z_[w.b] <= z1)
+        ++w.b;
+    }
+    return true;
+  }
+  std::size_t k = 0;
+  for (std::int64_t dx = -reach; dx <= reach; ++dx)
+    for (std::int64_t dy = -reach; dy <= reach; ++dy, ++k) {
+      const std::int64_t cx = c.x + dx, cy = c.y + dy;
+      Window& w = windows[k];
+      if (cx < 0 || cx >= dims_[0] || cy < 0 || cy >= dims_[1]) {
+        w = {0, 0, 0};
+        continue;
+      }
+      w.end = column_span(cx, cy).second;
+      std::tie(w.a, w.b) = column(cx, cy, z0, z1);
+    }
+  return true;
 }
 
 }  // namespace scanbench::algorithms::detail

@@ -181,8 +181,19 @@ class NeighborGrid {
   /// none and z0 <= z1 after clamping, an empty range at the place they would take.
   std::pair<std::size_t, std::size_t> column(std::int64_t cx, std::int64_t cy, std::int64_t z0,
                                              std::int64_t z1) const;
-  /// All occupied cells of column (cx, cy) (inside the grid).
+  /// All occupied cells of column (cx, cy) (inside the grid; with the per-column table).
   std::pair<std::size_t, std::size_t> column_span(std::int64_t cx, std::int64_t cy) const;
+  /// The occupied cells of one column up to `end`, and [a, b) those within a z window (empty
+  /// when the column is outside the grid or the window misses it).
+  struct Window {
+    std::size_t end, a, b;
+  };
+  /// The windows of the (2 reach + 1)^2 columns around cell c (dx, dy order) for z within
+  /// c.z +- reach. With `next` (c follows the cell of the last call in its column), each window
+  /// slides forward from where it was; otherwise it is found by search. False (every window
+  /// empty, none to slide from) when c.z +- reach misses the grid.
+  bool slide_windows(const Cell& c, std::int64_t reach, bool next,
+                     std::vector<Window>& windows) const;
 
   static constexpr double kFar = 1099511627776.0;  // 2^40: beyond any grid, no overflow
 
@@ -263,14 +274,12 @@ void NeighborGrid::for_each_query(const Eigen::Matrix3Xf& queries, float radius,
     };
     // Per column within reach of the last query cell (dx, dy order): its occupied cells up to
     // `end` and the window [a, b) of those within reach in z. The query cells come in key order,
-    // so the next cell of the same column only slides every window forward: a few steps instead
-    // of two searches per column (at 10M points the columns hold tens of cells).
-    struct Window {
-      bool live;  // the column is inside the grid
-      std::size_t end, a, b;
-    };
+    // so with the per-column table the next cell of the same column only slides every window
+    // forward: a few steps instead of two searches per column (at 10M points the columns hold
+    // tens of cells). The dense table finds a window in two reads of adjacent entries.
     const std::size_t side = static_cast<std::size_t>(2 * reach + 1);
-    std::vector<Window> windows(side * side);
+    const bool slide = !column_first_.empty();
+    std::vector<Window> windows(slide ? side * side : 0);
     bool have_windows = false;
     Cell last{0, 0, 0};
     std::vector<Column> cols;
@@ -278,44 +287,31 @@ void NeighborGrid::for_each_query(const Eigen::Matrix3Xf& queries, float radius,
     for (std::size_t qc = rr.begin(); qc != rr.end(); ++qc) {
       const Eigen::Index first = order[starts[qc]].second;
       const Cell c = cell_of(queries(0, first), queries(1, first), queries(2, first));
-      const std::int64_t z0 = std::max<std::int64_t>(c.z - reach, 0);
-      const std::int64_t z1 = std::min<std::int64_t>(c.z + reach, dims_[2] - 1);
       cols.clear();
-      if (z0 > z1) {
-        have_windows = false;
-      } else if (have_windows && c.x == last.x && c.y == last.y && c.z > last.z) {
-        for (Window& w : windows) {
-          if (!w.live) continue;
-          while (w.a < w.end && cell_z_[w.a] < z0)
-            ++w.a;
-          w.b = std::max(w.b, w.a);
-          while (w.b < w.end && cell_z_[w.b] <= z1)
-            ++w.b;
+      const auto add = [&](std::int64_t cx, std::int64_t cy, std::size_t c0, std::size_t c1) {
+        const float x0 = lo_.x() + static_cast<float>(cx) * cell_;
+        const float y0 = lo_.y() + static_cast<float>(cy) * cell_;
+        cols.push_back({x0, x0 + cell_, y0, y0 + cell_, c0, c1});
+      };
+      if (!slide) {
+        for (std::int64_t dx = -reach; dx <= reach; ++dx) {
+          const std::int64_t cx = c.x + dx;
+          if (cx < 0 || cx >= dims_[0]) continue;
+          for (std::int64_t dy = -reach; dy <= reach; ++dy) {
+            const std::int64_t cy = c.y + dy;
+            if (cy < 0 || cy >= dims_[1]) continue;
+            const auto [c0, c1] = column(cx, cy, c.z - reach, c.z + reach);
+            if (c0 != c1) add(cx, cy, c0, c1);
+          }
         }
       } else {
+        have_windows = slide_windows(
+            c, reach, have_windows && c.x == last.x && c.y == last.y && c.z > last.z, windows);
+        last = c;
         std::size_t k = 0;
         for (std::int64_t dx = -reach; dx <= reach; ++dx)
-          for (std::int64_t dy = -reach; dy <= reach; ++dy, ++k) {
-            const std::int64_t cx = c.x + dx, cy = c.y + dy;
-            Window& w = windows[k];
-            w.live = cx >= 0 && cx < dims_[0] && cy >= 0 && cy < dims_[1];
-            if (!w.live) continue;
-            w.end = column_span(cx, cy).second;
-            std::tie(w.a, w.b) = column(cx, cy, z0, z1);
-          }
-        have_windows = true;
-      }
-      last = c;
-      if (z0 <= z1) {
-        std::size_t k = 0;
-        for (std::int64_t dx = -reach; dx <= reach; ++dx)
-          for (std::int64_t dy = -reach; dy <= reach; ++dy, ++k) {
-            const Window& w = windows[k];
-            if (!w.live || w.a == w.b) continue;
-            const float x0 = lo_.x() + static_cast<float>(c.x + dx) * cell_;
-            const float y0 = lo_.y() + static_cast<float>(c.y + dy) * cell_;
-            cols.push_back({x0, x0 + cell_, y0, y0 + cell_, w.a, w.b});
-          }
+          for (std::int64_t dy = -reach; dy <= reach; ++dy, ++k)
+            if (windows[k].a != windows[k].b) add(c.x + dx, c.y + dy, windows[k].a, windows[k].b);
       }
       for (std::size_t k = starts[qc]; k < starts[qc + 1]; ++k) {
         const Eigen::Index i = order[k].second;
