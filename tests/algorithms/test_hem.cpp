@@ -5,6 +5,7 @@
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -175,6 +176,34 @@ std::vector<double> brute_kernel_radii(const PointCloud& c, const HemParams& p) 
   return radius;
 }
 
+// Eq. 12 for point j of c within r, in double, by brute force, against the mixture m.
+void expect_eq12(const PointCloud& c, const HemParams& p, const GaussianMixture& m, double r,
+                 Eigen::Index j) {
+  const Eigen::Vector3d pj = c.positions.col(j).cast<double>();
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d m2 = Eigen::Matrix3d::Zero();
+  double cnt = 0.0;
+  for (Eigen::Index i = 0; i < c.size(); ++i) {
+    const Eigen::Vector3d d = c.positions.col(i).cast<double>() - pj;
+    if (d.squaredNorm() <= r * r) {
+      mean += d;
+      m2 += d * d.transpose();
+      cnt += 1.0;
+    }
+  }
+  mean /= cnt;
+  const Eigen::Matrix3d cov_r = m2 / cnt - mean * mean.transpose();
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov_r);
+  const double smax = std::sqrt(es.eigenvalues()(2));
+  const Eigen::Matrix3d expect =
+      cov_r * (r / (smax * std::cbrt(cnt))) + p.cov_bias * r * r * Eigen::Matrix3d::Identity();
+  const Eigen::Matrix3d got = m.covariance(j).cast<double>();
+  EXPECT_LT((got - expect).norm(), 1e-4 * expect.norm()) << "point " << j;
+  EXPECT_NEAR(std::abs(m.normal_axes.col(j).cast<double>().dot(es.eigenvectors().col(0))), 1.0,
+              1e-3)
+      << "point " << j;
+}
+
 TEST(Hem, LevelZeroNeighboursMatchBruteForceWithDuplicates) {
   // Algorithm 1 lines 1-9 by brute force: the mean distance to the init_neighbors nearest
   // distinct points among the init_neighbors + 8 nearest (float distances, duplicates counted),
@@ -196,34 +225,51 @@ TEST(Hem, LevelZeroNeighboursMatchBruteForceWithDuplicates) {
     int checked = 0;
     for (Eigen::Index j = 0; j < n; ++j) {
       if (j % 7 != 0 && j < 900) continue;  // a sample, and every duplicate
-      const double r = radius[static_cast<std::size_t>(j)];
-      const Eigen::Vector3d pj = c.positions.col(j).cast<double>();
-      Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-      Eigen::Matrix3d m2 = Eigen::Matrix3d::Zero();
-      double cnt = 0.0;
-      for (Eigen::Index i = 0; i < n; ++i) {
-        const Eigen::Vector3d d = c.positions.col(i).cast<double>() - pj;
-        if (d.squaredNorm() <= r * r) {
-          mean += d;
-          m2 += d * d.transpose();
-          cnt += 1.0;
-        }
-      }
-      mean /= cnt;
-      const Eigen::Matrix3d cov_r = m2 / cnt - mean * mean.transpose();
-      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov_r);
-      const double smax = std::sqrt(es.eigenvalues()(2));
-      const Eigen::Matrix3d expect =
-          cov_r * (r / (smax * std::cbrt(cnt))) + p.cov_bias * r * r * Eigen::Matrix3d::Identity();
-      const Eigen::Matrix3d got = m.covariance(j).cast<double>();
-      EXPECT_LT((got - expect).norm(), 1e-4 * expect.norm()) << "point " << j;
-      EXPECT_NEAR(std::abs(m.normal_axes.col(j).cast<double>().dot(es.eigenvectors().col(0))), 1.0,
-                  1e-3)
-          << "point " << j;
+      expect_eq12(c, p, m, radius[static_cast<std::size_t>(j)], j);
       ++checked;
     }
     EXPECT_GT(checked, 140);
   }
+}
+
+// Points far from the rest: 3 x 3 grids spaced 6 to 60 times the patch's spacing and points
+// scattered around them, whose nearest
+// neighbours or eq. 12 radius reach past the block of their cell (the wider blocks) or past
+// kMaxWide cells (the kd-tree). The first grid's first point is the first of the cloud, so the
+// typical-spacing sample holds it. Weighted, as CLOP runs it; everything lies near z = 0.
+TEST(Hem, LevelZeroFarPointsMatchBruteForce) {
+  Rng rng(31);
+  std::vector<Eigen::Vector3f> pts;
+  const double spacing = 1.0 / 30.0;
+  const std::array<std::pair<double, double>, 4> grids{
+      {{6.0, 1.5}, {12.0, 3.0}, {20.0, 6.0}, {60.0, 15.0}}};  // (times the spacing, x0)
+  for (const auto& [times, x0] : grids) {
+    const double s = times * spacing;
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b)
+        pts.emplace_back(static_cast<float>(x0 + a * s), static_cast<float>(b * s), 0.0f);
+    for (int k = 0; k < 8; ++k)  // at assorted distances from the grid's points
+      pts.emplace_back(static_cast<float>(x0 + rng.uniform(-s, 3.0 * s)),
+                       static_cast<float>(rng.uniform(-s, 3.0 * s)), 0.0f);
+  }
+  const auto far = static_cast<Eigen::Index>(pts.size());
+  for (int i = 0; i < 900; ++i)
+    pts.emplace_back(static_cast<float>(rng.uniform()), static_cast<float>(rng.uniform()),
+                     static_cast<float>(rng.normal(0.0, 0.002)));
+  PointCloud c;
+  c.positions.resize(3, static_cast<Eigen::Index>(pts.size()));
+  for (std::size_t i = 0; i < pts.size(); ++i)
+    c.positions.col(static_cast<Eigen::Index>(i)) = pts[i];
+  HemParams p;
+  p.levels = 0;
+  p.weighted = true;
+  RunContext ctx(2);
+  const double diag = c.bbox().diagonal();
+  const GaussianMixture m = hem_mixture(c.positions, p, p.h * diag, diag, ctx);
+  ASSERT_EQ(m.size(), c.size());
+  const std::vector<double> radius = brute_kernel_radii(c, p);
+  for (Eigen::Index j = 0; j < c.size(); ++j)
+    if (j < far || j % 11 == 0) expect_eq12(c, p, m, radius[static_cast<std::size_t>(j)], j);
 }
 
 TEST(Hem, DensityWeightsMatchBruteForce) {

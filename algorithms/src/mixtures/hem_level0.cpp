@@ -416,7 +416,7 @@ inline void scan_cell(const NeighborGrid& g, const Vector3f& q, const Cell& cell
 // The level-0 mixture of one point set (Algorithm 1 lines 1-9): per point its nearest-neighbour
 // spacing, eq. 12 from its neighbours within init_radius_factor times that spacing, and the
 // eq. 26 weights. Searches run on grids of the points; the kd-tree serves only the searches that
-// outgrow the grids (none on typical scans), built on first use, once.
+// outgrow kMaxWide cells (isolated points), built on first use, once.
 class Level0 {
  public:
   Level0(const Eigen::Matrix3Xf& pts, const HemParams& p, double h_abs, double abs_floor)
@@ -442,7 +442,8 @@ class Level0 {
 
     // Grid cells of width W: every neighbour within W * (1 - slack) of a point is in its block
     // (nearest neighbours), within span * W * (1 - slack) in the cells within `span` (radius r).
-    // A point whose neighbours reach further (span > kMaxSpan) asks the kd-tree.
+    // A point whose neighbours reach further searches its own wider block (up to kMaxWide),
+    // then the kd-tree.
     g_.emplace(make_grid(pts_, std::max(3.0, 2.0 * p_.init_radius_factor) * spacing, 2));
     guaranteed_ = static_cast<float>(g_->width()) * (1.0f - 4.0f * kSlack);
     nn_.assign(static_cast<std::size_t>(n), 0.0);
@@ -450,13 +451,13 @@ class Level0 {
     if (kernel_density_) density_.assign(static_cast<std::size_t>(n), 1.0);
 
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, g_->cells(), 4), [&](const auto& rr) {
-      std::vector<Cell> block, wide;
+      std::vector<Cell> block, wide, far;
       std::vector<std::size_t> hits;
-      std::vector<float> best(static_cast<std::size_t>(k_nn_));
+      std::vector<float> best(static_cast<std::size_t>(k_nn_)), wide_best;
       for (std::size_t c = rr.begin(); c != rr.end(); ++c) {
         block_cells(*g_, c, block);
-        const double r_max = nearest_in_block(c, block, best);
-        initial_in_cell(c, r_max, block, wide, hits);
+        const double r_max = nearest_in_block(c, block, best, wide, wide_best);
+        initial_in_cell(c, r_max, block, wide, far, hits);
       }
     });
     initial_of_duplicates();
@@ -473,6 +474,11 @@ class Level0 {
 
  private:
   static constexpr std::int64_t kMaxSpan = 4;
+  // A point whose nearest neighbours or eq. 12 radius reach past its block (or past kMaxSpan)
+  // searches the cells within up to kMaxWide of its own before it asks the kd-tree: from a
+  // million points on a few thousand points per million do (sparse places of a scan), and one
+  // kd-tree query builds the tree over every point, serially (docs/performance.md).
+  static constexpr std::int64_t kMaxWide = 8;
 
   const KdTree& tree() const {
     std::call_once(tree_once_, [&] { tree_storage_.emplace(pts_); });
@@ -501,6 +507,33 @@ class Level0 {
     return mean_nn(d2);
   }
 
+  // tree_nn(j) from the cells of `g` within span 2, 3, ... kMaxWide of point j's: the first span
+  // whose guaranteed reach (span * `guaranteed`) holds the k_query nearest gives them exactly,
+  // with the kd-tree's float distances, so the same mean. `cells` and `best` are scratch.
+  double wide_nn(const NeighborGrid& g, Index j, float guaranteed, std::vector<Cell>& cells,
+                 std::vector<float>& best) const {
+    const Vector3f qf = pts_.col(j);
+    const auto coords = g.coords_of(qf);
+    best.resize(static_cast<std::size_t>(k_query_));
+    for (std::int64_t span = 2; span <= kMaxWide; ++span) {
+      cells_around(g, coords, span, cells);
+      std::fill(best.begin(), best.end(), std::numeric_limits<float>::infinity());
+      for (const Cell& cell : cells)
+        for (std::size_t i = cell.begin; i < cell.end; ++i) {
+          const float dx = qf.x() - g.x()[i], dy = qf.y() - g.y()[i], dz = qf.z() - g.z()[i];
+          const float d = dx * dx + dy * dy + dz * dz;
+          if (!(d < best.back())) continue;
+          auto at = best.end() - 1;
+          for (; at != best.begin() && *(at - 1) > d; --at)
+            *at = *(at - 1);
+          *at = d;
+        }
+      const float reach = static_cast<float>(span) * guaranteed;
+      if (best.back() <= reach * reach) return mean_nn(best);
+    }
+    return tree_nn(j);
+  }
+
   // Typical spacing from a fixed subset: sizes the grid of the neighbour searches. With the
   // density grid (cells of width >= h), the k_query nearest come from the block of cells around
   // the point when the farthest of them lies within the block's guaranteed reach; the squared
@@ -511,8 +544,8 @@ class Level0 {
     double spacing = 0.0;
     std::vector<double> all((static_cast<std::size_t>(n) + 60) / 61);
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, all.size(), 16), [&](const auto& r) {
-      std::vector<Cell> block;
-      std::vector<float> best(static_cast<std::size_t>(k_query_));
+      std::vector<Cell> block, wide;
+      std::vector<float> best(static_cast<std::size_t>(k_query_)), wide_best;
       for (std::size_t k = r.begin(); k != r.end(); ++k) {
         const Index j = static_cast<Index>(k) * 61;
         if (!density_grid_) {
@@ -534,7 +567,8 @@ class Level0 {
             *at = d;
           }
         const auto reach = static_cast<float>(dg.width()) * (1.0f - 4.0f * kSlack);
-        all[k] = best.back() <= reach * reach ? mean_nn(best) : tree_nn(j);
+        all[k] =
+            best.back() <= reach * reach ? mean_nn(best) : wide_nn(dg, j, reach, wide, wide_best);
       }
     });
     std::vector<double> sample;
@@ -668,7 +702,8 @@ class Level0 {
 
   // Nearest-neighbour distances (nn_) of the points of grid cell c from its block (span 1);
   // returns the largest eq. 12 radius among them.
-  double nearest_in_block(std::size_t c, const std::vector<Cell>& block, std::vector<float>& best) {
+  double nearest_in_block(std::size_t c, const std::vector<Cell>& block, std::vector<float>& best,
+                          std::vector<Cell>& wide, std::vector<float>& wide_best) {
     const NeighborGrid& g = *g_;
     const int k_nn = k_nn_, k_query = k_query_;
     const float guaranteed = guaranteed_;
@@ -692,7 +727,7 @@ class Level0 {
             sum += std::sqrt(static_cast<double>(best[i]));
           nnd = sum / want;
         } else {
-          nnd = tree_nn(j);
+          nnd = wide_nn(g, j, guaranteed, wide, wide_best);
         }
       }
       nn_[static_cast<std::size_t>(j)] = nnd;
@@ -702,10 +737,13 @@ class Level0 {
   }
 
   // Eq. 12 for the points of grid cell c from the cells within `span` of it: they hold every
-  // point within span * guaranteed of the cell's points; a point reaching further asks the
-  // kd-tree. Points with only duplicates among their nearest wait for initial_of_duplicates().
+  // point within span * guaranteed of the cell's points; a point reaching further takes the
+  // cells within its own span (up to kMaxWide; `far`), or else the kd-tree. Either way its
+  // neighbours are summed in cell and position order, except from the kd-tree (tree order).
+  // Points with only duplicates among their nearest wait for initial_of_duplicates().
   void initial_in_cell(std::size_t c, double r_max, const std::vector<Cell>& block,
-                       std::vector<Cell>& wide, std::vector<std::size_t>& hits) {
+                       std::vector<Cell>& wide, std::vector<Cell>& far,
+                       std::vector<std::size_t>& hits) {
     const NeighborGrid& g = *g_;
     const float guaranteed = guaranteed_;
     const std::int64_t span = std::min<std::int64_t>(
@@ -723,9 +761,16 @@ class Level0 {
       if (!(nnd > 0.0)) continue;  // only duplicates: r needs the median, below
       const double r = p_.init_radius_factor * nnd;
       const auto rf = static_cast<float>(r);
-      if (rf * (1.0f + kSlack) > reach) {
-        tree_initial(j, r);
-        continue;
+      const std::vector<Cell>* point_cells = cells;
+      if (rf * (1.0f + kSlack) > reach) {  // the cells within its own span, or the kd-tree
+        const auto own_span =
+            static_cast<std::int64_t>(std::floor(rf * (1.0f + kSlack) / guaranteed)) + 1;
+        if (own_span > kMaxWide) {
+          tree_initial(j, r);
+          continue;
+        }
+        cells_around(g, g.cell_coords(c), own_span, far);
+        point_cells = &far;
       }
       const Vector3f qf(g.x()[k], g.y()[k], g.z()[k]);
       const Vector3d q = qf.cast<double>();
@@ -734,7 +779,7 @@ class Level0 {
       // compaction: which candidates pass is unpredictable), then eq. 12's sums over them in
       // that order.
       std::size_t m = 0;
-      for (const Cell& cell : *cells) {
+      for (const Cell& cell : *point_cells) {
         if (box_distance2(g, q, cell) > r * r) continue;
         const std::size_t size = cell.end - cell.begin;
         if (hits.size() < m + size) hits.resize(2 * (m + size));
