@@ -18,8 +18,9 @@ TEST(RadixSort, PairsEndInKeyThenIndexOrder) {
   Rng rng(3);
   for (const std::uint64_t range :
        {std::uint64_t{1}, std::uint64_t{37}, std::uint64_t{1} << 20, ~std::uint64_t{0}}) {
-    for (const std::size_t n :
-         {std::size_t{0}, std::size_t{1}, std::size_t{2}, std::size_t{5000}}) {
+    // Below and above the size from which the passes run in parallel blocks.
+    for (const std::size_t n : {std::size_t{0}, std::size_t{1}, std::size_t{2}, std::size_t{5000},
+                                std::size_t{40000}, std::size_t{300001}}) {
       std::vector<std::pair<std::uint64_t, Eigen::Index>> v(n);
       for (std::size_t i = 0; i < n; ++i) {
         const std::uint64_t r = rng.next();
@@ -35,15 +36,16 @@ TEST(RadixSort, PairsEndInKeyThenIndexOrder) {
 
 TEST(RadixSort, PackedKeysSortedByTheirHighBitsStably) {
   Rng rng(5);
-  const int idx_bits = 13;
-  const std::size_t n = 6000;  // < 2^13
-  std::vector<std::uint64_t> v(n);
-  for (std::size_t i = 0; i < n; ++i)
-    v[i] = (rng.next() % 977) << idx_bits | i;  // many equal codes: stability decides
-  auto want = v;
-  std::sort(want.begin(), want.end());  // (code, index): what a stable sort by code gives
-  radix_sort(v, [&](std::uint64_t k) { return k >> idx_bits; });
-  EXPECT_EQ(v, want);
+  const int idx_bits = 19;
+  for (const std::size_t n : {std::size_t{6000}, std::size_t{300000}}) {  // < 2^19
+    std::vector<std::uint64_t> v(n);
+    for (std::size_t i = 0; i < n; ++i)
+      v[i] = (rng.next() % 977) << idx_bits | i;  // many equal codes: stability decides
+    auto want = v;
+    std::sort(want.begin(), want.end());  // (code, index): what a stable sort by code gives
+    radix_sort(v, [&](std::uint64_t k) { return k >> idx_bits; });
+    EXPECT_EQ(v, want) << "n " << n;
+  }
 }
 
 }  // namespace
