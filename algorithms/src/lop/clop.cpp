@@ -113,17 +113,15 @@ GaussianMixture spatially_sorted(const GaussianMixture& m, double cell) {
 }
 
 class PreparedMixture {
-  bool skip_out_of_reach_;  // skip the packets out of reach of a particle (gather_cell)
-
  public:
   // h: the attraction's kernel width; h_initial: the first iteration's (eq. 24).
   PreparedMixture(const GaussianMixture& mixture, double h, double h_initial,
                   bool skip_out_of_reach)
-      : skip_out_of_reach_(skip_out_of_reach),
-        sorted_(spatially_sorted(mixture, h)),
+      : sorted_(spatially_sorted(mixture, h)),
         cell_(static_cast<float>(h / 4.0)),
         index_(sorted_, kClopFitSigmas[0] * kClopFitSigmas[0] * h * h,
-               kClopFitSigmas[0] * kClopFitSigmas[0] * h * h) {
+               kClopFitSigmas[0] * kClopFitSigmas[0] * h * h),
+        skip_out_of_reach_(skip_out_of_reach) {
     const GaussianMixture& m = sorted_;
     const Index k = m.size();
     for (int j = 0; j < 3; ++j)
@@ -495,6 +493,7 @@ class PreparedMixture {
   std::vector<float> r_attraction_, r_initial_;
   // reach_limit's terms for the attraction [0] and the first iteration [1].
   float reach_base_[2], reach_scale_[2];
+  bool skip_out_of_reach_;  // skip the packets out of reach of a particle (gather_cell)
 };
 
 }  // namespace

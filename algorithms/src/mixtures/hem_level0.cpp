@@ -6,6 +6,7 @@
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -231,6 +232,16 @@ void nearest_k(const NeighborGrid& g, const Vector3f& q, const std::vector<Cell>
 }
 
 // Whether any lane of a comparison result is set.
+// nearest_k<1> ... nearest_k<kMaxListK>, by k - 1: the k nearest by per-lane lists.
+constexpr int kMaxListK = 8;
+using NearestK = void (*)(const NeighborGrid&, const Vector3f&, const std::vector<Cell>&, float*,
+                          int&);
+template <int... K>
+constexpr std::array<NearestK, sizeof...(K)> nearest_table(std::integer_sequence<int, K...>) {
+  return {&nearest_k<K + 1>...};
+}
+constexpr auto kNearestK = nearest_table(std::make_integer_sequence<int, kMaxListK>{});
+
 inline bool any_lane(Int4 mask) {
   std::uint64_t lo = 0, hi = 0;
   std::memcpy(&lo, &mask, sizeof lo);
@@ -648,33 +659,9 @@ class Level0 {
   int nearest_lists(const Vector3f& qf, const std::vector<Cell>& block,
                     std::vector<float>& best) const {
     int zeros = 0;
-    switch (k_nn_) {
-      case 1:
-        nearest_k<1>(*g_, qf, block, best.data(), zeros);
-        return zeros;
-      case 2:
-        nearest_k<2>(*g_, qf, block, best.data(), zeros);
-        return zeros;
-      case 3:
-        nearest_k<3>(*g_, qf, block, best.data(), zeros);
-        return zeros;
-      case 4:
-        nearest_k<4>(*g_, qf, block, best.data(), zeros);
-        return zeros;
-      case 5:
-        nearest_k<5>(*g_, qf, block, best.data(), zeros);
-        return zeros;
-      case 6:
-        nearest_k<6>(*g_, qf, block, best.data(), zeros);
-        return zeros;
-      case 7:
-        nearest_k<7>(*g_, qf, block, best.data(), zeros);
-        return zeros;
-      case 8:
-        nearest_k<8>(*g_, qf, block, best.data(), zeros);
-        return zeros;
-      default:
-        break;
+    if (k_nn_ >= 1 && k_nn_ <= kMaxListK) {
+      kNearestK[static_cast<std::size_t>(k_nn_ - 1)](*g_, qf, block, best.data(), zeros);
+      return zeros;
     }
     const NeighborGrid& g = *g_;
     const Vector3d q = qf.cast<double>();
