@@ -488,8 +488,11 @@ class Level0 {
   // A point whose nearest neighbours or eq. 12 radius reach past its block (or past kMaxSpan)
   // searches the cells within up to kMaxWide of its own before it asks the kd-tree: from a
   // million points on a few thousand points per million do (sparse places of a scan), and one
-  // kd-tree query builds the tree over every point, serially (docs/performance.md).
-  static constexpr std::int64_t kMaxWide = 8;
+  // kd-tree query builds the tree over every point, serially (docs/performance.md). The spans
+  // grow by a third to a half per step, so an isolated point costs a few (2 kMaxWide + 1)^2
+  // column lookups.
+  static constexpr std::int64_t kMaxWide = 16;
+  static constexpr std::array<std::int64_t, 7> kWideSpans{2, 3, 4, 6, 8, 12, kMaxWide};
 
   const KdTree& tree() const {
     std::call_once(tree_once_, [&] { tree_storage_.emplace(pts_); });
@@ -518,7 +521,7 @@ class Level0 {
     return mean_nn(d2);
   }
 
-  // tree_nn(j) from the cells of `g` within span 2, 3, ... kMaxWide of point j's: the first span
+  // tree_nn(j) from the cells of `g` within the kWideSpans of point j's cell: the first span
   // whose guaranteed reach (span * `guaranteed`) holds the k_query nearest gives them exactly,
   // with the kd-tree's float distances, so the same mean. `cells` and `best` are scratch.
   double wide_nn(const NeighborGrid& g, Index j, float guaranteed, std::vector<Cell>& cells,
@@ -526,7 +529,7 @@ class Level0 {
     const Vector3f qf = pts_.col(j);
     const auto coords = g.coords_of(qf);
     best.resize(static_cast<std::size_t>(k_query_));
-    for (std::int64_t span = 2; span <= kMaxWide; ++span) {
+    for (const std::int64_t span : kWideSpans) {
       cells_around(g, coords, span, cells);
       std::fill(best.begin(), best.end(), std::numeric_limits<float>::infinity());
       for (const Cell& cell : cells)

@@ -173,8 +173,11 @@ class MergeLevel {
   // Children of parent k: block b = k / kBlock holds the sets of its parents back to back;
   // offsets[k] .. offsets[k + 1] index into it. Fixed blocks: thread-independent.
   static constexpr Index kBlock = 64;
-  // A parent whose search radius spans more than kMaxCells grid cells asks the kd-tree.
-  static constexpr float kMaxCells = 4.0f;
+  // A parent whose search radius spans more than kMaxCells grid cells asks the kd-tree. Its
+  // first query builds the tree over every candidate, serially: at 10M points a handful of wide
+  // parents (isolated points) made the first level build it, hence up to (2 x 16 + 1)^2 columns
+  // of the grid first (docs/performance.md).
+  static constexpr float kMaxCells = 16.0f;
 
   // The parents (chosen_as_parent) and the others, each in index order.
   void choose_parents(std::uint64_t level_seed) {
