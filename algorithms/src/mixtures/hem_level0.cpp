@@ -231,7 +231,6 @@ void nearest_k(const NeighborGrid& g, const Vector3f& q, const std::vector<Cell>
     zeros += zero_count[l];
 }
 
-// Whether any lane of a comparison result is set.
 // nearest_k<1> ... nearest_k<kMaxListK>, by k - 1: the k nearest by per-lane lists.
 constexpr int kMaxListK = 8;
 using NearestK = void (*)(const NeighborGrid&, const Vector3f&, const std::vector<Cell>&, float*,
@@ -242,6 +241,7 @@ constexpr std::array<NearestK, sizeof...(K)> nearest_table(std::integer_sequence
 }
 constexpr auto kNearestK = nearest_table(std::make_integer_sequence<int, kMaxListK>{});
 
+// Whether any lane of a comparison result is set.
 inline bool any_lane(Int4 mask) {
   std::uint64_t lo = 0, hi = 0;
   std::memcpy(&lo, &mask, sizeof lo);
