@@ -76,6 +76,34 @@ TEST(Hem, MixtureInvariants) {
   EXPECT_GT(cos_sum, 0.97);
 }
 
+// Eq. 12 for point j of c within r, in double, by brute force, against the mixture m.
+void expect_eq12(const PointCloud& c, const HemParams& p, const GaussianMixture& m, double r,
+                 Eigen::Index j) {
+  const Eigen::Vector3d pj = c.positions.col(j).cast<double>();
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d m2 = Eigen::Matrix3d::Zero();
+  double cnt = 0.0;
+  for (Eigen::Index i = 0; i < c.size(); ++i) {
+    const Eigen::Vector3d d = c.positions.col(i).cast<double>() - pj;
+    if (d.squaredNorm() <= r * r) {
+      mean += d;
+      m2 += d * d.transpose();
+      cnt += 1.0;
+    }
+  }
+  mean /= cnt;
+  const Eigen::Matrix3d cov_r = m2 / cnt - mean * mean.transpose();
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov_r);
+  const double smax = std::sqrt(es.eigenvalues()(2));
+  const Eigen::Matrix3d expect =
+      cov_r * (r / (smax * std::cbrt(cnt))) + p.cov_bias * r * r * Eigen::Matrix3d::Identity();
+  const Eigen::Matrix3d got = m.covariance(j).cast<double>();
+  EXPECT_LT((got - expect).norm(), 1e-4 * expect.norm()) << "point " << j;
+  EXPECT_NEAR(std::abs(m.normal_axes.col(j).cast<double>().dot(es.eigenvectors().col(0))), 1.0,
+              1e-3)
+      << "point " << j;
+}
+
 TEST(Hem, LevelZeroMatchesEq12BruteForce) {
   const PointCloud c = noisy_sphere(600, 1.0f, 0.0f, 3);
   HemParams p;
@@ -91,29 +119,9 @@ TEST(Hem, LevelZeroMatchesEq12BruteForce) {
     double nn = std::numeric_limits<double>::infinity();
     for (Eigen::Index i = 0; i < c.size(); ++i)
       if (i != j) nn = std::min(nn, (c.positions.col(i).cast<double>() - pj).norm());
-    const double r = p.init_radius_factor * nn;  // nn: mean of the init_neighbors nearest
-    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-    Eigen::Matrix3d m2 = Eigen::Matrix3d::Zero();
-    double n = 0;
-    for (Eigen::Index i = 0; i < c.size(); ++i) {
-      const Eigen::Vector3d d = c.positions.col(i).cast<double>() - pj;
-      if (d.norm() <= r) {
-        mean += d;
-        m2 += d * d.transpose();
-        n += 1;
-      }
-    }
-    mean /= n;
-    const Eigen::Matrix3d cov_r = m2 / n - mean * mean.transpose();
-    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov_r);
-    const double smax = std::sqrt(es.eigenvalues()(2));
-    const Eigen::Matrix3d expect =
-        cov_r * (r / (smax * std::cbrt(n))) + p.cov_bias * r * r * Eigen::Matrix3d::Identity();
-    const Eigen::Matrix3d got = m.covariance(j).cast<double>();
-    EXPECT_LT((got - expect).norm(), 1e-4 * expect.norm()) << "point " << j;
+    // nn: the mean of the init_neighbors nearest
+    expect_eq12(c, p, m, p.init_radius_factor * nn, j);
     EXPECT_NEAR(m.weights(j), 1.0 / static_cast<double>(c.size()), 1e-7);
-    EXPECT_NEAR(std::abs(m.normal_axes.col(j).cast<double>().dot(es.eigenvectors().col(0))), 1.0,
-                1e-3);
   }
 }
 
@@ -174,34 +182,6 @@ std::vector<double> brute_kernel_radii(const PointCloud& c, const HemParams& p) 
   for (std::size_t j = 0; j < radius.size(); ++j)
     radius[j] = p.init_radius_factor * (nn[j] > 0.0 ? nn[j] : median);
   return radius;
-}
-
-// Eq. 12 for point j of c within r, in double, by brute force, against the mixture m.
-void expect_eq12(const PointCloud& c, const HemParams& p, const GaussianMixture& m, double r,
-                 Eigen::Index j) {
-  const Eigen::Vector3d pj = c.positions.col(j).cast<double>();
-  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-  Eigen::Matrix3d m2 = Eigen::Matrix3d::Zero();
-  double cnt = 0.0;
-  for (Eigen::Index i = 0; i < c.size(); ++i) {
-    const Eigen::Vector3d d = c.positions.col(i).cast<double>() - pj;
-    if (d.squaredNorm() <= r * r) {
-      mean += d;
-      m2 += d * d.transpose();
-      cnt += 1.0;
-    }
-  }
-  mean /= cnt;
-  const Eigen::Matrix3d cov_r = m2 / cnt - mean * mean.transpose();
-  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov_r);
-  const double smax = std::sqrt(es.eigenvalues()(2));
-  const Eigen::Matrix3d expect =
-      cov_r * (r / (smax * std::cbrt(cnt))) + p.cov_bias * r * r * Eigen::Matrix3d::Identity();
-  const Eigen::Matrix3d got = m.covariance(j).cast<double>();
-  EXPECT_LT((got - expect).norm(), 1e-4 * expect.norm()) << "point " << j;
-  EXPECT_NEAR(std::abs(m.normal_axes.col(j).cast<double>().dot(es.eigenvectors().col(0))), 1.0,
-              1e-3)
-      << "point " << j;
 }
 
 TEST(Hem, LevelZeroNeighboursMatchBruteForceWithDuplicates) {

@@ -521,6 +521,24 @@ class Level0 {
     return mean_nn(d2);
   }
 
+  // The best.size() smallest squared distances from qf to the points of `cells` into `best`
+  // (ascending, +inf where fewer; the point itself and duplicates included), each computed as the
+  // kd-tree does ((dx^2 + dy^2) + dz^2 in float).
+  static void k_nearest(const NeighborGrid& g, const Vector3f& qf, const std::vector<Cell>& cells,
+                        std::vector<float>& best) {
+    std::fill(best.begin(), best.end(), std::numeric_limits<float>::infinity());
+    for (const Cell& cell : cells)
+      for (std::size_t i = cell.begin; i < cell.end; ++i) {
+        const float dx = qf.x() - g.x()[i], dy = qf.y() - g.y()[i], dz = qf.z() - g.z()[i];
+        const float d = dx * dx + dy * dy + dz * dz;
+        if (!(d < best.back())) continue;
+        auto at = best.end() - 1;
+        for (; at != best.begin() && *(at - 1) > d; --at)
+          *at = *(at - 1);
+        *at = d;
+      }
+  }
+
   // tree_nn(j) from the cells of `g` within the kWideSpans of point j's cell: the first span
   // whose guaranteed reach (span * `guaranteed`) holds the k_query nearest gives them exactly,
   // with the kd-tree's float distances, so the same mean. `cells` and `best` are scratch.
@@ -531,17 +549,7 @@ class Level0 {
     best.resize(static_cast<std::size_t>(k_query_));
     for (const std::int64_t span : kWideSpans) {
       cells_around(g, coords, span, cells);
-      std::fill(best.begin(), best.end(), std::numeric_limits<float>::infinity());
-      for (const Cell& cell : cells)
-        for (std::size_t i = cell.begin; i < cell.end; ++i) {
-          const float dx = qf.x() - g.x()[i], dy = qf.y() - g.y()[i], dz = qf.z() - g.z()[i];
-          const float d = dx * dx + dy * dy + dz * dz;
-          if (!(d < best.back())) continue;
-          auto at = best.end() - 1;
-          for (; at != best.begin() && *(at - 1) > d; --at)
-            *at = *(at - 1);
-          *at = d;
-        }
+      k_nearest(g, qf, cells, best);
       const float reach = static_cast<float>(span) * guaranteed;
       if (best.back() <= reach * reach) return mean_nn(best);
     }
@@ -569,17 +577,7 @@ class Level0 {
         const NeighborGrid& dg = *density_grid_;
         const Vector3f qf = pts_.col(j);
         cells_around(dg, dg.coords_of(qf), 1, block);
-        std::fill(best.begin(), best.end(), std::numeric_limits<float>::infinity());
-        for (const Cell& cell : block)
-          for (std::size_t i = cell.begin; i < cell.end; ++i) {
-            const float dx = qf.x() - dg.x()[i], dy = qf.y() - dg.y()[i], dz = qf.z() - dg.z()[i];
-            const float d = dx * dx + dy * dy + dz * dz;
-            if (!(d < best.back())) continue;
-            auto at = best.end() - 1;
-            for (; at != best.begin() && *(at - 1) > d; --at)
-              *at = *(at - 1);
-            *at = d;
-          }
+        k_nearest(dg, qf, block, best);
         const auto reach = static_cast<float>(dg.width()) * (1.0f - 4.0f * kSlack);
         all[k] =
             best.back() <= reach * reach ? mean_nn(best) : wide_nn(dg, j, reach, wide, wide_best);
