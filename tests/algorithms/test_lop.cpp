@@ -7,6 +7,8 @@
 #include <cstring>
 #include <limits>
 #include <set>
+#include <type_traits>
+#include <vector>
 
 #include "fixtures.h"
 #include "lop/projection_kernels.h"
@@ -77,7 +79,7 @@ class KernelOracle : public ::testing::Test {
 
 TEST_F(KernelOracle, DensityWeightsMatchBruteForce) {
   const auto& p = cloud_.positions;
-  const detail::NeighborGrid grid(p, kernels::grid_cell(h_));
+  const detail::NeighborGrid grid = kernels::query_grid(p, h_);
   const Eigen::VectorXf v = kernels::density_weights(grid, p, h_, h_);
   ASSERT_EQ(v.size(), p.cols());
   for (Eigen::Index j = 0; j < p.cols(); j += 7) {
@@ -110,7 +112,7 @@ TEST_F(KernelOracle, L2MeanMatchesBruteForceWeightedMean) {
 TEST_F(KernelOracle, AttractionMatchesBruteForceWithDensityWeights) {
   const auto& p = cloud_.positions;
   const KdTree tree(p);
-  const detail::NeighborGrid grid(p, kernels::grid_cell(h_));
+  const detail::NeighborGrid grid = kernels::query_grid(p, h_);
   const Eigen::VectorXf inv_v = kernels::density_weights(grid, p, h_, h_).cwiseInverse();
   kernels::Scratch s;
   for (int weighted = 0; weighted < 2; ++weighted) {
@@ -134,7 +136,7 @@ TEST_F(KernelOracle, AttractionMatchesBruteForceWithDensityWeights) {
 TEST_F(KernelOracle, RepulsionMatchesBruteForceWithCutoff) {
   const auto& q = particles_;
   const KdTree tree(q);
-  const detail::NeighborGrid grid(q, kernels::grid_cell(h_));
+  const detail::NeighborGrid grid = kernels::query_grid(q, h_);
   const Eigen::VectorXf w = kernels::density_weights(grid, q, h_, h_);
   kernels::Scratch s;
   for (const float cutoff : {h_, 0.5f * h_}) {
@@ -155,38 +157,68 @@ TEST_F(KernelOracle, RepulsionMatchesBruteForceWithCutoff) {
   }
 }
 
-// The cell-batched kernels equal the per-particle kernels up to float summation order.
+// The cell-batched kernels equal the per-particle kernels up to float summation order, on grids
+// of both cell sides query_grid() takes (radius / 2 and radius).
 TEST_F(KernelOracle, BatchedKernelsEqualPerParticleKernels) {
   const auto& p = cloud_.positions;
   const KdTree tree(p);
   const KdTree qtree(particles_);
-  detail::NeighborGrid grid(p, kernels::grid_cell(h_));
-  const Eigen::VectorXf inv_v = kernels::density_weights(grid, p, h_, h_).cwiseInverse();
   // Cutoff h/2 as in CLOP section 8: the density is cut too.
   const float cutoff = 0.5f * h_;
-  detail::NeighborGrid qgrid(particles_, kernels::grid_cell(cutoff));
-  const Eigen::VectorXf w = kernels::density_weights(qgrid, particles_, h_, cutoff);
-  for (Eigen::Index i = 0; i < particles_.cols(); ++i) {
-    double ref = 1.0;
-    for (Eigen::Index k = 0; k < particles_.cols(); ++k) {
-      const double d = (particles_.col(i) - particles_.col(k)).cast<double>().norm();
-      if (k != i && d <= cutoff) ref += theta_d(d, h_);
+  for (const float side : {0.5f, 1.0f}) {
+    SCOPED_TRACE(side);
+    detail::NeighborGrid grid(p, side * h_);
+    const Eigen::VectorXf inv_v = kernels::density_weights(grid, p, h_, h_).cwiseInverse();
+    detail::NeighborGrid qgrid(particles_, side * cutoff);
+    const Eigen::VectorXf w = kernels::density_weights(qgrid, particles_, h_, cutoff);
+    for (Eigen::Index i = 0; i < particles_.cols(); ++i) {
+      double ref = 1.0;
+      for (Eigen::Index k = 0; k < particles_.cols(); ++k) {
+        const double d = (particles_.col(i) - particles_.col(k)).cast<double>().norm();
+        if (k != i && d <= cutoff) ref += theta_d(d, h_);
+      }
+      EXPECT_NEAR(w[i], ref, 1e-5 * ref) << "particle " << i;
     }
-    EXPECT_NEAR(w[i], ref, 1e-5 * ref) << "particle " << i;
+    const Eigen::Matrix3Xf l2 = kernels::l2_means(particles_, grid, h_);
+    grid.set_weights(inv_v);
+    const Eigen::Matrix3Xf f1 = kernels::attractions(particles_, grid, h_);
+    qgrid.set_weights(w);
+    const Eigen::Matrix3Xf f2 = kernels::repulsions(particles_, qgrid, h_, cutoff);
+    kernels::Scratch s;
+    for (Eigen::Index i = 0; i < particles_.cols(); ++i) {
+      const Eigen::Vector3f q = particles_.col(i);
+      EXPECT_LT((l2.col(i) - kernels::l2_mean(q, p, tree, h_, s)).norm(), 1e-6f);
+      EXPECT_LT((f1.col(i) - kernels::attraction(q, p, tree, inv_v, h_, s)).norm(), 1e-6f);
+      EXPECT_LT((f2.col(i) - kernels::repulsion(i, particles_, qtree, w, h_, cutoff, s)).norm(),
+                1e-6f);
+    }
   }
-  const Eigen::Matrix3Xf l2 = kernels::l2_means(particles_, grid, h_);
-  grid.set_weights(inv_v);
-  const Eigen::Matrix3Xf f1 = kernels::attractions(particles_, grid, h_);
-  qgrid.set_weights(w);
-  const Eigen::Matrix3Xf f2 = kernels::repulsions(particles_, qgrid, h_, cutoff);
-  kernels::Scratch s;
-  for (Eigen::Index i = 0; i < particles_.cols(); ++i) {
-    const Eigen::Vector3f q = particles_.col(i);
-    EXPECT_LT((l2.col(i) - kernels::l2_mean(q, p, tree, h_, s)).norm(), 1e-6f);
-    EXPECT_LT((f1.col(i) - kernels::attraction(q, p, tree, inv_v, h_, s)).norm(), 1e-6f);
-    EXPECT_LT((f2.col(i) - kernels::repulsion(i, particles_, qtree, w, h_, cutoff, s)).norm(),
-              1e-6f);
+}
+
+// query_grid() takes cells of radius / 2 from kDenseOccupancy points per occupied cell of side
+// radius, else cells of radius; the order of `rank` within a cell is kept either way.
+TEST(ProjectionKernels, QueryGridCellsFollowTheOccupancy) {
+  const PointCloud c = noisy_sphere(4000, 1.0f, 0.0f, 21);
+  const Eigen::Matrix3Xf& pts = c.positions;
+  for (const float radius : {0.02f, 0.05f, 0.1f, 0.2f, 0.4f, 0.8f}) {
+    SCOPED_TRACE(radius);
+    const detail::NeighborGrid coarse(pts, radius);
+    const bool dense = static_cast<double>(pts.cols()) >=
+                       kernels::kDenseOccupancy * static_cast<double>(coarse.cells());
+    std::vector<Eigen::Index> rank(static_cast<std::size_t>(pts.cols()));
+    for (std::size_t i = 0; i < rank.size(); ++i)
+      rank[i] = static_cast<Eigen::Index>(rank.size() - 1 - i);
+    const detail::NeighborGrid g = kernels::query_grid(pts, radius, &rank);
+    EXPECT_EQ(g.cell(), dense ? 0.5f * radius : radius);
+    const detail::NeighborGrid ref(pts, g.cell(), &rank);
+    ASSERT_EQ(g.size(), ref.size());
+    for (Eigen::Index k = 0; k < g.size(); ++k)
+      ASSERT_EQ(g.index(k), ref.index(k));
   }
+  // Both sides occur over these radii (4000 points on the unit sphere: a point or two per cell of
+  // side 0.02, over a hundred per cell of side 0.8).
+  EXPECT_EQ(kernels::query_grid(pts, 0.02f).cell(), 0.02f);
+  EXPECT_EQ(kernels::query_grid(pts, 0.8f).cell(), 0.4f);
 }
 
 // Queries off the grid (outside its bounding box, in empty cells) and coinciding points. The
@@ -503,6 +535,39 @@ TEST(ProjectionKernels, FastRsqrtIsWithinTheBoundAtEveryWidth) {
 #endif
 #ifdef EIGEN_VECTORIZE_AVX512
   EXPECT_LT(worst_rsqrt_error<Eigen::internal::Packet16f>(), 5e-7);
+#endif
+}
+
+// for_each_packet's half-packet tails rely on it: exp and 1 / sqrt give the same bits per lane
+// at every packet width of the build.
+template <class Packet>
+void per_lane_values(std::vector<float>& e, std::vector<float>& r) {
+  constexpr int lanes = Eigen::internal::unpacket_traits<Packet>::size;
+  constexpr int n = 1 << 16;
+  e.resize(n);
+  r.resize(n);
+  float in[lanes];
+  for (int k = 0; k < n; k += lanes) {
+    for (int l = 0; l < lanes; ++l)
+      in[l] = -40.0f * static_cast<float>(k + l) / n + 1e-3f;
+    const auto x = Eigen::internal::ploadu<Packet>(in);
+    Eigen::internal::pstoreu(e.data() + k, detail::fast_pexp(x));
+    Eigen::internal::pstoreu(r.data() + k, detail::fast_prsqrt(Eigen::internal::pmul(x, x)));
+  }
+}
+
+TEST(ProjectionKernels, ExpAndRsqrtAreTheSameAtEveryWidth) {
+  std::vector<float> e4, r4, e, r;
+  per_lane_values<Eigen::internal::Packet4f>(e4, r4);
+#ifdef EIGEN_VECTORIZE_AVX
+  per_lane_values<Eigen::internal::Packet8f>(e, r);
+  EXPECT_EQ(std::memcmp(e.data(), e4.data(), e.size() * sizeof(float)), 0);
+  EXPECT_EQ(std::memcmp(r.data(), r4.data(), r.size() * sizeof(float)), 0);
+#endif
+#ifdef EIGEN_VECTORIZE_AVX512
+  per_lane_values<Eigen::internal::Packet16f>(e, r);
+  EXPECT_EQ(std::memcmp(e.data(), e4.data(), e.size() * sizeof(float)), 0);
+  EXPECT_EQ(std::memcmp(r.data(), r4.data(), r.size() * sizeof(float)), 0);
 #endif
 }
 

@@ -108,10 +108,10 @@ TEST_F(SimdKernels, GridKernelsAgreeWithSse2) {
     simd::ScopedIsa scoped(isa);
     RunContext ctx(1, threads);
     Out o;
-    detail::NeighborGrid pg(p, kernels::grid_cell(h));
+    detail::NeighborGrid pg = kernels::query_grid(p, h);
     o.att = kernels::attractions(q, pg, h);
     o.l2 = kernels::l2_means(q, pg, h);
-    detail::NeighborGrid qg(q, kernels::grid_cell(cutoff));
+    detail::NeighborGrid qg = kernels::query_grid(q, cutoff);
     o.dens = kernels::density_weights(qg, q, h, cutoff);
     qg.set_weights(o.dens);
     o.rep = kernels::repulsions(q, qg, h, cutoff);

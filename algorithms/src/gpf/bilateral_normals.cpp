@@ -77,7 +77,7 @@ PointCloud bilateral_normals(const PointCloud& input, const BilateralNormalsPara
   const float h = static_cast<float>(p.h) * diag;
   const float k = -kernels::kThetaFactor / (h * h);
   const float inv_sharp = 1.0f / (1.0f - static_cast<float>(std::cos(p.sigma_n * M_PI / 180.0)));
-  const detail::NeighborGrid grid(input.positions, kernels::grid_cell(h));
+  const detail::NeighborGrid grid = kernels::query_grid(input.positions, h);
   Eigen::Matrix3Xf normals = detail::unit_normals(input);
   Eigen::Matrix3Xf next(3, n);
   simd::with_packet([&](auto tag) {

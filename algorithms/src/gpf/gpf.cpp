@@ -43,7 +43,8 @@ Packet load(const std::vector<float>& a, Eigen::Index t) {
 Problem::Problem(Eigen::Matrix3Xf v, Eigen::Matrix3Xf b, float h)
     : v_(std::move(v)), b_(std::move(b)), h_(h), grid_(v_, 0.25f * h) {
   // Input cells as wide as the data radius (3 x 3 columns per query): the data balls hold only a
-  // few tens of points, and finer cells (kernels::grid_cell) cost more per column than they skip.
+  // few tens of points, and finer cells cost more per column than they skip (kernels::query_grid
+  // makes the same choice by the occupancy).
   for (int d = 0; d < 3; ++d)
     sb_[d] = sorted_values(grid_, b_.data() + d, 3);
   set_h(h);
@@ -222,7 +223,7 @@ Step em_step_impl(const Problem& problem, const Eigen::Matrix3Xf& x, const Eigen
   if (ctx) timer.emplace(*ctx, "e_step");
   // Cell side r_rep / 2 = r_data: the E-step (radius r_data) reads 3 x 3 columns, the repulsion
   // (radius r_rep) 5 x 5.
-  detail::NeighborGrid pgrid(x, kernels::grid_cell(r_rep));
+  detail::NeighborGrid pgrid = kernels::query_grid(x, r_rep);
   const std::vector<float> inv_d =
       e_step<Packet>(problem, pgrid, k_gauss, static_cast<float>(s.outlier_term), s);
 

@@ -612,7 +612,7 @@ void clop_project_stored(const GaussianMixture& m, Eigen::Matrix3Xf& q_in, const
       const bool recompute = !p.interleave || t % 2 == 0 || t == steps - 1;
       if (recompute) {
         auto timer = ctx.phase("repulsion");
-        detail::NeighborGrid grid(q, kernels::grid_cell(cutoff), &ids);
+        detail::NeighborGrid grid = kernels::query_grid(q, cutoff, &ids);
         // w_i' within the cutoff: the whole repulsion kernel is cut (section 8).
         if (p.repulsion_weights == "wlop")
           grid.set_weights(kernels::density_weights(grid, q, h, cutoff));

@@ -25,7 +25,7 @@ PointCloud project(const PointCloud& input, const LopParams& p, RunContext& ctx,
   std::optional<detail::NeighborGrid> point_grid;
   {
     auto timer = ctx.phase("init");
-    point_grid.emplace(pts, kernels::grid_cell(h));
+    point_grid.emplace(kernels::query_grid(pts, h));
     // Copies (upsampling) are jittered by a small fraction of h so that they can separate.
     q = kernels::initial_particles(pts, m, ctx.stream_seed("particles"), 0.01f * h);
     q = kernels::l2_means(q, *point_grid, h);
@@ -43,7 +43,7 @@ PointCloud project(const PointCloud& input, const LopParams& p, RunContext& ctx,
     }
     {
       auto timer = ctx.phase("repulsion");
-      detail::NeighborGrid particle_grid(q, kernels::grid_cell(h));
+      detail::NeighborGrid particle_grid = kernels::query_grid(q, h);
       if (weighted) particle_grid.set_weights(kernels::density_weights(particle_grid, q, h, h));
       next += mu * kernels::repulsions(q, particle_grid, h, h);
     }

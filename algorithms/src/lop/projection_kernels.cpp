@@ -121,9 +121,13 @@ float alpha(float r, float h) {
   return theta(rc, h) / rc;
 }
 
-float grid_cell(float radius) {
-  // Measured on the camel case: radius, radius/3 and radius/4 were 2-30% slower.
-  return 0.5f * radius;
+detail::NeighborGrid query_grid(const Eigen::Matrix3Xf& points, float radius,
+                                const std::vector<Eigen::Index>* rank) {
+  detail::NeighborGrid coarse(points, radius, rank);
+  if (static_cast<double>(coarse.size()) <
+      kDenseOccupancy * static_cast<double>(std::max<std::size_t>(coarse.cells(), 1)))
+    return coarse;
+  return detail::NeighborGrid(points, 0.5f * radius, rank);
 }
 
 Eigen::VectorXf density_weights(const detail::NeighborGrid& grid, const Eigen::Matrix3Xf& points,

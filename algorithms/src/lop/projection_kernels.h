@@ -70,14 +70,23 @@ Eigen::Vector3f repulsion(Eigen::Index i, const Eigen::Matrix3Xf& particles, con
                           Scratch& s);
 
 /// Batched forms of the kernels above for every query at once (TBB-parallel), over a
-/// detail::NeighborGrid of the summed points (built with cell side grid_cell(radius) for the
-/// radius it is queried with). Each query streams the contiguous grid ranges around it and sums
-/// with SIMD packets (distances, support mask, exp, clamp, division) in a fixed order, so
-/// results do not depend on the thread count; they equal the per-query functions up to float
-/// summation order.
+/// detail::NeighborGrid of the summed points (query_grid() for the radius it is queried with).
+/// Each query streams the contiguous grid ranges around it and sums with SIMD packets
+/// (distances, support mask, exp, clamp, division) in a fixed order, so results do not depend on
+/// the thread count; they equal the per-query functions up to float summation order.
 ///
-/// The grid cell side used for queries of the given radius (radius / 2: 5 x 5 columns).
-float grid_cell(float radius);
+/// Points per occupied cell of side `radius` from which query_grid() takes cells of radius / 2.
+inline constexpr double kDenseOccupancy = 48.0;
+/// The grid of `points` (a cell's points in the order of `rank`, detail::GridLayout) for queries
+/// of `radius`: cells of radius / 2 where the points are dense at that scale (at least
+/// kDenseOccupancy per occupied cell of side `radius`; a query reads 5 x 5 columns), else cells
+/// of `radius` (3 x 3 columns). A query costs a range lookup per column and a SIMD packet per
+/// started packet of points: sparse points (CLOP's repulsion within h/2 from a million points
+/// up, a few points per column) waste most lanes of 25 short ranges, dense points (WLOP's
+/// neighbourhoods within h, hundreds of points) put too many points beyond the radius into 9
+/// wide ones (docs/performance.md has the measurements).
+detail::NeighborGrid query_grid(const Eigen::Matrix3Xf& points, float radius,
+                                const std::vector<Eigen::Index>* rank = nullptr);
 /// Density weights 1 + sum_{j' != j, |p_j - p_j'| <= cutoff} theta(|p_j - p_j'|) of every point
 /// (WLOP's v_j for input points, computed once; w_i for particles, every iteration; CLOP eq. 25
 /// with the section 8 cutoff). `grid` was built from `points` (its weights are ignored).
