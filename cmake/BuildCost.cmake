@@ -10,9 +10,14 @@
 #   SCANBENCH_PCH=ON      (default) without unity batches, scanbench_precompile(target ...)
 #                         precompiles those headers once per target of two or more sources.
 #
-# Floating-point results do not depend on either: the build is ISO C++ (-std=c++20, so GCC
-# contracts no a*b+c into FMA, -ffp-contract=off in the sanitizer tree) without -ffast-math, so
-# inlining across the files of a batch cannot change a rounding.
+# Floating-point results: the build has no -ffast-math, but GCC 12 fuses a product and a sum
+# into one FMA wherever the target has FMA (x86-64-v3 and v4 builds): its -ffp-contract=fast
+# default holds for C++ at any -std (the ISO "off" default is for C only; checked with
+# `g++ -std=c++20 -march=x86-64-v4 -S` on `a * b + c`). Fusing happens after inlining, so a
+# batch that inlines a function from another file may round differently from a build without
+# batches: results are reproducible bit for bit per build configuration (compiler, ISA level,
+# these options), as tests/data/clop_reference.json records them. The sanitizer tree builds
+# with -ffp-contract=off (cmake/Sanitizers.cmake).
 option(SCANBENCH_PCH "Precompile the heavy third-party headers once per target" ON)
 
 # Used by (nearly) every source of every module; all are reached through scanbench_core's

@@ -39,8 +39,10 @@ if(SCANBENCH_SANITIZE)
   # Code that must behave differently under ASan (RLIMIT_AS cannot cap a process whose shadow
   # memory alone reserves terabytes of address space) tests this macro.
   add_compile_definitions(SCANBENCH_SANITIZE=1)
-  # clang contracts a*b+c into FMA by default where the target has it, GCC (-std=c++20) does not:
-  # off, so results stay those of the GCC Release tree.
+  # No fusing of a*b+c into FMA (clang's and GCC's C++ default where the target has FMA): the
+  # sanitizer tree rounds every product and sum as written, whichever compiler builds it. Its
+  # results therefore differ from the Release tree's in the last bits (the Release tree fuses,
+  # cmake/BuildCost.cmake), and the tests that pin bits skip it.
   add_compile_options(-ffp-contract=off)
 endif()
 
