@@ -123,10 +123,12 @@ float alpha(float r, float h) {
 
 detail::NeighborGrid query_grid(const Eigen::Matrix3Xf& points, float radius,
                                 const std::vector<Eigen::Index>* rank) {
-  detail::NeighborGrid coarse(points, radius, rank);
-  if (static_cast<double>(coarse.size()) <
-      kDenseOccupancy * static_cast<double>(std::max<std::size_t>(coarse.cells(), 1)))
-    return coarse;
+  {
+    detail::NeighborGrid coarse(points, radius, rank);
+    if (static_cast<double>(coarse.size()) <
+        kDenseOccupancy * static_cast<double>(std::max<std::size_t>(coarse.cells(), 1)))
+      return coarse;
+  }  // freed before the finer grid is built: one grid at a time at the peak of memory
   return detail::NeighborGrid(points, 0.5f * radius, rank);
 }
 
