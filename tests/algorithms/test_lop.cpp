@@ -7,7 +7,6 @@
 #include <cstring>
 #include <limits>
 #include <set>
-#include <type_traits>
 #include <vector>
 
 #include "fixtures.h"
@@ -538,8 +537,8 @@ TEST(ProjectionKernels, FastRsqrtIsWithinTheBoundAtEveryWidth) {
 #endif
 }
 
-// for_each_packet's half-packet tails rely on it: exp and 1 / sqrt give the same bits per lane
-// at every packet width of the build.
+// exp and 1 / sqrt give the same bits per lane at every packet width of the build (simd_exp.h):
+// the ISA paths of the kernels then differ only in the order of their sums.
 template <class Packet>
 void per_lane_values(std::vector<float>& e, std::vector<float>& r) {
   constexpr int lanes = Eigen::internal::unpacket_traits<Packet>::size;

@@ -81,10 +81,10 @@ inline constexpr double kDenseOccupancy = 48.0;
 /// of `radius`: cells of radius / 2 where the points are dense at that scale (at least
 /// kDenseOccupancy per occupied cell of side `radius`; a query reads 5 x 5 columns), else cells
 /// of `radius` (3 x 3 columns). A query costs a range lookup per column and a SIMD packet per
-/// started packet of points: sparse points (CLOP's repulsion within h/2 from a million points
-/// up, a few points per column) waste most lanes of 25 short ranges, dense points (WLOP's
-/// neighbourhoods within h, hundreds of points) put too many points beyond the radius into 9
-/// wide ones (docs/performance.md has the measurements).
+/// started packet of points: sparse points (CLOP's repulsion within h/2: 30 points per cell of
+/// the radius on the Camel case, 7 at 3M points) waste most lanes of 25 short ranges, dense
+/// points (WLOP's neighbourhoods within h: over a hundred per cell) put too many points beyond
+/// the radius into 9 wide ones (docs/performance.md has the measurements).
 detail::NeighborGrid query_grid(const Eigen::Matrix3Xf& points, float radius,
                                 const std::vector<Eigen::Index>* rank = nullptr);
 /// Density weights 1 + sum_{j' != j, |p_j - p_j'| <= cutoff} theta(|p_j - p_j'|) of every point
