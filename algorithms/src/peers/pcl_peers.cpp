@@ -28,8 +28,11 @@ bool on_path(const std::string& program) {
   const char* path = std::getenv("PATH");
   std::stringstream dirs(path != nullptr ? path : "");
   for (std::string dir; std::getline(dirs, dir, ':');) {
-    if (dir.empty()) dir = ".";
-    if (::access((fs::path(dir) / program).c_str(), X_OK) == 0) return true;
+    // An empty entry is the current directory. (Not `dir = "."`: GCC 12 warns about that
+    // assignment, -Wstringop-overflow, a false positive that -Werror turned into an error in
+    // builds without unity batches.)
+    const fs::path base = dir.empty() ? fs::path(".") : fs::path(dir);
+    if (::access((base / program).c_str(), X_OK) == 0) return true;
   }
   return false;
 }
