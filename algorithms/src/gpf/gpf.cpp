@@ -221,8 +221,9 @@ Step em_step_impl(const Problem& problem, const Eigen::Matrix3Xf& x, const Eigen
 
   // E-step (eq. 3).
   if (ctx) timer.emplace(*ctx, "e_step");
-  // Cell side r_rep / 2 = r_data: the E-step (radius r_data) reads 3 x 3 columns, the repulsion
-  // (radius r_rep) 5 x 5.
+  // Where the particles are dense, cells of r_rep / 2 = r_data: the E-step (radius r_data) reads
+  // 3 x 3 columns, the repulsion (radius r_rep) 5 x 5; where they are sparse, cells of r_rep
+  // (kernels::query_grid).
   detail::NeighborGrid pgrid = kernels::query_grid(x, r_rep);
   const std::vector<float> inv_d =
       e_step<Packet>(problem, pgrid, k_gauss, static_cast<float>(s.outlier_term), s);
