@@ -557,17 +557,15 @@ class Level0 {
   }
 
   // Typical spacing from a fixed subset: sizes the grid of the neighbour searches. With the
-  // density grid (cells of width >= h), the k_query nearest come from the block of cells around
-  // the point when the farthest of them lies within the block's guaranteed reach; the squared
-  // distances are the kd-tree's ((dx^2 + dy^2) + dz^2 in float), so the mean is the same.
-  // 0 when no point has a distinct neighbour.
+  // density grid (cells of width >= h), each point's nearest come from the block of cells
+  // around it (block_nn). 0 when no point has a distinct neighbour.
   double typical_spacing() const {
     const Index n = pts_.cols();
     double spacing = 0.0;
     std::vector<double> all((static_cast<std::size_t>(n) + 60) / 61);
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, all.size(), 16), [&](const auto& r) {
       std::vector<Cell> block, wide;
-      std::vector<float> best(static_cast<std::size_t>(k_query_)), wide_best;
+      std::vector<float> best(static_cast<std::size_t>(k_nn_)), wide_best;
       for (std::size_t k = r.begin(); k != r.end(); ++k) {
         const Index j = static_cast<Index>(k) * 61;
         if (!density_grid_) {
@@ -577,10 +575,8 @@ class Level0 {
         const NeighborGrid& dg = *density_grid_;
         const Vector3f qf = pts_.col(j);
         cells_around(dg, dg.coords_of(qf), 1, block);
-        k_nearest(dg, qf, block, best);
         const auto reach = static_cast<float>(dg.width()) * (1.0f - 4.0f * kSlack);
-        all[k] =
-            best.back() <= reach * reach ? mean_nn(best) : wide_nn(dg, j, reach, wide, wide_best);
+        all[k] = block_nn(dg, j, qf, block, reach, best, wide, wide_best);
       }
     });
     std::vector<double> sample;
@@ -657,14 +653,13 @@ class Level0 {
   // The k_nn smallest positive squared distances from q to the points of `block` into `best`
   // (ascending, +inf where fewer); returns the number of zero distances. nearest_k for k_nn up
   // to 8; beyond, cell by cell, a cell farther than the current k-th nearest skipped.
-  int nearest_lists(const Vector3f& qf, const std::vector<Cell>& block,
+  int nearest_lists(const NeighborGrid& g, const Vector3f& qf, const std::vector<Cell>& block,
                     std::vector<float>& best) const {
     int zeros = 0;
     if (k_nn_ >= 1 && k_nn_ <= kMaxListK) {
-      kNearestK[static_cast<std::size_t>(k_nn_ - 1)](*g_, qf, block, best.data(), zeros);
+      kNearestK[static_cast<std::size_t>(k_nn_ - 1)](g, qf, block, best.data(), zeros);
       return zeros;
     }
-    const NeighborGrid& g = *g_;
     const Vector3d q = qf.cast<double>();
     std::fill(best.begin(), best.end(), std::numeric_limits<float>::infinity());
     float worst = best.back();
@@ -688,36 +683,39 @@ class Level0 {
     return zeros;
   }
 
+  // mean_nn of point j (at qf) from the cells of `g` in `cells` when its wanted nearest lie within
+  // `guaranteed` of it (every point within that distance is in `cells`), else wide_nn. `best`
+  // (k_nn entries), `wide` and `wide_best` are scratch.
+  double block_nn(const NeighborGrid& g, Index j, const Vector3f& qf,
+                  const std::vector<Cell>& cells, float guaranteed, std::vector<float>& best,
+                  std::vector<Cell>& wide, std::vector<float>& wide_best) const {
+    // The k_nn smallest positive distances and the zeros (duplicates, the point itself
+    // included).
+    const int zeros = nearest_lists(g, qf, cells, best);
+    // The k_query nearest hold min(zeros, k_query) duplicates (the point itself included), so
+    // the wanted distances are the `want` smallest positive ones.
+    const int want = std::min(k_nn_, k_query_ - std::min(zeros, k_query_));
+    if (want <= 0) return 0.0;
+    const auto uw = static_cast<std::size_t>(want - 1);
+    if (!(best[uw] <= guaranteed * guaranteed))  // infinite if fewer candidates
+      return wide_nn(g, j, guaranteed, wide, wide_best);
+    double sum = 0.0;
+    for (std::size_t i = 0; i <= uw; ++i)
+      sum += std::sqrt(static_cast<double>(best[i]));
+    return sum / want;
+  }
+
   // Nearest-neighbour distances (nn_) of the points of grid cell c from its block (span 1);
   // returns the largest eq. 12 radius among them.
   double nearest_in_block(std::size_t c, const std::vector<Cell>& block, std::vector<float>& best,
                           std::vector<Cell>& wide, std::vector<float>& wide_best) {
     const NeighborGrid& g = *g_;
-    const int k_nn = k_nn_, k_query = k_query_;
-    const float guaranteed = guaranteed_;
     double r_max = 0.0;
     const detail::GridRange own = g.cell_range(c);
     for (auto k = static_cast<std::size_t>(own.begin); k < static_cast<std::size_t>(own.end); ++k) {
       const Index j = g.index(static_cast<Index>(k));
       const Vector3f qf(g.x()[k], g.y()[k], g.z()[k]);
-      // The k_nn smallest positive distances and the zeros (duplicates, the point itself
-      // included).
-      const int zeros = nearest_lists(qf, block, best);
-      // The k_query nearest hold min(zeros, k_query) duplicates (the point itself included),
-      // so the wanted distances are the `want` smallest positive ones.
-      const int want = std::min(k_nn, k_query - std::min(zeros, k_query));
-      double nnd = 0.0;
-      if (want > 0) {
-        const auto uw = static_cast<std::size_t>(want - 1);
-        if (best[uw] <= guaranteed * guaranteed) {  // infinite if fewer candidates
-          double sum = 0.0;
-          for (std::size_t i = 0; i <= uw; ++i)
-            sum += std::sqrt(static_cast<double>(best[i]));
-          nnd = sum / want;
-        } else {
-          nnd = wide_nn(g, j, guaranteed, wide, wide_best);
-        }
-      }
+      const double nnd = block_nn(g, j, qf, block, guaranteed_, best, wide, wide_best);
       nn_[static_cast<std::size_t>(j)] = nnd;
       r_max = std::max(r_max, p_.init_radius_factor * nnd);
     }
@@ -787,6 +785,7 @@ class Level0 {
   // Points with only duplicates among their nearest take the median distinct spacing.
   void initial_of_duplicates() {
     const Index n = pts_.cols();
+    if (std::all_of(nn_.begin(), nn_.end(), [](double d) { return d > 0.0; })) return;
     std::vector<double> positive;
     for (double d : nn_)
       if (d > 0.0) positive.push_back(d);

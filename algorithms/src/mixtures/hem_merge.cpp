@@ -53,7 +53,9 @@ constexpr double kLog2Pi = 1.8378770664093453;
 
 struct Child {
   Index i;
-  double log_term;  // log(w_s L_is)
+  // log(w_s L_is) as collected; exp(log(w_s L_is) - max over the parents s' holding i of
+  // log(w_s' L_is')) once MergeLevel::normalisers has run.
+  double term;
 };
 
 // The candidate children of one parent and, per candidate i, eq. 11's D_KL(i || s) and eq. 9's
@@ -199,17 +201,25 @@ class MergeLevel {
     const Components& comps = comps_;
     const Index np = np_;
     centers_.resize(3, static_cast<Index>(others_.size()));
-    for (std::size_t k = 0; k < others_.size(); ++k)
-      centers_.col(static_cast<Index>(k)) =
-          comps[static_cast<std::size_t>(others_[k])].mu.cast<float>();
+    tbb::parallel_for(tbb::blocked_range<Index>(0, centers_.cols(), 4096),
+                      [&](const tbb::blocked_range<Index>& r) {
+                        for (Index k = r.begin(); k < r.end(); ++k)
+                          centers_.col(k) =
+                              comps[static_cast<std::size_t>(others_[static_cast<std::size_t>(k)])]
+                                  .mu.cast<float>();
+                      });
     // D_KL >= d_M^2 / 2, so every admissible child of parent s is within alpha * sigma_max(s) of
     // mu_s; the float search gets a hair of slack, the exact test (eq. 11) decides.
     radius_.resize(static_cast<std::size_t>(np));
-    for (Index k = 0; k < np; ++k) {
-      const Component& ps = comps[static_cast<std::size_t>(parents_[static_cast<std::size_t>(k)])];
-      radius_[static_cast<std::size_t>(k)] = static_cast<float>(
-          p_.alpha * std::sqrt(ps.lmax) * 1.001 + 1e-6 * ps.mu.cwiseAbs().maxCoeff());
-    }
+    tbb::parallel_for(
+        tbb::blocked_range<Index>(0, np, 4096), [&](const tbb::blocked_range<Index>& r) {
+          for (Index k = r.begin(); k < r.end(); ++k) {
+            const Component& ps =
+                comps[static_cast<std::size_t>(parents_[static_cast<std::size_t>(k)])];
+            radius_[static_cast<std::size_t>(k)] = static_cast<float>(
+                p_.alpha * std::sqrt(ps.lmax) * 1.001 + 1e-6 * ps.mu.cwiseAbs().maxCoeff());
+          }
+        });
     // The candidates come from a uniform grid of the non-parents' means (cells of the 90th
     // percentile of the search radii: at most 3 x 3 contiguous column ranges for 90% of the
     // parents, no tree walk); a parent whose radius spans more than kMaxCells cells asks a
@@ -333,19 +343,27 @@ class MergeLevel {
         block_sets_[b].data() + offsets_[static_cast<std::size_t>(k)], block_sets_[b].data() + end);
   }
 
-  // Log-sum-exp per child over the parents that hold it, in parent order (deterministic).
+  // The responsibilities' log-sum-exp per child i over the parents s' that hold it: cmax_[i] =
+  // max log(w_s' L_is'), csum_[i] = sum exp(log(w_s' L_is') - cmax_[i]) in parent order
+  // (deterministic). Each child's term becomes exp(log(w_s L_is) - cmax_[i]), so r_is is
+  // term / csum_[i] (eq. 8). The exponentials run in parallel; the max and the sums, in order.
   void normalisers() {
     const double neg_inf = -std::numeric_limits<double>::infinity();
     cmax_.assign(comps_.size(), neg_inf);
     for (const auto& set : block_sets_)
       for (const Child& c : set)
         cmax_[static_cast<std::size_t>(c.i)] =
-            std::max(cmax_[static_cast<std::size_t>(c.i)], c.log_term);
+            std::max(cmax_[static_cast<std::size_t>(c.i)], c.term);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, block_sets_.size(), 4),
+                      [&](const tbb::blocked_range<std::size_t>& r) {
+                        for (std::size_t b = r.begin(); b < r.end(); ++b)
+                          for (Child& c : block_sets_[b])
+                            c.term = std::exp(c.term - cmax_[static_cast<std::size_t>(c.i)]);
+                      });
     csum_.assign(comps_.size(), 0.0);
     for (const auto& set : block_sets_)
       for (const Child& c : set)
-        csum_[static_cast<std::size_t>(c.i)] +=
-            std::exp(c.log_term - cmax_[static_cast<std::size_t>(c.i)]);
+        csum_[static_cast<std::size_t>(c.i)] += c.term;
   }
 
   // Parent k merged with its children (eq. 10, 29, 30).
@@ -360,7 +378,7 @@ class MergeLevel {
     const auto [first, last] = set_range(k);
     for (const Child* c = first; c != last; ++c) {
       const auto ui = static_cast<std::size_t>(c->i);
-      const double ris = std::exp(c->log_term - cmax_[ui]) / csum_[ui];
+      const double ris = c->term / csum_[ui];  // eq. 8
       const Component& ci = comps[ui];
       const double a = ris * ci.w;       // r_is w_i (proportional to r_is w_i |P| of eq. 29-30)
       const Vector3d d = ci.mu - ps.mu;  // centred at the old parent mean for precision
