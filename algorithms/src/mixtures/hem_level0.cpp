@@ -170,6 +170,19 @@ inline Float4 load4(const float* p) {
 using Float16 = float __attribute__((vector_size(64)));
 using Int16 = std::int32_t __attribute__((vector_size(64)));
 
+// The smallest of the 16 lanes of v, in every lane (four rounds of lane swaps and minima).
+template <class V>
+inline V all_lanes_min(V v) {
+  V s = __builtin_shufflevector(v, v, 8, 9, 10, 11, 12, 13, 14, 15, 0, 1, 2, 3, 4, 5, 6, 7);
+  v = s < v ? s : v;
+  s = __builtin_shufflevector(v, v, 4, 5, 6, 7, 0, 1, 2, 3, 12, 13, 14, 15, 8, 9, 10, 11);
+  v = s < v ? s : v;
+  s = __builtin_shufflevector(v, v, 2, 3, 0, 1, 6, 7, 4, 5, 10, 11, 8, 9, 14, 15, 12, 13);
+  v = s < v ? s : v;
+  s = __builtin_shufflevector(v, v, 1, 0, 3, 2, 5, 4, 7, 6, 9, 8, 11, 10, 13, 12, 15, 14);
+  return s < v ? s : v;
+}
+
 // The k smallest positive squared distances (ascending, +inf where fewer) from q to the points
 // of `cells` (their position ranges, merged where consecutive) and the number of zero
 // distances. Per lane of 16 a sorted list of its k smallest (a min/max insertion network, no
@@ -215,17 +228,17 @@ void nearest_k(const NeighborGrid& g, const Vector3f& q, const std::vector<Cell>
     e = cell.end;
   }
   if (e > b) scan(b, e);
-  for (int k = 0; k < K; ++k)
-    best[k] = inf;
-  for (int k = 0; k < K; ++k)
-    for (int l = 0; l < 16; ++l) {
-      const float d = lists[k][l];
-      if (!(d < best[K - 1])) continue;
-      int at = K - 1;
-      for (; at > 0 && best[at - 1] > d; --at)
-        best[at] = best[at - 1];
-      best[at] = d;
-    }
+  // The k smallest of the lists, in ascending order: k times the smallest head, taken off its
+  // lane (the lowest lane holding it), whose list moves up by one. Branch-free.
+  for (int k = 0; k < K; ++k) {
+    const Float16 m = all_lanes_min(lists[0]);
+    best[k] = m[0];
+    const Int16 first = all_lanes_min(lists[0] == m ? lane : Int16{} + 16);
+    const Int16 take = lane == first;
+    for (int t = 0; t + 1 < K; ++t)
+      lists[t] = take ? lists[t + 1] : lists[t];
+    lists[K - 1] = take ? Float16{} + inf : lists[K - 1];
+  }
   zeros = 0;
   for (int l = 0; l < 16; ++l)
     zeros += zero_count[l];
