@@ -15,6 +15,7 @@
 #include "scanbench/core/errors.h"
 #include "scanbench/core/kdtree.h"
 #include "scanbench/core/rng.h"
+#include "spatial/compact.h"
 #include "spatial/mixture_index.h"
 #include "spatial/simd_exp.h"
 
@@ -334,6 +335,56 @@ TEST(NeighborGrid, RangesNearHoldEveryPointWithinTheRadius) {
       }
     }
   }
+}
+
+// compact_within against a brute force in double: every position of the range within the bound
+// and none beyond it (points within 1e-5 relative of the bound may fall either side: the float
+// distance rounds as the build fuses it), in increasing order after the m already written, for
+// ranges of every length modulo 16 and starts off the packet grid, with nothing written past
+// the room it asks for.
+TEST(NeighborGrid, CompactWithinKeepsThePointsWithinTheBound) {
+  const PointCloud c = noisy_sphere(700, 1.0f, 0.05f, 9);
+  const detail::NeighborGrid grid(c.positions, 0.2f);
+  const float r2 = 0.01f;
+  constexpr std::size_t kGuard = 0x5eed;
+  std::size_t kept = 0, dropped = 0;
+  for (const std::size_t b : {std::size_t{0}, std::size_t{3}, std::size_t{17}, std::size_t{250}})
+    for (std::size_t len = 0; len <= 40; ++len) {
+      const std::size_t e = std::min<std::size_t>(b + len, static_cast<std::size_t>(grid.size()));
+      // Near the range's points: the bound cuts through it.
+      const Eigen::Vector3f q = Eigen::Vector3f(grid.x()[b + 2], grid.y()[b + 2], grid.z()[b + 2]) +
+                                Eigen::Vector3f(0.02f, -0.01f, 0.03f);
+      const std::size_t m0 = len % 5;  // positions already written
+      std::vector<std::size_t> out(m0 + (e - b) + detail::kCompactSlack + 8, kGuard);
+      const std::size_t m =
+          detail::compact_within(grid.x(), grid.y(), grid.z(), b, e, q, r2, out.data(), m0);
+      for (std::size_t i = 0; i < m0; ++i)
+        EXPECT_EQ(out[i], kGuard);
+      for (std::size_t i = m0 + (e - b) + detail::kCompactSlack; i < out.size(); ++i)
+        EXPECT_EQ(out[i], kGuard);
+      std::vector<std::size_t> want, borderline;
+      for (std::size_t t = b; t < e; ++t) {
+        const double dx = double(grid.x()[t]) - q.x(), dy = double(grid.y()[t]) - q.y(),
+                     dz = double(grid.z()[t]) - q.z();
+        const double d2 = dx * dx + dy * dy + dz * dz;
+        if (std::abs(d2 - r2) <= 1e-5 * r2)
+          borderline.push_back(t);
+        else if (d2 < r2)
+          want.push_back(t);
+      }
+      std::vector<std::size_t> got(out.begin() + static_cast<std::ptrdiff_t>(m0),
+                                   out.begin() + static_cast<std::ptrdiff_t>(m));
+      ASSERT_TRUE(std::is_sorted(got.begin(), got.end()));
+      std::vector<std::size_t> got_clear;
+      for (const std::size_t t : got)
+        if (std::find(borderline.begin(), borderline.end(), t) == borderline.end())
+          got_clear.push_back(t);
+      EXPECT_EQ(got_clear, want) << "range " << b << " .. " << e;
+      kept += want.size();
+      dropped += (e - b) - want.size() - borderline.size();
+    }
+  EXPECT_GT(kept, 100u);  // the bound cuts through the ranges
+  EXPECT_GT(dropped, 100u);
 }
 
 // The exact-quotient layout with fine cells (mixture.hem level 0): every point is in cell

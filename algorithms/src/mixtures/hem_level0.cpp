@@ -19,6 +19,7 @@
 #include "mixtures/hem_internal.h"
 #include "scanbench/core/kdtree.h"
 #include "scanbench/core/simd_dispatch.h"
+#include "spatial/compact.h"
 #include "spatial/neighbor_grid.h"
 #include "spatial/simd_exp.h"
 
@@ -347,22 +348,20 @@ std::vector<double> density_weights_impl(const NeighborGrid& g, double h) {
         const float own_reach = g.fine_reach(f) * (1.0f + kSlack);
         const float reach = hf * (1.0f + kSlack) + own_reach;
         const float reach2 = reach * reach;
-        // Branch-free compaction.
         std::size_t bound = 0;
         for (const auto& [b, e] : ranges)
           bound += e - std::min(e, std::max(b, own_e));
-        cand.reserve(bound);
+        cand.reserve(bound + detail::kCompactSlack);
         std::size_t m = 0;
         for (const auto& [b, e] : ranges)
-          for (std::size_t k = std::max(b, own_e); k < e; ++k) {
-            const float dx = g.x()[k] - centre.x(), dy = g.y()[k] - centre.y(),
-                        dz = g.z()[k] - centre.z();
-            cand.x[m] = g.x()[k];
-            cand.y[m] = g.y()[k];
-            cand.z[m] = g.z()[k];
-            cand.pos[m] = k;
-            m += dx * dx + dy * dy + dz * dz <= reach2 ? 1 : 0;
-          }
+          if (std::max(b, own_e) < e)
+            m = detail::compact_within(g.x(), g.y(), g.z(), std::max(b, own_e), e, centre, reach2,
+                                       cand.pos.data(), m);
+        for (std::size_t i = 0; i < m; ++i) {
+          cand.x[i] = g.x()[cand.pos[i]];
+          cand.y[i] = g.y()[cand.pos[i]];
+          cand.z[i] = g.z()[cand.pos[i]];
+        }
         cand.size = m;
         cand.pad(kLanes);
         if (col.size() < cand.padded) col.resize(cand.padded);
@@ -774,19 +773,15 @@ class Level0 {
       const Vector3f qf(g.x()[k], g.y()[k], g.z()[k]);
       const Vector3d q = qf.cast<double>();
       const float pre = rf * rf * (1.0f + 4.0f * kSlack);
-      // The positions within the float bound, in cell and position order (a branch-free
-      // compaction: which candidates pass is unpredictable), then eq. 12's sums over them in
-      // that order.
+      // The positions within the float bound, in cell and position order, then eq. 12's sums
+      // over them in that order (set_initial's exact test decides).
       std::size_t m = 0;
       for (const Cell& cell : *point_cells) {
         if (box_distance2(g, q, cell) > r * r) continue;
-        const std::size_t size = cell.end - cell.begin;
-        if (hits.size() < m + size) hits.resize(2 * (m + size));
-        for (std::size_t i = cell.begin; i < cell.end; ++i) {
-          const float dx = g.x()[i] - qf.x(), dy = g.y()[i] - qf.y(), dz = g.z()[i] - qf.z();
-          hits[m] = i;
-          m += dx * dx + dy * dy + dz * dz <= pre ? 1 : 0;
-        }
+        const std::size_t room = m + (cell.end - cell.begin) + detail::kCompactSlack;
+        if (hits.size() < room) hits.resize(2 * room);
+        m = detail::compact_within(g.x(), g.y(), g.z(), cell.begin, cell.end, qf, pre, hits.data(),
+                                   m);
       }
       set_initial(j, r, [&](auto&& f) {
         for (std::size_t t = 0; t < m; ++t)

@@ -18,6 +18,7 @@
 #include "scanbench/core/kdtree.h"
 #include "scanbench/core/rng.h"
 #include "scanbench/core/simd_dispatch.h"
+#include "spatial/compact.h"
 #include "spatial/neighbor_grid.h"
 
 // Eigen's packet types (__m128, __m256, __m512) carry vector attributes that GCC reports as
@@ -270,20 +271,17 @@ class MergeLevel {
     near.clear();
     if (rad <= kMaxCells * cell_) {
       grid.ranges_near(mu, rad, sc.ranges);
-      const float r2 = rad * rad;
-      std::size_t bound = 0;
+      std::size_t bound = detail::kCompactSlack;
       for (const detail::GridRange& gr : sc.ranges)
         bound += static_cast<std::size_t>(gr.end - gr.begin);
       near.resize(bound);
       std::size_t m = 0;
       for (const detail::GridRange& gr : sc.ranges)
-        for (Index t = gr.begin; t < gr.end; ++t) {  // branch-free compaction
-          const float dx = grid.x()[t] - mu.x(), dy = grid.y()[t] - mu.y(),
-                      dz = grid.z()[t] - mu.z();
-          near[m] = grid.index(t);
-          m += dx * dx + dy * dy + dz * dz <= r2 ? 1 : 0;
-        }
+        m = detail::compact_within(grid.x(), grid.y(), grid.z(), static_cast<std::size_t>(gr.begin),
+                                   static_cast<std::size_t>(gr.end), mu, rad * rad, near.data(), m);
       near.resize(m);
+      for (Index& at : near)  // sorted positions -> positions in `others`
+        at = grid.index(at);
     } else {
       tree().radius(mu, rad, sc.nb);
       for (const auto& hit : sc.nb)
