@@ -208,10 +208,15 @@ class PreparedMixture {
   // average) the side doubles, up to h, so that one gather serves several particles. The terms
   // kept do not depend on the cell (every term within reach is gathered, the rest is masked
   // out), only their summation order does.
+  // The keys are (x dims_y + y) dims_z + z of the cell coordinates (x, y, z), dims the cells
+  // per axis (`dims`): the order of (x, y, z), in as few bytes as the box needs (the radix sort
+  // makes one pass per byte in which keys differ).
   float sort_into_cells(const Eigen::Matrix3Xf& q, const Eigen::Vector3f& lo,
                         std::vector<std::pair<std::uint64_t, Index>>& keys,
-                        std::vector<std::size_t>& starts) const {
+                        std::vector<std::size_t>& starts,
+                        std::array<std::uint64_t, 3>& dims) const {
     const Index n = q.cols();
+    const Eigen::Vector3f hi = q.rowwise().maxCoeff();
     float cell = cell_;
     keys.resize(static_cast<std::size_t>(n));
     for (;;) {
@@ -220,10 +225,13 @@ class PreparedMixture {
         return static_cast<std::uint64_t>(
             std::clamp(std::floor((v - l) * inv_cell), 0.0f, static_cast<float>((1 << 21) - 1)));
       };
+      for (int d = 0; d < 3; ++d)
+        dims[static_cast<std::size_t>(d)] = coord(hi[d], lo[d]) + 1;
       tbb::parallel_for(tbb::blocked_range<Index>(0, n, 4096), [&](const auto& r) {
         for (Index i = r.begin(); i != r.end(); ++i) {
-          const std::uint64_t key = (coord(q(0, i), lo.x()) << 42) |
-                                    (coord(q(1, i), lo.y()) << 21) | coord(q(2, i), lo.z());
+          const std::uint64_t key =
+              (coord(q(0, i), lo.x()) * dims[1] + coord(q(1, i), lo.y())) * dims[2] +
+              coord(q(2, i), lo.z());
           keys[static_cast<std::size_t>(i)] = {key, i};
         }
       });
@@ -447,7 +455,8 @@ class PreparedMixture {
     const Eigen::Vector3f lo = q.rowwise().minCoeff();
     std::vector<std::pair<std::uint64_t, Index>> keys;
     std::vector<std::size_t> starts;
-    const float cell = sort_into_cells(q, lo, keys, starts);
+    std::array<std::uint64_t, 3> dims{};
+    const float cell = sort_into_cells(q, lo, keys, starts, dims);
     std::vector<float> radii = kInitial ? r_initial_ : r_attraction_;
     const float half_diag = 0.5f * std::sqrt(3.0f) * cell;
     for (float& r : radii)
@@ -459,9 +468,9 @@ class PreparedMixture {
       for (std::size_t c = rr.begin(); c != rr.end(); ++c) {
         const std::uint64_t key = keys[starts[c]].first;
         const Eigen::Vector3f center =
-            lo + cell * (Eigen::Vector3f(static_cast<float>(key >> 42),
-                                         static_cast<float>((key >> 21) & ((1u << 21) - 1)),
-                                         static_cast<float>(key & ((1u << 21) - 1))) +
+            lo + cell * (Eigen::Vector3f(static_cast<float>(key / dims[2] / dims[1]),
+                                         static_cast<float>(key / dims[2] % dims[1]),
+                                         static_cast<float>(key % dims[2])) +
                          Eigen::Vector3f::Constant(0.5f));
         float delta_max = 0.0f;
         for (std::size_t pi = starts[c]; pi < starts[c + 1]; ++pi)
