@@ -305,7 +305,7 @@ void DistanceField::distances(const Eigen::Matrix3Xf& q, Eigen::VectorXf& out,
           const int lo = m.leaf_lo[k], hi = m.leaf_hi[k];
           // NaN fails both comparisons and lands on lo.
           const int l = c > hi ? hi : (c >= lo ? static_cast<int>(c) : lo);
-          key |= detail::spread3(static_cast<std::uint64_t>(l - lo) >> coarsen) << k;
+          key |= morton_spread3(static_cast<std::uint64_t>(l - lo) >> coarsen) << k;
         }
         return key;
       });

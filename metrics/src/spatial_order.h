@@ -20,17 +20,6 @@
 
 namespace scanbench::metrics::detail {
 
-/// Spreads the low 21 bits of v to every third bit (Morton interleave).
-inline std::uint64_t spread3(std::uint64_t v) {
-  v &= 0x1fffff;
-  v = (v | v << 32) & 0x1f00000000ffffULL;
-  v = (v | v << 16) & 0x1f0000ff0000ffULL;
-  v = (v | v << 8) & 0x100f00f00f00f00fULL;
-  v = (v | v << 4) & 0x10c30c30c30c30c3ULL;
-  v = (v | v << 2) & 0x1249249249249249ULL;
-  return v;
-}
-
 /// Bits needed for the indices 0..n-1.
 inline int index_bits(Eigen::Index n) {
   return static_cast<int>(
@@ -71,7 +60,7 @@ inline std::vector<Eigen::Index> morton_order(const Eigen::Matrix3Xf& q) {
     std::uint64_t key = 0;
     for (int k = 0; k < 3; ++k) {
       const float c = std::clamp((q(k, i) - lo[k]) / extent[k], 0.0f, 1.0f);
-      key |= spread3(static_cast<std::uint64_t>(c * cells)) << k;
+      key |= morton_spread3(static_cast<std::uint64_t>(c * cells)) << k;
     }
     return key;
   });

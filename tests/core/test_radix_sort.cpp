@@ -48,5 +48,28 @@ TEST(RadixSort, PackedKeysSortedByTheirHighBitsStably) {
   }
 }
 
+// Morton codes: compact3 inverts spread3 on every 21-bit value tried; the code of (x, y, z)
+// shifted right by 3 L is the code of (x, y, z) >> L (so the runs of equal code >> 3 L are the
+// cells 2^L times wider); x has the highest bit of each triple, z the lowest.
+TEST(RadixSort, MortonCodesNestTheCellsOfEverySide) {
+  Rng rng(11);
+  const auto code = [](std::uint64_t x, std::uint64_t y, std::uint64_t z) {
+    return morton_spread3(x) << 2 | morton_spread3(y) << 1 | morton_spread3(z);
+  };
+  for (int t = 0; t < 20000; ++t) {
+    const std::uint64_t x = rng.next() & 0x1fffff, y = rng.next() & 0x1fffff,
+                        z = rng.next() & 0x1fffff;
+    const std::uint64_t c = code(x, y, z);
+    ASSERT_EQ(morton_compact3(c >> 2), x);
+    ASSERT_EQ(morton_compact3(c >> 1), y);
+    ASSERT_EQ(morton_compact3(c), z);
+    for (int l = 1; l < 4; ++l)
+      ASSERT_EQ(c >> (3 * l), code(x >> l, y >> l, z >> l)) << "level " << l;
+  }
+  EXPECT_LT(code(0, 1, 1), code(1, 0, 0));
+  EXPECT_LT(code(0, 0, 1), code(0, 1, 0));
+  EXPECT_EQ(code(0x1fffff, 0x1fffff, 0x1fffff), (std::uint64_t{1} << 63) - 1);
+}
+
 }  // namespace
 }  // namespace scanbench

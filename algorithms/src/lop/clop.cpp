@@ -202,50 +202,53 @@ class PreparedMixture {
   }
 
  private:
-  // The particles in cells of side `cell` (returned): keys (cell key, particle) in key order,
-  // starts[c] .. starts[c + 1] the particles of cell c. Cells of side h/4; where the particles
-  // are spread thinly (noise thicker than the cell, fewer than kMinOccupancy per occupied cell on
-  // average) the side doubles, up to h, so that one gather serves several particles. The terms
-  // kept do not depend on the cell (every term within reach is gathered, the rest is masked
-  // out), only their summation order does.
-  // The keys are (x dims_y + y) dims_z + z of the cell coordinates (x, y, z), dims the cells
-  // per axis (`dims`): the order of (x, y, z), in as few bytes as the box needs (the radix sort
-  // makes one pass per byte in which keys differ).
+  // The particles in cells of side `cell` (returned): keys (Morton code of the particle's cell of
+  // side h/4, particle) in code order, starts[c] .. starts[c + 1] the particles of cell c. Cells
+  // of side h/4; where the particles are spread thinly (noise thicker than the cell, fewer than
+  // kMinOccupancy per occupied cell on average) the side doubles, up to h, so that one gather
+  // serves several particles. The terms kept do not depend on the cell (every term within reach
+  // is gathered, the rest is masked out), only their summation order does.
+  // One sort serves every side: the cells of side 2^level h/4 (`level`) are the runs of equal
+  // code >> 3 level, the same cells as floor((p - lo) / side) (the side's reciprocal is a
+  // power-of-two multiple of h/4's, so the quotient is halved exactly). A cell's particles are
+  // in (cell of side h/4, index) order, which changes no result: each is projected on its own.
   float sort_into_cells(const Eigen::Matrix3Xf& q, const Eigen::Vector3f& lo,
                         std::vector<std::pair<std::uint64_t, Index>>& keys,
-                        std::vector<std::size_t>& starts,
-                        std::array<std::uint64_t, 3>& dims) const {
+                        std::vector<std::size_t>& starts, int& level) const {
     const Index n = q.cols();
-    const Eigen::Vector3f hi = q.rowwise().maxCoeff();
-    float cell = cell_;
+    constexpr int kLevels = 3;  // sides h/4, h/2, h
+    const float inv_cell = 1.0f / cell_;
+    auto coord = [&](float v, float l) {
+      return static_cast<std::uint64_t>(
+          std::clamp(std::floor((v - l) * inv_cell), 0.0f, static_cast<float>((1 << 21) - 1)));
+    };
     keys.resize(static_cast<std::size_t>(n));
-    for (;;) {
-      const float inv_cell = 1.0f / cell;
-      auto coord = [&](float v, float l) {
-        return static_cast<std::uint64_t>(
-            std::clamp(std::floor((v - l) * inv_cell), 0.0f, static_cast<float>((1 << 21) - 1)));
-      };
-      for (int d = 0; d < 3; ++d)
-        dims[static_cast<std::size_t>(d)] = coord(hi[d], lo[d]) + 1;
-      tbb::parallel_for(tbb::blocked_range<Index>(0, n, 4096), [&](const auto& r) {
-        for (Index i = r.begin(); i != r.end(); ++i) {
-          const std::uint64_t key =
-              (coord(q(0, i), lo.x()) * dims[1] + coord(q(1, i), lo.y())) * dims[2] +
-              coord(q(2, i), lo.z());
-          keys[static_cast<std::size_t>(i)] = {key, i};
-        }
-      });
-      radix_sort(keys, [](const auto& e) { return e.first; });  // (key, index) order
-      starts.clear();
-      for (std::size_t i = 0; i < keys.size(); ++i)
-        if (i == 0 || keys[i].first != keys[i - 1].first) starts.push_back(i);
-      starts.push_back(keys.size());
-      const double occupancy =
-          static_cast<double>(n) / static_cast<double>(std::max<std::size_t>(starts.size() - 1, 1));
-      if (occupancy >= kMinOccupancy || cell >= 4.0f * cell_) break;
-      cell *= 2.0f;
-    }
-    return cell;
+    tbb::parallel_for(tbb::blocked_range<Index>(0, n, 4096), [&](const auto& r) {
+      for (Index i = r.begin(); i != r.end(); ++i) {
+        const std::uint64_t key = morton_spread3(coord(q(0, i), lo.x())) << 2 |
+                                  morton_spread3(coord(q(1, i), lo.y())) << 1 |
+                                  morton_spread3(coord(q(2, i), lo.z()));
+        keys[static_cast<std::size_t>(i)] = {key, i};
+      }
+    });
+    radix_sort(keys, [](const auto& e) { return e.first; });  // (code, index) order
+    std::array<std::size_t, kLevels> cells{};
+    for (std::size_t i = 0; i < keys.size(); ++i)
+      for (int l = 0; l < kLevels; ++l)
+        cells[static_cast<std::size_t>(l)] +=
+            i == 0 || keys[i].first >> (3 * l) != keys[i - 1].first >> (3 * l) ? 1 : 0;
+    level = 0;
+    while (level + 1 < kLevels &&
+           static_cast<double>(n) / static_cast<double>(std::max<std::size_t>(
+                                        cells[static_cast<std::size_t>(level)], 1)) <
+               kMinOccupancy)
+      ++level;
+    starts.clear();
+    for (std::size_t i = 0; i < keys.size(); ++i)
+      if (i == 0 || keys[i].first >> (3 * level) != keys[i - 1].first >> (3 * level))
+        starts.push_back(i);
+    starts.push_back(keys.size());
+    return cell_ * static_cast<float>(1 << level);
   }
 
   // The candidate components of a cell of particles (centre `center`, its particles within
@@ -455,8 +458,8 @@ class PreparedMixture {
     const Eigen::Vector3f lo = q.rowwise().minCoeff();
     std::vector<std::pair<std::uint64_t, Index>> keys;
     std::vector<std::size_t> starts;
-    std::array<std::uint64_t, 3> dims{};
-    const float cell = sort_into_cells(q, lo, keys, starts, dims);
+    int level = 0;
+    const float cell = sort_into_cells(q, lo, keys, starts, level);
     std::vector<float> radii = kInitial ? r_initial_ : r_attraction_;
     const float half_diag = 0.5f * std::sqrt(3.0f) * cell;
     for (float& r : radii)
@@ -466,11 +469,11 @@ class PreparedMixture {
     const auto project_cells = [&](const tbb::blocked_range<std::size_t>& rr) {
       CellScratch sc;
       for (std::size_t c = rr.begin(); c != rr.end(); ++c) {
-        const std::uint64_t key = keys[starts[c]].first;
+        const std::uint64_t key = keys[starts[c]].first >> (3 * level);
         const Eigen::Vector3f center =
-            lo + cell * (Eigen::Vector3f(static_cast<float>(key / dims[2] / dims[1]),
-                                         static_cast<float>(key / dims[2] % dims[1]),
-                                         static_cast<float>(key % dims[2])) +
+            lo + cell * (Eigen::Vector3f(static_cast<float>(morton_compact3(key >> 2)),
+                                         static_cast<float>(morton_compact3(key >> 1)),
+                                         static_cast<float>(morton_compact3(key))) +
                          Eigen::Vector3f::Constant(0.5f));
         float delta_max = 0.0f;
         for (std::size_t pi = starts[c]; pi < starts[c + 1]; ++pi)

@@ -1,6 +1,7 @@
 #pragma once
 // One stable least-significant-digit radix sort for the spatial orders of the project: the cell
-// keys of the algorithms' neighbour grids and the Morton orders of the metrics' queries.
+// keys of the algorithms' neighbour grids and the Morton orders of CLOP's cells of particles and
+// of the metrics' queries (morton_spread3).
 //
 // Hand-written on purpose: the standard library and TBB sort by comparison; at a million 64-bit
 // keys of which only a few low bytes vary, a radix sort that skips the constant digits is
@@ -31,6 +32,30 @@ inline std::size_t block_size(std::size_t n) {
 inline constexpr std::size_t kParallelFrom = std::size_t{1} << 18;
 
 }  // namespace radix_detail
+
+/// Spreads the low 21 bits of v to every third bit: x, y, z spread and shifted by 2, 1, 0 and
+/// or-ed give the Morton code of a cell (radix-sorted, the cells of side 2^L are the runs of
+/// equal code >> 3L).
+inline std::uint64_t morton_spread3(std::uint64_t v) {
+  v &= 0x1fffff;
+  v = (v | v << 32) & 0x1f00000000ffffULL;
+  v = (v | v << 16) & 0x1f0000ff0000ffULL;
+  v = (v | v << 8) & 0x100f00f00f00f00fULL;
+  v = (v | v << 4) & 0x10c30c30c30c30c3ULL;
+  v = (v | v << 2) & 0x1249249249249249ULL;
+  return v;
+}
+
+/// The inverse of morton_spread3: every third bit of v from bit 0, gathered into 21 bits.
+inline std::uint64_t morton_compact3(std::uint64_t v) {
+  v &= 0x1249249249249249ULL;
+  v = (v ^ (v >> 2)) & 0x10c30c30c30c30c3ULL;
+  v = (v ^ (v >> 4)) & 0x100f00f00f00f00fULL;
+  v = (v ^ (v >> 8)) & 0x1f0000ff0000ffULL;
+  v = (v ^ (v >> 16)) & 0x1f00000000ffffULL;
+  v = (v ^ (v >> 32)) & 0x1fffffULL;
+  return v;
+}
 
 /// Sorts v stably by key(element) (a std::uint64_t), 8-bit digits from the lowest; digits in
 /// which no two keys differ are skipped (no pass, no histogram). Elements with equal keys keep
