@@ -184,31 +184,61 @@ std::vector<double> brute_kernel_radii(const PointCloud& c, const HemParams& p) 
   return radius;
 }
 
+// Level 0 of c (unweighted, `neighbors` nearest) against Algorithm 1 lines 1-9 by brute force
+// (brute_kernel_radii, expect_eq12) at the points that `check` accepts; returns their number.
+template <class Check>
+int expect_level_zero_brute_force(const PointCloud& c, int neighbors, Check&& check) {
+  HemParams p;
+  p.levels = 0;
+  p.weighted = false;
+  p.init_neighbors = neighbors;
+  RunContext ctx(1);
+  const double diag = c.bbox().diagonal();
+  const GaussianMixture m = hem_mixture(c.positions, p, p.h * diag, diag, ctx);
+  EXPECT_EQ(m.size(), c.size());
+  if (m.size() != c.size()) return 0;
+  const std::vector<double> radius = brute_kernel_radii(c, p);
+  int checked = 0;
+  for (Eigen::Index j = 0; j < c.size(); ++j) {
+    if (!check(j)) continue;
+    expect_eq12(c, p, m, radius[static_cast<std::size_t>(j)], j);
+    ++checked;
+  }
+  return checked;
+}
+
 TEST(Hem, LevelZeroNeighboursMatchBruteForceWithDuplicates) {
   // Algorithm 1 lines 1-9 by brute force: the mean distance to the init_neighbors nearest
   // distinct points among the init_neighbors + 8 nearest (float distances, duplicates counted),
   // the median of those for points with only duplicates, eq. 12 within r in double. Four
   // neighbours take the per-lane lists of the nearest, nine the cell-by-cell scan.
   const PointCloud c = patch_with_duplicates(23);
-  const Eigen::Index n = c.size();
   for (int neighbors : {4, 9}) {
     SCOPED_TRACE(neighbors);
-    HemParams p;
-    p.levels = 0;
-    p.weighted = false;
-    p.init_neighbors = neighbors;
-    RunContext ctx(1);
-    const double diag = c.bbox().diagonal();
-    const GaussianMixture m = hem_mixture(c.positions, p, p.h * diag, diag, ctx);
-    ASSERT_EQ(m.size(), n);
-    const std::vector<double> radius = brute_kernel_radii(c, p);
-    int checked = 0;
-    for (Eigen::Index j = 0; j < n; ++j) {
-      if (j % 7 != 0 && j < 900) continue;  // a sample, and every duplicate
-      expect_eq12(c, p, m, radius[static_cast<std::size_t>(j)], j);
-      ++checked;
-    }
-    EXPECT_GT(checked, 140);
+    // A sample, and every duplicate.
+    EXPECT_GT(expect_level_zero_brute_force(c, neighbors,
+                                            [](Eigen::Index j) { return j % 7 == 0 || j >= 900; }),
+              140);
+  }
+}
+
+// A square lattice whose coordinates are multiples of 2^-7 (exact in float): every point has its
+// nearest neighbours at exactly equal distances (4 at the spacing, 4 at sqrt(2) times it), so
+// the per-lane lists of the nearest hold ties in several lanes, and taking the k smallest of
+// them must take each tie once. One to eight neighbours take the lists, nine the scan.
+TEST(Hem, LevelZeroNeighboursMatchBruteForceOnALattice) {
+  constexpr int kSide = 30;
+  PointCloud c;
+  c.positions.resize(3, kSide * kSide);
+  for (int i = 0; i < kSide; ++i)
+    for (int k = 0; k < kSide; ++k)
+      c.positions.col(i * kSide + k) = Eigen::Vector3f(static_cast<float>(i) * 0.0078125f,
+                                                       static_cast<float>(k) * 0.0078125f, 0.0f);
+  for (int neighbors : {1, 4, 6, 9}) {
+    SCOPED_TRACE(neighbors);
+    EXPECT_GT(
+        expect_level_zero_brute_force(c, neighbors, [](Eigen::Index j) { return j % 11 == 0; }),
+        80);
   }
 }
 
