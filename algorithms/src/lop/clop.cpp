@@ -210,7 +210,8 @@ class PreparedMixture {
   // is gathered, the rest is masked out), only their summation order does.
   // One sort serves every side: the cells of side 2^level h/4 (`level`) are the runs of equal
   // code >> 3 level, the same cells as floor((p - lo) / side) (the side's reciprocal is a
-  // power-of-two multiple of h/4's, so the quotient is halved exactly). A cell's particles are
+  // power-of-two multiple of h/4's, so the quotient is halved exactly) while the box spans fewer
+  // than 2^21 cells of h/4 per axis (beyond, the coordinates clamp). A cell's particles are
   // in (cell of side h/4, index) order, which changes no result: each is projected on its own.
   float sort_into_cells(const Eigen::Matrix3Xf& q, const Eigen::Vector3f& lo,
                         std::vector<std::pair<std::uint64_t, Index>>& keys,

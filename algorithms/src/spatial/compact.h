@@ -26,7 +26,8 @@ inline constexpr std::size_t kCompactSlack = 16;
 ///
 /// With AVX-512 (an x86-64-v4 build) 16 points at a time, compressed in registers (stores of
 /// compressed registers straight to memory are slow on AMD Zen 4). Otherwise the scalar loop,
-/// without a branch on the unpredictable test. Same positions either way.
+/// without a branch on the unpredictable test. The two agree but for points within an ulp of the
+/// bound (above).
 template <class Pos>
 std::size_t compact_within(const float* x, const float* y, const float* z, std::size_t b,
                            std::size_t e, const Eigen::Vector3f& q, float r2, Pos* out,
