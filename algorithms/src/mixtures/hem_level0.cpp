@@ -156,6 +156,67 @@ double box_distance2(const NeighborGrid& g, const Vector3d& q, const Cell& cell)
   return below.cwiseMax(above).cwiseMax(0.0).squaredNorm() * (1.0 - 1e-6);
 }
 
+// box_distance2's bound for a list of cells at once, 8 cells per packet: the lower corners by
+// axis (padded with cells at infinity), and per cell whether a query's radius reaches its cube.
+// The bound is computed as box_distance2 computes it, up to the rounding of its last bits; its
+// 1e-6 shrink is far wider than that, so the points of a cell whose decision could differ all
+// lie beyond the radius and are dropped by the exact test after (set_initial).
+class CellBoxes {
+ public:
+  void set(const std::vector<Cell>& cells) {
+    n_ = cells.size();
+    const std::size_t padded = (n_ + kLanes - 1) / kLanes * kLanes;
+    x_.resize(padded);
+    y_.resize(padded);
+    z_.resize(padded);
+    reached_.resize(padded);
+    for (std::size_t t = 0; t < padded; ++t) {
+      const bool real = t < n_;
+      constexpr double inf = std::numeric_limits<double>::infinity();
+      x_[t] = real ? cells[t].lo.x() : inf;
+      y_[t] = real ? cells[t].lo.y() : inf;
+      z_[t] = real ? cells[t].lo.z() : inf;
+    }
+  }
+
+  // reached(t) for every cell t: box_distance2(g, q, cells[t]) <= r2.
+  void test(const NeighborGrid& g, const Vector3d& q, double r2) {
+    const double width = g.width();
+    const double hair = 1e-9 * width;
+    const double far = width + hair;
+    for (std::size_t t = 0; t < x_.size(); t += kLanes) {
+      const Double8 ex = gap(x_.data() + t, q.x(), hair, far);
+      const Double8 ey = gap(y_.data() + t, q.y(), hair, far);
+      const Double8 ez = gap(z_.data() + t, q.z(), hair, far);
+      const Double8 d2 = (ex * ex + ey * ey + ez * ez) * (1.0 - 1e-6);
+      const Long8 in = d2 <= r2;
+      for (std::size_t l = 0; l < kLanes; ++l)
+        reached_[t + l] = static_cast<std::uint8_t>(in[l] & 1);
+    }
+  }
+
+  bool reached(std::size_t t) const { return reached_[t] != 0; }
+
+ private:
+  using Double8 = double __attribute__((vector_size(64)));
+  using Long8 = std::int64_t __attribute__((vector_size(64)));
+  static constexpr std::size_t kLanes = 8;
+
+  // Per lane the distance from q to the cube [lo - hair, lo + far] along one axis.
+  static Double8 gap(const double* lo_ptr, double q, double hair, double far) {
+    Double8 lo;
+    std::memcpy(&lo, lo_ptr, sizeof lo);
+    const Double8 below = lo - q - hair;
+    const Double8 above = q - (lo + far);
+    const Double8 d = below > above ? below : above;
+    return d > 0.0 ? d : Double8{};
+  }
+
+  std::size_t n_ = 0;
+  std::vector<double> x_, y_, z_;
+  std::vector<std::uint8_t> reached_;
+};
+
 // GCC/Clang vector extensions: 4 floats, portable SIMD for the nearest-neighbour scans of the
 // initial mixture (the density pass uses the packet of the active ISA).
 using Float4 = float __attribute__((vector_size(16)));
@@ -474,13 +535,13 @@ class Level0 {
     if (kernel_density_) density_.assign(static_cast<std::size_t>(n), 1.0);
 
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, g_->cells(), 4), [&](const auto& rr) {
-      std::vector<Cell> block, wide, far;
-      std::vector<std::size_t> hits;
+      std::vector<Cell> block;
+      CellScratch sc;
       std::vector<float> best(static_cast<std::size_t>(k_nn_)), wide_best;
       for (std::size_t c = rr.begin(); c != rr.end(); ++c) {
         block_cells(*g_, c, block);
-        const double r_max = nearest_in_block(c, block, best, wide, wide_best);
-        initial_in_cell(c, r_max, block, wide, far, hits);
+        const double r_max = nearest_in_block(c, block, best, sc.wide, wide_best);
+        initial_in_cell(c, r_max, block, sc);
       }
     });
     initial_of_duplicates();
@@ -734,23 +795,30 @@ class Level0 {
     return r_max;
   }
 
+  // Scratch of initial_in_cell, per thread.
+  struct CellScratch {
+    std::vector<Cell> wide, far;
+    CellBoxes boxes, far_boxes;
+    std::vector<std::size_t> hits;
+  };
+
   // Eq. 12 for the points of grid cell c from the cells within `span` of it: they hold every
   // point within span * guaranteed of the cell's points; a point reaching further takes the
   // cells within its own span (up to kMaxWide; `far`), or else the kd-tree. Either way its
   // neighbours are summed in cell and position order, except from the kd-tree (tree order).
   // Points with only duplicates among their nearest wait for initial_of_duplicates().
   void initial_in_cell(std::size_t c, double r_max, const std::vector<Cell>& block,
-                       std::vector<Cell>& wide, std::vector<Cell>& far,
-                       std::vector<std::size_t>& hits) {
+                       CellScratch& sc) {
     const NeighborGrid& g = *g_;
     const float guaranteed = guaranteed_;
     const std::int64_t span = std::min<std::int64_t>(
         static_cast<std::int64_t>(std::floor(r_max / guaranteed)) + 1, kMaxSpan);
     const std::vector<Cell>* cells = &block;
     if (span > 1) {
-      cells_around(g, g.cell_coords(c), span, wide);
-      cells = &wide;
+      cells_around(g, g.cell_coords(c), span, sc.wide);
+      cells = &sc.wide;
     }
+    sc.boxes.set(*cells);
     const auto reach = static_cast<float>(span) * guaranteed;
     const detail::GridRange own = g.cell_range(c);
     for (auto k = static_cast<std::size_t>(own.begin); k < static_cast<std::size_t>(own.end); ++k) {
@@ -760,6 +828,7 @@ class Level0 {
       const double r = p_.init_radius_factor * nnd;
       const auto rf = static_cast<float>(r);
       const std::vector<Cell>* point_cells = cells;
+      CellBoxes* boxes = &sc.boxes;
       if (rf * (1.0f + kSlack) > reach) {  // the cells within its own span, or the kd-tree
         const auto own_span =
             static_cast<std::int64_t>(std::floor(rf * (1.0f + kSlack) / guaranteed)) + 1;
@@ -767,22 +836,38 @@ class Level0 {
           tree_initial(j, r);
           continue;
         }
-        cells_around(g, g.cell_coords(c), own_span, far);
-        point_cells = &far;
+        cells_around(g, g.cell_coords(c), own_span, sc.far);
+        sc.far_boxes.set(sc.far);
+        point_cells = &sc.far;
+        boxes = &sc.far_boxes;
       }
       const Vector3f qf(g.x()[k], g.y()[k], g.z()[k]);
       const Vector3d q = qf.cast<double>();
       const float pre = rf * rf * (1.0f + 4.0f * kSlack);
       // The positions within the float bound, in cell and position order, then eq. 12's sums
-      // over them in that order (set_initial's exact test decides).
-      std::size_t m = 0;
-      for (const Cell& cell : *point_cells) {
-        if (box_distance2(g, q, cell) > r * r) continue;
-        const std::size_t room = m + (cell.end - cell.begin) + detail::kCompactSlack;
+      // over them in that order (set_initial's exact test decides). The cells within reach that
+      // follow each other in the sorted arrays are filtered as one range (compact_within tests
+      // each point alone: the same positions as cell by cell).
+      boxes->test(g, q, r * r);
+      std::vector<std::size_t>& hits = sc.hits;
+      std::size_t m = 0, b = 0, e = 0;
+      const auto filter = [&] {
+        const std::size_t room = m + (e - b) + detail::kCompactSlack;
         if (hits.size() < room) hits.resize(2 * room);
-        m = detail::compact_within(g.x(), g.y(), g.z(), cell.begin, cell.end, qf, pre, hits.data(),
-                                   m);
+        m = detail::compact_within(g.x(), g.y(), g.z(), b, e, qf, pre, hits.data(), m);
+      };
+      for (std::size_t t = 0; t < point_cells->size(); ++t) {
+        if (!boxes->reached(t)) continue;
+        const Cell& cell = (*point_cells)[t];
+        if (cell.begin == e && e > b) {
+          e = cell.end;
+          continue;
+        }
+        if (e > b) filter();
+        b = cell.begin;
+        e = cell.end;
       }
+      if (e > b) filter();
       set_initial(j, r, [&](auto&& f) {
         for (std::size_t t = 0; t < m; ++t)
           f(g.x()[hits[t]], g.y()[hits[t]], g.z()[hits[t]]);
