@@ -305,6 +305,20 @@ TEST(HarnessE2E, BenchResampleWritesCasesAndRatios) {
     EXPECT_GE(r["wall"]["ci95_high"].get<double>(), r["wall"]["median"].get<double>()) << ratio;
   }
   EXPECT_TRUE(b["ratios"]["cgal_wlop_over_clop"]["verdict"].is_string());
+  // The phase figures are per kept round too: one value per round, HEM's share a fraction of
+  // that round's CLOP time, the median inside its interval.
+  const std::size_t kept = samples.at("clop").at("wall_s").size();
+  for (const char* figure :
+       {"attraction_wlop_over_clop", "repulsion_wlop_over_clop", "hem_share_of_clop"}) {
+    const Json& f = b.at("by_phase").at(figure);
+    ASSERT_EQ(f.at("rounds").size(), kept) << figure;
+    EXPECT_LE(f.at("ci95_low").get<double>(), f.at("median").get<double>()) << figure;
+    EXPECT_GE(f.at("ci95_high").get<double>(), f.at("median").get<double>()) << figure;
+  }
+  for (const Json& share : b["by_phase"]["hem_share_of_clop"]["rounds"]) {
+    EXPECT_GT(share.get<double>(), 0.0);
+    EXPECT_LT(share.get<double>(), 1.0);
+  }
   fs::remove_all(dir);
 }
 

@@ -126,6 +126,7 @@ TimedCase timed_case(ChainCase& c, std::uint64_t seed) {
             StageData in;
             in.points = *c.input;
             c.last = run_chain(c.chain, std::move(in), ctx, false);
+            c.run_phases.push_back(c.last.phases);
             return Sample{c.last.wall_s, c.last.cpu_s};
           }};
 }
@@ -136,7 +137,7 @@ Json thread_scaling(const std::vector<std::pair<std::string, Json>>& methods,
   std::vector<ChainCase> cases;
   for (const auto& [name, chain] : methods)
     for (int threads : {1, 2})
-      cases.push_back({fmt::format("{}_{}t", name, threads), chain, &scan, threads, {}});
+      cases.push_back({fmt::format("{}_{}t", name, threads), chain, &scan, threads, {}, {}});
   std::vector<TimedCase> timed;
   for (ChainCase& c : cases)
     timed.push_back(timed_case(c, o.seed));

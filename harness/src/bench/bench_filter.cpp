@@ -58,13 +58,13 @@ Json bench_filter(const FilterBenchOptions& opts) {
   Json eq11 = last_step(gpf);
   eq11[0]["params"]["s2_update"] = "eq11";
   std::vector<ChainCase> steps = {
-      {"normals", prefix(gpf), &pc.scan, o.threads, {}},
-      {"gpf_only", last_step(gpf), &normals, o.threads, {}},
-      {"gpf_eq11", eq11, &normals, o.threads, {}},
-      {"wlop", pc.chains.at("wlop"), &pc.scan, o.threads, {}},
-      {"clop", pc.chains.at("clop"), &pc.scan, o.threads, {}},
-      {"cgal_ear", last_step(ear), shared_normals ? &normals : &ear_normals, o.threads, {}}};
-  if (!shared_normals) steps.push_back({"ear_normals", prefix(ear), &pc.scan, o.threads, {}});
+      {"normals", prefix(gpf), &pc.scan, o.threads, {}, {}},
+      {"gpf_only", last_step(gpf), &normals, o.threads, {}, {}},
+      {"gpf_eq11", eq11, &normals, o.threads, {}, {}},
+      {"wlop", pc.chains.at("wlop"), &pc.scan, o.threads, {}, {}},
+      {"clop", pc.chains.at("clop"), &pc.scan, o.threads, {}, {}},
+      {"cgal_ear", last_step(ear), shared_normals ? &normals : &ear_normals, o.threads, {}, {}}};
+  if (!shared_normals) steps.push_back({"ear_normals", prefix(ear), &pc.scan, o.threads, {}, {}});
   std::vector<TimedCase> timed;
   for (ChainCase& s : steps)
     timed.push_back(timed_case(s, o.seed));

@@ -7,8 +7,12 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <map>
+#include <string>
+#include <vector>
 
 #include "exec/proc_memory.h"
+#include "scanbench/core/rng.h"
 #include "scanbench/core/run_context.h"
 #include "scanbench/core/simd.h"
 #include "scanbench/harness/bench.h"
@@ -20,9 +24,9 @@ namespace scanbench::harness {
 
 namespace {
 
-double phase(const ChainRun& r, const std::string& suffix) {
+double phase(const std::map<std::string, double>& phases, const std::string& suffix) {
   double s = 0.0;
-  for (const auto& [k, v] : r.phases) {
+  for (const auto& [k, v] : phases) {
     if (k.size() > suffix.size() && k.compare(k.size() - suffix.size(), suffix.size(), suffix) == 0)
       s += v;
   }
@@ -73,20 +77,43 @@ std::pair<Json, Json> accuracy_table(const std::vector<ChainCase>& cases, const 
   return {input, cases_j};
 }
 
-/// Phase by phase (wall seconds of the last round), beside the CLOP paper's Fig. 9 Camel
-/// speedups (GPU): WLOP's attraction includes its L2 first iteration (phase init), as CLOP's
-/// includes its continuous first iteration; repulsion includes the densities w_i.
-Json phase_ratios(const ChainRun& cl, const ChainRun& wl) {
-  Json by_phase = {{"attraction_wlop_over_clop",
-                    (phase(wl, ":init") + phase(wl, ":attraction")) / phase(cl, ":attraction")},
-                   {"repulsion_wlop_over_clop", phase(wl, ":repulsion") / phase(cl, ":repulsion")},
-                   {"hem_share_of_clop", phase(cl, ":hem") / cl.wall_s}};
+/// Phase by phase, per kept round (wall seconds of the clop and wlop runs of one round), beside
+/// the CLOP paper's Fig. 9 Camel speedups (GPU): WLOP's attraction includes its L2 first
+/// iteration (phase init), as CLOP's includes its continuous first iteration; repulsion includes
+/// the densities w_i. HEM's share is its phase over CLOP's wall time of the same run. Each figure:
+/// the median of the rounds' values with its spread and bootstrap 95% interval (paired.h), and
+/// the values.
+Json phase_ratios(const ChainCase& cl, const ChainCase& wl, const Rounds& rounds,
+                  std::uint64_t seed) {
+  const std::vector<Sample>& clop_samples = rounds.samples.at(cl.name);
+  std::map<std::string, std::vector<double>> values;
+  for (std::size_t i = 0; i < clop_samples.size(); ++i) {
+    const auto run = static_cast<std::size_t>(rounds.warmup) + i;
+    const auto& c = cl.run_phases.at(run);
+    const auto& w = wl.run_phases.at(run);
+    values["attraction_wlop_over_clop"].push_back((phase(w, ":init") + phase(w, ":attraction")) /
+                                                  phase(c, ":attraction"));
+    values["repulsion_wlop_over_clop"].push_back(phase(w, ":repulsion") / phase(c, ":repulsion"));
+    values["hem_share_of_clop"].push_back(phase(c, ":hem") / clop_samples[i].wall_s);
+  }
+  Json by_phase = Json::object();
+  std::map<std::string, RatioSummary> summary;
+  for (const auto& [name, v] : values) {
+    summary[name] = summarize_ratios(v, derive_seed(seed, name));
+    by_phase[name] = to_json(summary[name]);
+    by_phase[name]["rounds"] = v;
+  }
+  const auto show = [&](const std::string& name, double scale) {
+    const RatioSummary& s = summary.at(name);
+    return fmt::format("{:.{}f} [{:.{}f}, {:.{}f}]", scale * s.median, scale > 1.0 ? 0 : 2,
+                       scale * s.ci_low, scale > 1.0 ? 0 : 2, scale * s.ci_high,
+                       scale > 1.0 ? 0 : 2);
+  };
   fmt::print(
-      "  by phase (last round): attraction {:.2f} (paper Fig. 9 Camel F1: 7.15), repulsion {:.2f} "
-      "(F2: 7.80); HEM is {:.0f}% of CLOP (paper: 20%)\n",
-      by_phase["attraction_wlop_over_clop"].get<double>(),
-      by_phase["repulsion_wlop_over_clop"].get<double>(),
-      100.0 * by_phase["hem_share_of_clop"].get<double>());
+      "  by phase (median of {} rounds, 95% interval): attraction {} (paper Fig. 9 Camel F1: "
+      "7.15), repulsion {} (F2: 7.80); HEM is {}% of CLOP (paper: 20%)\n",
+      clop_samples.size(), show("attraction_wlop_over_clop", 1.0),
+      show("repulsion_wlop_over_clop", 1.0), show("hem_share_of_clop", 100.0));
   return by_phase;
 }
 
@@ -103,7 +130,7 @@ Json growth_run(const Json& clop_chain, const PaperCase& pc, const ResampleBench
         chain[0]["params"]["h"].get<double>() *
         std::sqrt(static_cast<double>(pc.scan.size()) / static_cast<double>(big.scan.size()));
     chain[0]["params"]["h"] = h;
-    ChainCase c{"clop", chain, &big.scan, o.threads, {}};
+    ChainCase c{"clop", chain, &big.scan, o.threads, {}, {}};
     const bool mem_ok = reset_peak_rss();
     const long rss0 = status_kb("VmRSS");
     const Rounds g = run_rounds({timed_case(c, o.seed)}, o.quick ? 1 : 3, 0);
@@ -154,16 +181,16 @@ Json bench_resample(const ResampleBenchOptions& opts) {
              o.rounds, o.warmup);
 
   std::vector<ChainCase> cases;
-  cases.push_back({"clop", clop_chain, &pc.scan, o.threads, {}});
-  cases.push_back({"wlop", wlop_chain, &pc.scan, o.threads, {}});
+  cases.push_back({"clop", clop_chain, &pc.scan, o.threads, {}, {}});
+  cases.push_back({"wlop", wlop_chain, &pc.scan, o.threads, {}, {}});
   if (!o.no_cgal)
     cases.push_back(
-        {"cgal_wlop", single_step_chain("peer.cgal_wlop", wp), &pc.scan, o.threads, {}});
+        {"cgal_wlop", single_step_chain("peer.cgal_wlop", wp), &pc.scan, o.threads, {}, {}});
   // The paper's other reading of eq. 26 (Algorithm 1: v_j summed in the kernel pass), for
   // comparison only.
   Json kernel = clop_chain;
   kernel[0]["params"]["density"] = "kernel";
-  cases.push_back({"clop_kernel_density", kernel, &pc.scan, o.threads, {}});
+  cases.push_back({"clop_kernel_density", kernel, &pc.scan, o.threads, {}, {}});
   std::vector<TimedCase> timed;
   for (ChainCase& c : cases)
     timed.push_back(timed_case(c, o.seed));
@@ -182,7 +209,7 @@ Json bench_resample(const ResampleBenchOptions& opts) {
   }
   for (const PairedRatio& r : ratios)
     fmt::print("{}\n", describe(r));
-  const Json by_phase = phase_ratios(cases[0].last, cases[1].last);
+  const Json by_phase = phase_ratios(cases[0], cases[1], rounds, o.seed);
 
   Json out = paper_case_json("resample", pc, o);
   out["input"] = input;

@@ -144,21 +144,17 @@ PairedRatio paired_ratio(const Rounds& r, const std::string& name, const std::st
   return p;
 }
 
-namespace {
-
-Json summary_json(const RatioSummary& s) {
+Json to_json(const RatioSummary& s) {
   return {{"median", s.median},   {"min", s.min},           {"max", s.max},
           {"ci95_low", s.ci_low}, {"ci95_high", s.ci_high}, {"n", s.n}};
 }
-
-}  // namespace
 
 Json to_json(const PairedRatio& p) {
   Json j = {{"name", p.name},
             {"numerator", p.numerator},
             {"denominator", p.denominator},
-            {"wall", summary_json(p.wall)},
-            {"cpu", summary_json(p.cpu)},
+            {"wall", to_json(p.wall)},
+            {"cpu", to_json(p.cpu)},
             {"wall_ratios", p.wall_ratios},
             {"cpu_ratios", p.cpu_ratios}};
   j["target"] =

@@ -54,17 +54,18 @@ PaperCase load_paper_case(const std::string& claim, const std::string& dataset, 
 Json single_step_chain(const std::string& algorithm, const Json& given);
 
 /// One case of a bench's rounds: `chain` on `*input` with `threads`, its last run kept for the
-/// accuracy table.
+/// accuracy table and every run's phases (ChainRun::phases) for per-round phase figures.
 struct ChainCase {
   std::string name;
   Json chain;
   const PointCloud* input = nullptr;
   int threads = 0;
   ChainRun last;
+  std::vector<std::map<std::string, double>> run_phases;  ///< per run, warm-up rounds first
 };
 /// The timing loop's closure of a case (paired.h run_rounds): runs the chain once through the
-/// registry (run_chain) on a copy of its input, keeps the run in c.last, returns its wall and
-/// CPU seconds. `c` must outlive the rounds.
+/// registry (run_chain) on a copy of its input, keeps the run in c.last and its phases in
+/// c.run_phases, returns its wall and CPU seconds. `c` must outlive the rounds.
 TimedCase timed_case(ChainCase& c, std::uint64_t seed);
 /// The rounds' progress line: "  round 3", "  round warm-up 1".
 void print_round(int round);

@@ -100,6 +100,8 @@ PairedRatio paired_ratio(const Rounds& r, const std::string& name, const std::st
 Sample median_sample(const Rounds& r, const std::string& name,
                      const std::vector<std::string>& plus = {});
 
+/// JSON of a summary: median, min, max, ci95_low, ci95_high, n.
+Json to_json(const RatioSummary& s);
 /// JSON of a ratio: name, numerator, denominator, target, verdict, wall and cpu summaries, the
 /// per-round ratios.
 Json to_json(const PairedRatio& p);
