@@ -66,7 +66,7 @@ Eigen::SelfAdjointEigenSolver<Matrix3d> eigen_decomposition(const Matrix3d& a) {
 }
 
 // The level-0 grids are the project's neighbour grid (spatial/neighbor_grid.h) with cubes of
-// width W located by the exact quotient floor((p - lo) / W) in double (box_distance2's 1e-9 width
+// width W located by the exact quotient floor((p - lo) / W) in double (CellBoxes's 1e-9 width
 // margin relies on it), each split into split^3 fine cubes by which the points of a cube are
 // ordered (the density pass bounds each pair of fine cells by their centres and reach). Every
 // point within W of a point lies in the 3 x 3 x 3 block of cubes around that point's cube, so a
@@ -145,33 +145,22 @@ void block_cells(const NeighborGrid& g, std::size_t c, std::vector<Cell>& out) {
   std::rotate(out.begin(), own, own + 1);
 }
 
-// A lower bound of the squared distance from q to the points of `cell`: the distance to its
-// cube grown by 1e-9 width (points sit in their cube up to the rounding of the cell index),
-// shrunk by 1e-6 relative (the float distances it is compared with).
-double box_distance2(const NeighborGrid& g, const Vector3d& q, const Cell& cell) {
-  const double width = g.width();
-  const double hair = 1e-9 * width;
-  const Vector3d below = cell.lo - q - Vector3d::Constant(hair);
-  const Vector3d above = q - (cell.lo + Vector3d::Constant(width + hair));
-  return below.cwiseMax(above).cwiseMax(0.0).squaredNorm() * (1.0 - 1e-6);
-}
-
-// box_distance2's bound for a list of cells at once, 8 cells per packet: the lower corners by
-// axis (padded with cells at infinity), and per cell whether a query's radius reaches its cube.
-// The bound is computed as box_distance2 computes it, up to the rounding of its last bits; its
-// 1e-6 shrink is far wider than that, so the points of a cell whose decision could differ all
-// lie beyond the radius and are dropped by the exact test after (set_initial).
+// For a list of cells, per cell a lower bound of the squared distance from a query q to its
+// points: the distance to its cube grown by 1e-9 width (points sit in their cube up to the
+// rounding of the cell index), shrunk by 1e-6 relative (the float distances it is compared
+// with). 8 cells per packet of doubles, from the lower corners stored by axis (padded with cells
+// at infinity). The shrink is far wider than the rounding of the bound's last bits, so a cell
+// whose test could go either way holds only points beyond the bound it is tested against.
 class CellBoxes {
  public:
   void set(const std::vector<Cell>& cells) {
-    n_ = cells.size();
-    const std::size_t padded = (n_ + kLanes - 1) / kLanes * kLanes;
+    const std::size_t padded = (cells.size() + kLanes - 1) / kLanes * kLanes;
     x_.resize(padded);
     y_.resize(padded);
     z_.resize(padded);
-    reached_.resize(padded);
+    bound_.resize(padded);
     for (std::size_t t = 0; t < padded; ++t) {
-      const bool real = t < n_;
+      const bool real = t < cells.size();
       constexpr double inf = std::numeric_limits<double>::infinity();
       x_[t] = real ? cells[t].lo.x() : inf;
       y_[t] = real ? cells[t].lo.y() : inf;
@@ -179,8 +168,8 @@ class CellBoxes {
     }
   }
 
-  // reached(t) for every cell t: box_distance2(g, q, cells[t]) <= r2.
-  void test(const NeighborGrid& g, const Vector3d& q, double r2) {
+  // The bounds of every cell for query q (cubes of the width of g's cells).
+  void measure(const NeighborGrid& g, const Vector3d& q) {
     const double width = g.width();
     const double hair = 1e-9 * width;
     const double far = width + hair;
@@ -189,17 +178,15 @@ class CellBoxes {
       const Double8 ey = gap(y_.data() + t, q.y(), hair, far);
       const Double8 ez = gap(z_.data() + t, q.z(), hair, far);
       const Double8 d2 = (ex * ex + ey * ey + ez * ez) * (1.0 - 1e-6);
-      const Long8 in = d2 <= r2;
-      for (std::size_t l = 0; l < kLanes; ++l)
-        reached_[t + l] = static_cast<std::uint8_t>(in[l] & 1);
+      std::memcpy(bound_.data() + t, &d2, sizeof d2);
     }
   }
 
-  bool reached(std::size_t t) const { return reached_[t] != 0; }
+  // Cell t's bound from the last measure().
+  double bound(std::size_t t) const { return bound_[t]; }
 
  private:
   using Double8 = double __attribute__((vector_size(64)));
-  using Long8 = std::int64_t __attribute__((vector_size(64)));
   static constexpr std::size_t kLanes = 8;
 
   // Per lane the distance from q to the cube [lo - hair, lo + far] along one axis.
@@ -212,9 +199,7 @@ class CellBoxes {
     return d > 0.0 ? d : Double8{};
   }
 
-  std::size_t n_ = 0;
-  std::vector<double> x_, y_, z_;
-  std::vector<std::uint8_t> reached_;
+  std::vector<double> x_, y_, z_, bound_;
 };
 
 // GCC/Clang vector extensions: 4 floats, portable SIMD for the nearest-neighbour scans of the
@@ -536,11 +521,12 @@ class Level0 {
 
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, g_->cells(), 4), [&](const auto& rr) {
       std::vector<Cell> block;
+      NnScratch nn;
+      nn.best.resize(static_cast<std::size_t>(k_nn_));
       CellScratch sc;
-      std::vector<float> best(static_cast<std::size_t>(k_nn_)), wide_best;
       for (std::size_t c = rr.begin(); c != rr.end(); ++c) {
         block_cells(*g_, c, block);
-        const double r_max = nearest_in_block(c, block, best, sc.wide, wide_best);
+        const double r_max = nearest_in_block(c, block, nn);
         initial_in_cell(c, r_max, block, sc);
       }
     });
@@ -637,8 +623,9 @@ class Level0 {
     double spacing = 0.0;
     std::vector<double> all((static_cast<std::size_t>(n) + 60) / 61);
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, all.size(), 16), [&](const auto& r) {
-      std::vector<Cell> block, wide;
-      std::vector<float> best(static_cast<std::size_t>(k_nn_)), wide_best;
+      std::vector<Cell> block;
+      NnScratch nn;
+      nn.best.resize(static_cast<std::size_t>(k_nn_));
       for (std::size_t k = r.begin(); k != r.end(); ++k) {
         const Index j = static_cast<Index>(k) * 61;
         if (!density_grid_) {
@@ -649,7 +636,7 @@ class Level0 {
         const Vector3f qf = pts_.col(j);
         cells_around(dg, dg.coords_of(qf), 1, block);
         const auto reach = static_cast<float>(dg.width()) * (1.0f - 4.0f * kSlack);
-        all[k] = block_nn(dg, j, qf, block, reach, best, wide, wide_best);
+        all[k] = block_nn(dg, j, qf, block, reach, nn);
       }
     });
     std::vector<double> sample;
@@ -725,19 +712,22 @@ class Level0 {
 
   // The k_nn smallest positive squared distances from q to the points of `block` into `best`
   // (ascending, +inf where fewer); returns the number of zero distances. nearest_k for k_nn up
-  // to 8; beyond, cell by cell, a cell farther than the current k-th nearest skipped.
+  // to 8; beyond, cell by cell, a cell farther than the current k-th nearest skipped (`boxes`:
+  // scratch).
   int nearest_lists(const NeighborGrid& g, const Vector3f& qf, const std::vector<Cell>& block,
-                    std::vector<float>& best) const {
+                    CellBoxes& boxes, std::vector<float>& best) const {
     int zeros = 0;
     if (k_nn_ >= 1 && k_nn_ <= kMaxListK) {
       kNearestK[static_cast<std::size_t>(k_nn_ - 1)](g, qf, block, best.data(), zeros);
       return zeros;
     }
-    const Vector3d q = qf.cast<double>();
+    boxes.set(block);
+    boxes.measure(g, qf.cast<double>());
     std::fill(best.begin(), best.end(), std::numeric_limits<float>::infinity());
     float worst = best.back();
-    for (const Cell& cell : block) {
-      if (box_distance2(g, q, cell) > static_cast<double>(worst)) continue;
+    for (std::size_t t = 0; t < block.size(); ++t) {
+      const Cell& cell = block[t];
+      if (boxes.bound(t) > static_cast<double>(worst)) continue;
       scan_cell(
           g, qf, cell, [&](Float4 dd) { return dd < worst; },
           [&](std::size_t, float d) {
@@ -756,22 +746,29 @@ class Level0 {
     return zeros;
   }
 
+  // Scratch of block_nn, per thread.
+  struct NnScratch {
+    std::vector<float> best;  // k_nn entries
+    std::vector<Cell> wide;
+    std::vector<float> wide_best;
+    CellBoxes boxes;
+  };
+
   // mean_nn of point j (at qf) from the cells of `g` in `cells` when its wanted nearest lie within
-  // `guaranteed` of it (every point within that distance is in `cells`), else wide_nn. `best`
-  // (k_nn entries), `wide` and `wide_best` are scratch.
+  // `guaranteed` of it (every point within that distance is in `cells`), else wide_nn.
   double block_nn(const NeighborGrid& g, Index j, const Vector3f& qf,
-                  const std::vector<Cell>& cells, float guaranteed, std::vector<float>& best,
-                  std::vector<Cell>& wide, std::vector<float>& wide_best) const {
+                  const std::vector<Cell>& cells, float guaranteed, NnScratch& sc) const {
+    std::vector<float>& best = sc.best;
     // The k_nn smallest positive distances and the zeros (duplicates, the point itself
     // included).
-    const int zeros = nearest_lists(g, qf, cells, best);
+    const int zeros = nearest_lists(g, qf, cells, sc.boxes, best);
     // The k_query nearest hold min(zeros, k_query) duplicates (the point itself included), so
     // the wanted distances are the `want` smallest positive ones.
     const int want = std::min(k_nn_, k_query_ - std::min(zeros, k_query_));
     if (want <= 0) return 0.0;
     const auto uw = static_cast<std::size_t>(want - 1);
     if (!(best[uw] <= guaranteed * guaranteed))  // infinite if fewer candidates
-      return wide_nn(g, j, guaranteed, wide, wide_best);
+      return wide_nn(g, j, guaranteed, sc.wide, sc.wide_best);
     double sum = 0.0;
     for (std::size_t i = 0; i <= uw; ++i)
       sum += std::sqrt(static_cast<double>(best[i]));
@@ -780,15 +777,14 @@ class Level0 {
 
   // Nearest-neighbour distances (nn_) of the points of grid cell c from its block (span 1);
   // returns the largest eq. 12 radius among them.
-  double nearest_in_block(std::size_t c, const std::vector<Cell>& block, std::vector<float>& best,
-                          std::vector<Cell>& wide, std::vector<float>& wide_best) {
+  double nearest_in_block(std::size_t c, const std::vector<Cell>& block, NnScratch& sc) {
     const NeighborGrid& g = *g_;
     double r_max = 0.0;
     const detail::GridRange own = g.cell_range(c);
     for (auto k = static_cast<std::size_t>(own.begin); k < static_cast<std::size_t>(own.end); ++k) {
       const Index j = g.index(static_cast<Index>(k));
       const Vector3f qf(g.x()[k], g.y()[k], g.z()[k]);
-      const double nnd = block_nn(g, j, qf, block, guaranteed_, best, wide, wide_best);
+      const double nnd = block_nn(g, j, qf, block, guaranteed_, sc);
       nn_[static_cast<std::size_t>(j)] = nnd;
       r_max = std::max(r_max, p_.init_radius_factor * nnd);
     }
@@ -848,7 +844,7 @@ class Level0 {
       // over them in that order (set_initial's exact test decides). The cells within reach that
       // follow each other in the sorted arrays are filtered as one range (compact_within tests
       // each point alone: the same positions as cell by cell).
-      boxes->test(g, q, r * r);
+      boxes->measure(g, q);
       std::vector<std::size_t>& hits = sc.hits;
       std::size_t m = 0, b = 0, e = 0;
       const auto filter = [&] {
@@ -857,7 +853,7 @@ class Level0 {
         m = detail::compact_within(g.x(), g.y(), g.z(), b, e, qf, pre, hits.data(), m);
       };
       for (std::size_t t = 0; t < point_cells->size(); ++t) {
-        if (!boxes->reached(t)) continue;
+        if (boxes->bound(t) > r * r) continue;
         const Cell& cell = (*point_cells)[t];
         if (cell.begin == e && e > b) {
           e = cell.end;
