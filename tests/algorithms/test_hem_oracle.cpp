@@ -231,7 +231,7 @@ TEST(HemOracle, WideParentsMatchTheBruteForce) {
     Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(level[i].cov);
     const Eigen::Vector3d v = es.eigenvectors().col(2);
     hem_detail::set_conditioned(
-        level[i], level[i].cov + 899.0 * es.eigenvalues()(2) * v * v.transpose(), kAbsFloor);
+        &level[i], {level[i].cov + 899.0 * es.eigenvalues()(2) * v * v.transpose()}, kAbsFloor);
     wide_parents.push_back(i);
     ++wide;
   }

@@ -4,12 +4,12 @@
 
 #include <fmt/format.h>
 
-#include <Eigen/Eigenvalues>
 #include <cmath>
 #include <cstdint>
 
 #include "input_checks.h"
 #include "mixtures/hem_internal.h"
+#include "mixtures/sym_eigen3.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/rng.h"
 
@@ -17,17 +17,23 @@ namespace scanbench::algorithms {
 
 namespace hem_detail {
 
-// The covariance guard: symmetric, eigenvalues clamped (closed-form 3x3 eigenvalues; the
-// iterative solver only for the rare matrix that needs clamping).
-void set_conditioned(Component& c, const Eigen::Matrix3d& cov, double abs_floor) {
+// The covariance guard: symmetric, eigenvalues clamped; the eigenvalues a packet of matrices at a
+// time, the eigenvectors only for a matrix that needs clamping (sym_eigen3.h).
+void set_conditioned(Component* out, const std::vector<Eigen::Matrix3d>& covs, double abs_floor) {
   using Eigen::Matrix3d;
-  const Matrix3d s = 0.5 * (cov + cov.transpose());
-  Eigen::SelfAdjointEigenSolver<Matrix3d> es;
-  es.computeDirect(s, Eigen::EigenvaluesOnly);
-  store_conditioned(c, s, es.eigenvalues(), abs_floor, [&] {
-    es.compute(s);
-    return Matrix3d(es.eigenvectors());
-  });
+  const std::size_t n = covs.size();
+  std::vector<Matrix3d> sym(n);
+  for (std::size_t i = 0; i < n; ++i)
+    sym[i] = 0.5 * (covs[i] + covs[i].transpose());
+  std::vector<Eigen::Vector3d> values(n);
+  detail::sym_eigen3(sym.data(), n, values.data(), nullptr);
+  for (std::size_t i = 0; i < n; ++i)
+    store_conditioned(out[i], sym[i], values[i], abs_floor, [&] {
+      Eigen::Vector3d v;
+      Matrix3d vectors;
+      detail::sym_eigen3(&sym[i], 1, &v, &vectors);
+      return vectors;
+    });
 }
 
 }  // namespace hem_detail
@@ -53,8 +59,10 @@ GaussianMixture hem_mixture(const Eigen::Matrix3Xf& points, const HemParams& p, 
   Components comps = hem_detail::initial_mixture(points, p, h_abs, abs_floor);
   if (p.sigma0 > 0.0) {  // GPS Appendix A: isotropic level-0 covariances sigma0^2 I
     const double s0 = p.sigma0 * diag;
-    for (auto& c : comps)
-      hem_detail::set_conditioned(c, Eigen::Matrix3d::Identity() * (s0 * s0), abs_floor);
+    hem_detail::set_conditioned(
+        comps.data(),
+        std::vector<Eigen::Matrix3d>(comps.size(), Eigen::Matrix3d::Identity() * (s0 * s0)),
+        abs_floor);
   }
   if (stats) stats->level_sizes = {static_cast<Index>(comps.size())};
   const std::uint64_t seed = ctx.stream_seed("hem");

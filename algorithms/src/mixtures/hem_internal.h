@@ -69,9 +69,9 @@ void store_conditioned(Component& c, const Eigen::Matrix3d& sym, Eigen::Vector3d
   c.logdet = std::log(ev(0)) + std::log(ev(1)) + std::log(ev(2));
 }
 
-/// Stores in c the symmetrised `cov` with its eigenvalues clamped to >= max(abs_floor, 1e-6
-/// lambda_max), with its largest eigenvalue and log-determinant.
-void set_conditioned(Component& c, const Eigen::Matrix3d& cov, double abs_floor);
+/// Stores in out[i] the symmetrised covs[i] with its eigenvalues clamped to >= max(abs_floor,
+/// 1e-6 lambda_max), with its largest eigenvalue and log-determinant, for every i.
+void set_conditioned(Component* out, const std::vector<Eigen::Matrix3d>& covs, double abs_floor);
 
 /// Whether component i is chosen as a parent in the level of seed level_seed (Algorithm 1 line
 /// 11: each with probability `probability`, an independent seeded draw per component).

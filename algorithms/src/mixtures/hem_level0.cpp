@@ -4,7 +4,6 @@
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
-#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -17,6 +16,7 @@
 #include <vector>
 
 #include "mixtures/hem_internal.h"
+#include "mixtures/sym_eigen3.h"
 #include "scanbench/core/kdtree.h"
 #include "scanbench/core/simd_dispatch.h"
 #include "spatial/compact.h"
@@ -44,26 +44,6 @@ using hem_detail::Components;
 
 // Relative slack of float distance bounds; the exact tests decide membership.
 constexpr float kSlack = 1e-5f;
-
-// Eigen decomposition of a symmetric 3x3 matrix: the closed form where its eigenvectors are
-// provably accurate (residual |A v - lambda v| below 1e-6 of the eigenvalue gap, so the angle
-// error is below 1e-6 rad), otherwise the iterative solver (near-degenerate eigenvalues).
-Eigen::SelfAdjointEigenSolver<Matrix3d> eigen_decomposition(const Matrix3d& a) {
-  Eigen::SelfAdjointEigenSolver<Matrix3d> es;
-  es.computeDirect(a);
-  const Vector3d ev = es.eigenvalues();
-  bool accurate = ev.allFinite();
-  for (int i = 0; i < 3 && accurate; ++i) {
-    double gap = std::numeric_limits<double>::infinity();
-    for (int k = 0; k < 3; ++k)
-      if (k != i) gap = std::min(gap, std::abs(ev(i) - ev(k)));
-    const double residual =
-        (a * es.eigenvectors().col(i) - ev(i) * es.eigenvectors().col(i)).norm();
-    accurate = residual <= 1e-6 * gap;
-  }
-  if (!accurate) es.compute(a);
-  return es;
-}
 
 // The level-0 grids are the project's neighbour grid (spatial/neighbor_grid.h) with cubes of
 // width W located by the exact quotient floor((p - lo) / W) in double (CellBoxes's 1e-9 width
@@ -502,7 +482,7 @@ class Level0 {
     const Index n = pts_.cols();
     if (p_.weighted) {
       density_grid_.emplace(make_grid(pts_, h_abs_ * (1.0 + 10.0 * kSlack), 3));
-      // density "kernel": summed in the eq. 12 kernel pass below (set_initial).
+      // density "kernel": summed in the eq. 12 kernel pass below (moments).
       if (p_.density == "support") density_ = density_weights(*density_grid_, h_abs_);
     }
     double spacing = typical_spacing();
@@ -650,9 +630,15 @@ class Level0 {
     return spacing;
   }
 
-  // Eq. 12 for point j from its neighbours within r (`for_each` calls back with indices).
+  // Eq. 12's sums for point j over its neighbours within r (`for_each` calls back with their
+  // coordinates): Sigma_r, centred at their mean, for finish_initial().
+  struct Moments {
+    Index j;
+    double r, count;
+    Matrix3d cov_r;
+  };
   template <class ForEach>
-  void set_initial(Index j, double r, ForEach&& for_each) {
+  Moments moments(Index j, double r, ForEach&& for_each) {
     const bool kernel_density = kernel_density_;
     const double k_theta = k_theta_;
     const double r2 = r * r;
@@ -681,30 +667,52 @@ class Level0 {
     const Vector3d sum(sx, sy, sz);
     Matrix3d sum2;
     sum2 << sxx, sxy, sxz, sxy, syy, syz, sxz, syz, szz;
-    Component& comp = comps_[static_cast<std::size_t>(j)];
-    comp.mu = pj;
     if (kernel_density) density_[static_cast<std::size_t>(j)] = std::max(v, 1.0);
-    const double bias = p_.cov_bias * r2;
     if (count < 1.0) count = 1.0;  // the point itself is always within r
     const Vector3d mean = sum / count;
-    const Matrix3d cov_r = sum2 / count - mean * mean.transpose();
-    const Eigen::SelfAdjointEigenSolver<Matrix3d> es = eigen_decomposition(cov_r);
-    const double lmax = std::max(es.eigenvalues()(2), 0.0);
-    const double sigma_max = std::sqrt(lmax);
-    // eq. 12: Sigma0 = Sigma_r * scale + bias I, whose eigenvalues are ev_r * scale + bias.
-    const double scale = sigma_max > 0.0 ? r / (sigma_max * std::cbrt(count)) : 0.0;
-    const Matrix3d cov0 = cov_r * scale + Matrix3d::Identity() * bias;
-    const Vector3d ev = es.eigenvalues() * scale + Vector3d::Constant(bias);
-    hem_detail::store_conditioned(comp, 0.5 * (cov0 + cov0.transpose()), ev, abs_floor_,
-                                  [&] { return Matrix3d(es.eigenvectors()); });
-    comp.axis = sigma_max > 0.0 ? Vector3d(es.eigenvectors().col(0)) : Vector3d::UnitZ();
-    comp.spread = p_.normal_spread0;
+    return {j, r, count, sum2 / count - mean * mean.transpose()};
   }
 
-  void tree_initial(Index j, double r) {
+  // Eq. 12 from the moments: Sigma0 = Sigma_r r / (sigma_max(Sigma_r) count^(1/3)) + bias I,
+  // with the normal axis (the eigenvector of the smallest eigenvalue). The eigen decompositions
+  // run a packet at a time (sym_eigen3.h); each point's result is the same in any batch.
+  struct FinishScratch {
+    std::vector<Matrix3d> covs, vectors;
+    std::vector<Vector3d> values;
+  };
+  void finish_initial(const std::vector<Moments>& batch, FinishScratch& sc) {
+    const std::size_t n = batch.size();
+    sc.covs.resize(n);
+    sc.values.resize(n);
+    sc.vectors.resize(n);
+    for (std::size_t t = 0; t < n; ++t)
+      sc.covs[t] = batch[t].cov_r;
+    detail::sym_eigen3(sc.covs.data(), n, sc.values.data(), sc.vectors.data());
+    for (std::size_t t = 0; t < n; ++t) {
+      const Moments& mo = batch[t];
+      const Vector3d& values = sc.values[t];
+      const Matrix3d& vectors = sc.vectors[t];
+      Component& comp = comps_[static_cast<std::size_t>(mo.j)];
+      comp.mu = pts_.col(mo.j).cast<double>();
+      const double bias = p_.cov_bias * mo.r * mo.r;
+      const double lmax = std::max(values(2), 0.0);
+      const double sigma_max = std::sqrt(lmax);
+      // eq. 12: Sigma0 = Sigma_r * scale + bias I, whose eigenvalues are ev_r * scale + bias.
+      const double scale = sigma_max > 0.0 ? mo.r / (sigma_max * std::cbrt(mo.count)) : 0.0;
+      const Matrix3d cov0 = mo.cov_r * scale + Matrix3d::Identity() * bias;
+      const Vector3d ev = values * scale + Vector3d::Constant(bias);
+      hem_detail::store_conditioned(comp, 0.5 * (cov0 + cov0.transpose()), ev, abs_floor_,
+                                    [&] { return vectors; });
+      comp.axis = sigma_max > 0.0 ? Vector3d(vectors.col(0)) : Vector3d::UnitZ();
+      comp.spread = p_.normal_spread0;
+    }
+  }
+
+  // Eq. 12's moments of point j from the kd-tree's neighbours within r.
+  Moments tree_moments(Index j, double r) {
     Hits own;
     tree().radius(pts_.col(j), static_cast<float>(r) * (1.0f + kSlack), own);
-    set_initial(j, r, [&](auto&& f) {
+    return moments(j, r, [&](auto&& f) {
       for (const auto& hit : own)
         f(pts_(0, hit.first), pts_(1, hit.first), pts_(2, hit.first));
     });
@@ -796,6 +804,8 @@ class Level0 {
     std::vector<Cell> wide, far;
     CellBoxes boxes, far_boxes;
     std::vector<std::size_t> hits;
+    std::vector<Moments> batch;
+    FinishScratch finish;
   };
 
   // Eq. 12 for the points of grid cell c from the cells within `span` of it: they hold every
@@ -815,6 +825,7 @@ class Level0 {
       cells = &sc.wide;
     }
     sc.boxes.set(*cells);
+    sc.batch.clear();
     const auto reach = static_cast<float>(span) * guaranteed;
     const detail::GridRange own = g.cell_range(c);
     for (auto k = static_cast<std::size_t>(own.begin); k < static_cast<std::size_t>(own.end); ++k) {
@@ -829,7 +840,7 @@ class Level0 {
         const auto own_span =
             static_cast<std::int64_t>(std::floor(rf * (1.0f + kSlack) / guaranteed)) + 1;
         if (own_span > kMaxWide) {
-          tree_initial(j, r);
+          sc.batch.push_back(tree_moments(j, r));
           continue;
         }
         cells_around(g, g.cell_coords(c), own_span, sc.far);
@@ -841,7 +852,7 @@ class Level0 {
       const Vector3d q = qf.cast<double>();
       const float pre = rf * rf * (1.0f + 4.0f * kSlack);
       // The positions within the float bound, in cell and position order, then eq. 12's sums
-      // over them in that order (set_initial's exact test decides). The cells within reach that
+      // over them in that order (moments' exact test decides). The cells within reach that
       // follow each other in the sorted arrays are filtered as one range (compact_within tests
       // each point alone: the same positions as cell by cell).
       boxes->measure(g, q);
@@ -864,11 +875,12 @@ class Level0 {
         e = cell.end;
       }
       if (e > b) filter();
-      set_initial(j, r, [&](auto&& f) {
+      sc.batch.push_back(moments(j, r, [&](auto&& f) {
         for (std::size_t t = 0; t < m; ++t)
           f(g.x()[hits[t]], g.y()[hits[t]], g.z()[hits[t]]);
-      });
+      }));
     }
+    finish_initial(sc.batch, sc.finish);
   }
 
   // Points with only duplicates among their nearest take the median distinct spacing.
@@ -885,9 +897,12 @@ class Level0 {
       median_nn = *mid;
     }
     if (median_nn <= 0.0) median_nn = std::max(h_abs_ * 0.1, std::sqrt(abs_floor_) * 10.0);
+    std::vector<Moments> batch;
     for (Index j = 0; j < n; ++j)
       if (!(nn_[static_cast<std::size_t>(j)] > 0.0))
-        tree_initial(j, p_.init_radius_factor * median_nn);
+        batch.push_back(tree_moments(j, p_.init_radius_factor * median_nn));
+    FinishScratch sc;
+    finish_initial(batch, sc);
   }
 
   const Eigen::Matrix3Xf& pts_;

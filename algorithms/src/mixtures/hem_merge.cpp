@@ -163,8 +163,10 @@ class MergeLevel {
     next.resize(parents_.size());
     tbb::parallel_for(tbb::blocked_range<Index>(0, np_, 64),
                       [&](const tbb::blocked_range<Index>& r) {
+                        std::vector<Matrix3d> covs;
                         for (Index k = r.begin(); k < r.end(); ++k)
-                          merge_children(k, next[static_cast<std::size_t>(k)]);
+                          covs.push_back(merge_children(k, next[static_cast<std::size_t>(k)]));
+                        set_conditioned(next.data() + r.begin(), covs, abs_floor_);
                       });
     for (Index i = 0; i < n; ++i)  // orphans, carried unchanged
       if (cmax_[static_cast<std::size_t>(i)] == neg_inf)
@@ -364,8 +366,9 @@ class MergeLevel {
         csum_[static_cast<std::size_t>(c.i)] += c.term;
   }
 
-  // Parent k merged with its children (eq. 10, 29, 30).
-  void merge_children(Index k, Component& out) const {
+  // Parent k merged with its children (eq. 10, 29, 30) into `out`, but for its covariance: the
+  // merged covariance of eq. 10 is returned (set_conditioned stores it).
+  Matrix3d merge_children(Index k, Component& out) const {
     const Components& comps = comps_;
     const Component& ps = comps[static_cast<std::size_t>(parents_[static_cast<std::size_t>(k)])];
     double ws = 0.0;
@@ -388,9 +391,8 @@ class MergeLevel {
       sum_spread += a * ci.spread;
     }
     const Vector3d shift = sum_mu / ws;
-    out.w = ws;                                                                  // eq. 10
-    out.mu = ps.mu + shift;                                                      // eq. 10
-    set_conditioned(out, sum_cov / ws - shift * shift.transpose(), abs_floor_);  // eq. 10
+    out.w = ws;              // eq. 10
+    out.mu = ps.mu + shift;  // eq. 10
     const double len = resultant.norm();
     const double rho = std::min(len / ws, 1.0);
     if (len > 0.0) {
@@ -400,6 +402,7 @@ class MergeLevel {
       out.axis = ps.axis;  // opposite axes cancelled exactly: maximal spread
       out.spread = sum_spread / ws + 2.0 * std::log(1e8);
     }
+    return sum_cov / ws - shift * shift.transpose();  // eq. 10
   }
 
   const Components& comps_;
