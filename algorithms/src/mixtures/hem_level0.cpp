@@ -210,14 +210,25 @@ inline V all_lanes_min(V v) {
   return s < v ? s : v;
 }
 
+// The position ranges of `cells`, merged where consecutive.
+void merged_ranges(const std::vector<Cell>& cells, std::vector<Range>& out) {
+  out.clear();
+  for (const Cell& cell : cells) {
+    if (!out.empty() && out.back().second == cell.begin)
+      out.back().second = cell.end;
+    else if (cell.end > cell.begin)
+      out.emplace_back(cell.begin, cell.end);
+  }
+}
+
 // The k smallest positive squared distances (ascending, +inf where fewer) from q to the points
-// of `cells` (their position ranges, merged where consecutive) and the number of zero
-// distances. Per lane of 16 a sorted list of its k smallest (a min/max insertion network, no
-// branch per point); then the k smallest of the 16 lists. The distances are computed as in
-// scan_cell, so the values are the same.
+// xs, ys, zs[b, e) of the `ranges` and the number of zero distances (the arrays readable 16
+// floats past each range). Per lane of 16 a sorted list of its k smallest (a min/max insertion
+// network, no branch per point); then the k smallest of the 16 lists. The distances are computed
+// as in scan_cell, so the values are the same.
 template <int K>
-void nearest_k(const NeighborGrid& g, const Vector3f& q, const std::vector<Cell>& cells,
-               float* best, int& zeros) {
+void nearest_k(const float* xs, const float* ys, const float* zs, const Vector3f& q,
+               const std::vector<Range>& ranges, float* best, int& zeros) {
   constexpr float inf = std::numeric_limits<float>::infinity();
   Float16 lists[K];
   for (auto& l : lists)
@@ -229,9 +240,9 @@ void nearest_k(const NeighborGrid& g, const Vector3f& q, const std::vector<Cell>
   auto scan = [&](std::size_t b, std::size_t e) {
     for (std::size_t i = b; i < e; i += 16) {  // the arrays are padded by kPad >= 16 floats
       Float16 x, y, z;
-      std::memcpy(&x, g.x() + i, sizeof x);
-      std::memcpy(&y, g.y() + i, sizeof y);
-      std::memcpy(&z, g.z() + i, sizeof z);
+      std::memcpy(&x, xs + i, sizeof x);
+      std::memcpy(&y, ys + i, sizeof y);
+      std::memcpy(&z, zs + i, sizeof z);
       const Float16 dx = x - q.x(), dy = y - q.y(), dz = z - q.z();
       const Float16 dd = dx * dx + dy * dy + dz * dz;
       const Int16 valid = lane < static_cast<std::int32_t>(std::min<std::size_t>(e - i, 16));
@@ -244,17 +255,8 @@ void nearest_k(const NeighborGrid& g, const Vector3f& q, const std::vector<Cell>
       }
     }
   };
-  std::size_t b = 0, e = 0;
-  for (const Cell& cell : cells) {
-    if (cell.begin == e && e > b) {
-      e = cell.end;
-      continue;
-    }
-    if (e > b) scan(b, e);
-    b = cell.begin;
-    e = cell.end;
-  }
-  if (e > b) scan(b, e);
+  for (const auto& [b, e] : ranges)
+    scan(b, e);
   // The k smallest of the lists, in ascending order: k times the smallest head, taken off its
   // lane (the lowest lane holding it), whose list moves up by one. Branch-free.
   for (int k = 0; k < K; ++k) {
@@ -273,8 +275,8 @@ void nearest_k(const NeighborGrid& g, const Vector3f& q, const std::vector<Cell>
 
 // nearest_k<1> ... nearest_k<kMaxListK>, by k - 1: the k nearest by per-lane lists.
 constexpr int kMaxListK = 8;
-using NearestK = void (*)(const NeighborGrid&, const Vector3f&, const std::vector<Cell>&, float*,
-                          int&);
+using NearestK = void (*)(const float*, const float*, const float*, const Vector3f&,
+                          const std::vector<Range>&, float*, int&);
 template <int... K>
 constexpr std::array<NearestK, sizeof...(K)> nearest_table(std::integer_sequence<int, K...>) {
   return {&nearest_k<K + 1>...};
@@ -718,17 +720,31 @@ class Level0 {
     });
   }
 
+  // Scratch of block_nn, per thread.
+  struct NnScratch {
+    std::vector<float> best;  // k_nn entries
+    std::vector<Cell> wide;
+    std::vector<float> wide_best;
+    CellBoxes boxes;
+    std::vector<Range> ranges;
+    Candidates near;  // nearest_in_block's candidates of a cell
+    std::vector<Range> near_range;
+  };
+
   // The k_nn smallest positive squared distances from q to the points of `block` into `best`
   // (ascending, +inf where fewer); returns the number of zero distances. nearest_k for k_nn up
   // to 8; beyond, cell by cell, a cell farther than the current k-th nearest skipped (`boxes`:
   // scratch).
   int nearest_lists(const NeighborGrid& g, const Vector3f& qf, const std::vector<Cell>& block,
-                    CellBoxes& boxes, std::vector<float>& best) const {
+                    NnScratch& sc, std::vector<float>& best) const {
     int zeros = 0;
     if (k_nn_ >= 1 && k_nn_ <= kMaxListK) {
-      kNearestK[static_cast<std::size_t>(k_nn_ - 1)](g, qf, block, best.data(), zeros);
+      merged_ranges(block, sc.ranges);
+      kNearestK[static_cast<std::size_t>(k_nn_ - 1)](g.x(), g.y(), g.z(), qf, sc.ranges,
+                                                     best.data(), zeros);
       return zeros;
     }
+    CellBoxes& boxes = sc.boxes;
     boxes.set(block);
     boxes.measure(g, qf.cast<double>());
     std::fill(best.begin(), best.end(), std::numeric_limits<float>::infinity());
@@ -754,13 +770,15 @@ class Level0 {
     return zeros;
   }
 
-  // Scratch of block_nn, per thread.
-  struct NnScratch {
-    std::vector<float> best;  // k_nn entries
-    std::vector<Cell> wide;
-    std::vector<float> wide_best;
-    CellBoxes boxes;
-  };
+  // The wanted count among the k_nn smallest positive distances: the k_query nearest hold
+  // min(zeros, k_query) duplicates (the point itself included).
+  int wanted(int zeros) const { return std::min(k_nn_, k_query_ - std::min(zeros, k_query_)); }
+  static double mean_of(const std::vector<float>& best, int want) {
+    double sum = 0.0;
+    for (std::size_t i = 0; i < static_cast<std::size_t>(want); ++i)
+      sum += std::sqrt(static_cast<double>(best[i]));
+    return sum / want;
+  }
 
   // mean_nn of point j (at qf) from the cells of `g` in `cells` when its wanted nearest lie within
   // `guaranteed` of it (every point within that distance is in `cells`), else wide_nn.
@@ -769,34 +787,86 @@ class Level0 {
     std::vector<float>& best = sc.best;
     // The k_nn smallest positive distances and the zeros (duplicates, the point itself
     // included).
-    const int zeros = nearest_lists(g, qf, cells, sc.boxes, best);
-    // The k_query nearest hold min(zeros, k_query) duplicates (the point itself included), so
-    // the wanted distances are the `want` smallest positive ones.
-    const int want = std::min(k_nn_, k_query_ - std::min(zeros, k_query_));
+    const int want = wanted(nearest_lists(g, qf, cells, sc, best));
     if (want <= 0) return 0.0;
-    const auto uw = static_cast<std::size_t>(want - 1);
-    if (!(best[uw] <= guaranteed * guaranteed))  // infinite if fewer candidates
-      return wide_nn(g, j, guaranteed, sc.wide, sc.wide_best);
-    double sum = 0.0;
-    for (std::size_t i = 0; i <= uw; ++i)
-      sum += std::sqrt(static_cast<double>(best[i]));
-    return sum / want;
+    if (!(best[static_cast<std::size_t>(want - 1)] <= guaranteed * guaranteed))
+      return wide_nn(g, j, guaranteed, sc.wide, sc.wide_best);  // (infinite if fewer)
+    return mean_of(best, want);
   }
 
   // Nearest-neighbour distances (nn_) of the points of grid cell c from its block (span 1);
-  // returns the largest eq. 12 radius among them.
+  // returns the largest eq. 12 radius among them. For k_nn <= 8 the block's points within
+  // near_reach of some point of the cell (a bound about the cell's centre) are gathered once:
+  // a point whose wanted nearest all lie within near_reach of it has them among those, the
+  // same distances as from the whole block; the others search the block (block_nn).
   double nearest_in_block(std::size_t c, const std::vector<Cell>& block, NnScratch& sc) {
     const NeighborGrid& g = *g_;
     double r_max = 0.0;
     const detail::GridRange own = g.cell_range(c);
-    for (auto k = static_cast<std::size_t>(own.begin); k < static_cast<std::size_t>(own.end); ++k) {
+    const auto ob = static_cast<std::size_t>(own.begin), oe = static_cast<std::size_t>(own.end);
+    const bool lists = k_nn_ >= 1 && k_nn_ <= kMaxListK;
+    const float near_reach = kNearShare * guaranteed_;
+    if (lists) gather_near(g, ob, oe, block, near_reach, sc);
+    for (std::size_t k = ob; k < oe; ++k) {
       const Index j = g.index(static_cast<Index>(k));
       const Vector3f qf(g.x()[k], g.y()[k], g.z()[k]);
-      const double nnd = block_nn(g, j, qf, block, guaranteed_, sc);
+      double nnd = -1.0;
+      if (lists) {
+        int zeros = 0;
+        kNearestK[static_cast<std::size_t>(k_nn_ - 1)](sc.near.x.data(), sc.near.y.data(),
+                                                       sc.near.z.data(), qf, sc.near_range,
+                                                       sc.best.data(), zeros);
+        const int want = wanted(zeros);
+        const float limit = near_reach * (1.0f - 4.0f * kSlack);
+        if (want <= 0)
+          nnd = 0.0;
+        else if (sc.best[static_cast<std::size_t>(want - 1)] <= limit * limit)
+          nnd = mean_of(sc.best, want);
+      }
+      if (nnd < 0.0) nnd = block_nn(g, j, qf, block, guaranteed_, sc);
       nn_[static_cast<std::size_t>(j)] = nnd;
       r_max = std::max(r_max, p_.init_radius_factor * nnd);
     }
     return r_max;
+  }
+
+  // Share of the grid width within which nearest_in_block's gathered candidates hold every
+  // point: the wanted nearest (about 1.4 typical spacings) of almost every point lie within it.
+  static constexpr float kNearShare = 0.4f;
+
+  // Into sc.near: the points of `block` within near_reach of any of the points [ob, oe) (a float
+  // bound with slack about their box's centre), in position order.
+  void gather_near(const NeighborGrid& g, std::size_t ob, std::size_t oe,
+                   const std::vector<Cell>& block, float near_reach, NnScratch& sc) const {
+    Vector3f lo(g.x()[ob], g.y()[ob], g.z()[ob]), hi = lo;
+    for (std::size_t k = ob + 1; k < oe; ++k) {
+      const Vector3f p(g.x()[k], g.y()[k], g.z()[k]);
+      lo = lo.cwiseMin(p);
+      hi = hi.cwiseMax(p);
+    }
+    const Vector3f centre = 0.5f * (lo + hi);
+    float reach = 0.0f;
+    for (std::size_t k = ob; k < oe; ++k)
+      reach = std::max(reach, (Vector3f(g.x()[k], g.y()[k], g.z()[k]) - centre).norm());
+    const float bound = (reach * (1.0f + kSlack) + near_reach) * (1.0f + kSlack);
+    merged_ranges(block, sc.ranges);
+    std::size_t room = detail::kCompactSlack;
+    for (const auto& [b, e] : sc.ranges)
+      room += e - b;
+    Candidates& near = sc.near;
+    near.reserve(room);
+    std::size_t m = 0;
+    for (const auto& [b, e] : sc.ranges)
+      m = detail::compact_within(g.x(), g.y(), g.z(), b, e, centre, bound * bound, near.pos.data(),
+                                 m);
+    for (std::size_t i = 0; i < m; ++i) {
+      near.x[i] = g.x()[near.pos[i]];
+      near.y[i] = g.y()[near.pos[i]];
+      near.z[i] = g.z()[near.pos[i]];
+    }
+    near.size = m;
+    near.pad(Candidates::kMaxLanes);
+    sc.near_range.assign(1, Range{0, m});
   }
 
   // Scratch of initial_in_cell, per thread.
