@@ -157,7 +157,7 @@ void decompose(const Eigen::Matrix3d* in, std::size_t n, Eigen::Vector3d* values
     }
     for (int l = 0; l < kWidth && b + static_cast<std::size_t>(l) < n; ++l) {
       const auto at = b + static_cast<std::size_t>(l);
-      if (!(lanes[12][l] == 0.0)) {  // not converged (a non-finite entry)
+      if (!(lanes[12][l] == 0.0)) {  // not diagonal after 50 sweeps (a NaN entry)
         Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(
             in[at], kVectors ? Eigen::ComputeEigenvectors : Eigen::EigenvaluesOnly);
         values[at] = es.eigenvalues();

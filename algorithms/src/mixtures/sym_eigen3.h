@@ -24,8 +24,9 @@ namespace scanbench::algorithms::detail {
 /// Decomposes the n symmetric matrices in[0..n) (their upper triangles are read): values[i] the
 /// eigenvalues of in[i], ascending; when `vectors` is not null, vectors[i] the unit eigenvectors
 /// by column (column c of values[i](c); signs arbitrary but deterministic). Double packets of the
-/// active ISA. A matrix with a non-finite entry, or one that would need more than 50 sweeps (none
-/// known), is decomposed by Eigen's iterative SelfAdjointEigenSolver instead.
+/// active ISA. A matrix still not diagonal after 50 sweeps (one with a NaN entry never is; no
+/// finite matrix is known to need them) is decomposed by Eigen's iterative SelfAdjointEigenSolver
+/// instead.
 void sym_eigen3(const Eigen::Matrix3d* in, std::size_t n, Eigen::Vector3d* values,
                 Eigen::Matrix3d* vectors);
 
