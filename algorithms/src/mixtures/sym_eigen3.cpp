@@ -17,23 +17,8 @@ namespace {
 
 namespace ei = Eigen::internal;
 
-// The correctly rounded square root per lane. Eigen's psqrt<Packet8d> is an approximation under
-// EIGEN_FAST_MATH (its default); the narrower packets' is exact, and every width must give the
-// same lanes.
-inline ei::Packet2d sqrt_exact(const ei::Packet2d& x) {
-  return _mm_sqrt_pd(x);
-}
-#ifdef EIGEN_VECTORIZE_AVX
-inline ei::Packet4d sqrt_exact(const ei::Packet4d& x) {
-  return _mm256_sqrt_pd(x);
-}
-#endif
-#ifdef EIGEN_VECTORIZE_AVX512
-inline ei::Packet8d sqrt_exact(const ei::Packet8d& x) {
-  return _mm512_sqrt_pd(x);
-}
-#endif
-
+// ei::psqrt is the correctly rounded square root on every width: scanbench_core defines
+// EIGEN_FAST_MATH=0 for every target (Eigen's fast psqrt<Packet8d> is an rsqrt approximation).
 constexpr int kMaxSweeps = 50;
 
 // Entries of the upper triangle: a[0] xx, a[1] xy, a[2] xz, a[3] yy, a[4] yz, a[5] zz.
@@ -61,10 +46,10 @@ template <bool kVectors, class P>
   // t = sgn(theta) / (|theta| + sqrt(theta^2 + 1)), theta = (a_qq - a_pp) / (2 a_pq): the
   // tangent of the smaller rotation angle (0 where a_pq is negligible).
   const P theta = ei::pdiv(ei::psub(aqq, app), ei::padd(apq, apq));
-  P t = ei::pdiv(one, ei::padd(ei::pabs(theta), sqrt_exact(ei::padd(ei::pmul(theta, theta), one))));
+  P t = ei::pdiv(one, ei::padd(ei::pabs(theta), ei::psqrt(ei::padd(ei::pmul(theta, theta), one))));
   t = ei::pselect(ei::pcmp_lt(theta, zero), ei::pnegate(t), t);
   t = ei::pselect(negligible, zero, t);
-  const P c = ei::pdiv(one, sqrt_exact(ei::padd(ei::pmul(t, t), one)));
+  const P c = ei::pdiv(one, ei::psqrt(ei::padd(ei::pmul(t, t), one)));
   const P s = ei::pmul(t, c);
   const P h = ei::pmul(t, apq);
   app = ei::psub(app, h);
