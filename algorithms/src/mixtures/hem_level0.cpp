@@ -675,13 +675,15 @@ class Level0 {
     return {j, r, count, sum2 / count - mean * mean.transpose()};
   }
 
-  // Eq. 12 from the moments: Sigma0 = Sigma_r r / (sigma_max(Sigma_r) count^(1/3)) + bias I,
-  // with the normal axis (the eigenvector of the smallest eigenvalue). The eigen decompositions
-  // run a packet at a time (sym_eigen3.h); each point's result is the same in any batch.
+  // Scratch of finish_initial, per thread.
   struct FinishScratch {
     std::vector<Matrix3d> covs, vectors;
     std::vector<Vector3d> values;
   };
+
+  // Eq. 12 from the moments: Sigma0 = Sigma_r r / (sigma_max(Sigma_r) count^(1/3)) + bias I,
+  // with the normal axis (the eigenvector of the smallest eigenvalue). The eigen decompositions
+  // run a packet at a time (sym_eigen3.h); each point's result is the same in any batch.
   void finish_initial(const std::vector<Moments>& batch, FinishScratch& sc) {
     const std::size_t n = batch.size();
     sc.covs.resize(n);
@@ -806,6 +808,7 @@ class Level0 {
     const auto ob = static_cast<std::size_t>(own.begin), oe = static_cast<std::size_t>(own.end);
     const bool lists = k_nn_ >= 1 && k_nn_ <= kMaxListK;
     const float near_reach = kNearShare * guaranteed_;
+    const float limit = near_reach * (1.0f - 4.0f * kSlack);  // what the gathered points hold
     if (lists) gather_near(g, ob, oe, block, near_reach, sc);
     for (std::size_t k = ob; k < oe; ++k) {
       const Index j = g.index(static_cast<Index>(k));
@@ -817,7 +820,6 @@ class Level0 {
                                                        sc.near.z.data(), qf, sc.near_range,
                                                        sc.best.data(), zeros);
         const int want = wanted(zeros);
-        const float limit = near_reach * (1.0f - 4.0f * kSlack);
         if (want <= 0)
           nnd = 0.0;
         else if (sc.best[static_cast<std::size_t>(want - 1)] <= limit * limit)

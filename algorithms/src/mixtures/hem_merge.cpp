@@ -164,6 +164,7 @@ class MergeLevel {
     tbb::parallel_for(tbb::blocked_range<Index>(0, np_, 64),
                       [&](const tbb::blocked_range<Index>& r) {
                         std::vector<Matrix3d> covs;
+                        covs.reserve(r.size());
                         for (Index k = r.begin(); k < r.end(); ++k)
                           covs.push_back(merge_children(k, next[static_cast<std::size_t>(k)]));
                         set_conditioned(next.data() + r.begin(), covs, abs_floor_);
