@@ -1,0 +1,3 @@
+#include <gtest/gtest.h>
+
+#include "cli_test_util.h"
