@@ -126,8 +126,8 @@ Json parse_json_text(std::string_view text, const std::string& where,
   }
 }
 
-Json read_json_file(const std::filesystem::path& file, std::string_view what,
-                    const JsonTextOptions& options) {
+Json parse_json_file(const std::filesystem::path& file, std::string_view what,
+                     const JsonTextOptions& options) {
   std::ifstream in(file, std::ios::binary);
   if (!in) {
     throw IoError(fmt::format("{}: cannot open {}: {}", file.string(), what, std::strerror(errno)));

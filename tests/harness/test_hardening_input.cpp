@@ -86,14 +86,14 @@ TEST(InputJsonText, DuplicateKeysNamedByJsonPointerWhenAsked) {
   EXPECT_NO_THROW((void)parse_json_text(R"([{"b": 1}, {"b": 2}])", "t.json", strict));
 }
 
-TEST(InputJsonText, ReadJsonFileNamesTheFileAndTheReason) {
+TEST(InputJsonText, ParseJsonFileNamesTheFileAndTheReason) {
   const fs::path dir = make_temp_dir("json-text");
   const std::string msg =
-      error_of<IoError>([&] { (void)read_json_file(dir / "absent.json", "scanner preset"); });
+      error_of<IoError>([&] { (void)parse_json_file(dir / "absent.json", "scanner preset"); });
   EXPECT_EQ(msg, (dir / "absent.json").string() +
                      ": cannot open scanner preset: No such file or directory");
   write(dir / "deep.json", nested(200000));
-  EXPECT_EQ(error_of<IoError>([&] { (void)read_json_file(dir / "deep.json", "config"); }),
+  EXPECT_EQ(error_of<IoError>([&] { (void)parse_json_file(dir / "deep.json", "config"); }),
             (dir / "deep.json").string() + ": JSON nested deeper than 100 levels");
   fs::remove_all(dir);
 }

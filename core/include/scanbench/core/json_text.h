@@ -45,7 +45,7 @@ Json parse_json_text(std::string_view text, const std::string& where,
 /// Reads the whole of `file` and parses it with parse_json_text (`where` = the path as given).
 /// Throws IoError "<file>: cannot open <what>: <reason>" when it cannot be read (`what` names the
 /// kind of file: "experiment config", "scanner preset").
-Json read_json_file(const std::filesystem::path& file, std::string_view what,
-                    const JsonTextOptions& options = {});
+Json parse_json_file(const std::filesystem::path& file, std::string_view what,
+                     const JsonTextOptions& options = {});
 
 }  // namespace scanbench
