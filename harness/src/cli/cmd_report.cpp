@@ -2,6 +2,7 @@
 #include <fmt/format.h>
 
 #include "cli/commands.h"
+#include "scanbench/harness/folder_lock.h"
 #include "scanbench/harness/report.h"
 
 namespace scanbench::harness {
@@ -20,6 +21,7 @@ void add_report_command(Cli& cli) {
   add_db_option(sub, a->db, "Add a History section: plots over the commits of this database");
   sub->callback([&cli, a] {
     cli.action = [a] {
+      const FolderLock lock = FolderLock::acquire(a->dir, "scanbench report");
       fmt::print("{}\n", write_report(a->dir, a->out, a->db).string());
       return 0;
     };
