@@ -109,7 +109,7 @@ bool is_temp_name(std::string_view name) {
   return true;
 }
 
-void write_file_atomic(const fs::path& path, const std::string& text) {
+void write_file_atomic(const fs::path& path, std::string_view text) {
   const fs::path tmp = temp_beside(path);
   Fd fd(create_temp(tmp, path));
   TempGuard guard(tmp);

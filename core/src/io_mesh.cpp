@@ -16,6 +16,7 @@
 #include "io_readers.h"
 #include "ply.h"
 #include "scanbench/core/errors.h"
+#include "scanbench/core/files.h"
 #include "scanbench/core/io.h"
 #include "scanbench/core/procedural.h"
 #include "text_lines.h"
@@ -142,8 +143,6 @@ TriangleMesh read_obj(const std::filesystem::path& path) {
 
 void write_obj(const TriangleMesh& mesh, const std::filesystem::path& path) {
   mesh.validate(path.string());
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  if (!out) throw IoError(fmt::format("{}: cannot open for writing", path.string()));
   std::string buf = "# scanbench mesh\n";
   const bool local = !mesh.origin.isZero(0.0);
   if (local) buf += "# " + io_detail::origin_comment(mesh.origin) + "\n";
@@ -162,9 +161,7 @@ void write_obj(const TriangleMesh& mesh, const std::filesystem::path& path) {
     fmt::format_to(std::back_inserter(buf), "f {} {} {}\n", mesh.faces(0, f) + 1,
                    mesh.faces(1, f) + 1, mesh.faces(2, f) + 1);
   }
-  out.write(buf.data(), static_cast<std::streamsize>(buf.size()));
-  out.flush();
-  if (!out) throw IoError(fmt::format("{}: write failed", path.string()));
+  write_file_atomic(path, buf);
 }
 
 float read_le_float(const char* p) {

@@ -12,8 +12,10 @@
 #include <istream>
 #include <limits>
 #include <ostream>
+#include <sstream>
 
 #include "scanbench/core/errors.h"
+#include "scanbench/core/files.h"
 
 namespace scanbench::ply {
 
@@ -624,9 +626,11 @@ void write(const File& file, std::ostream& out, const std::string& name) {
 }
 
 void write(const File& file, const std::filesystem::path& path) {
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  if (!out) throw IoError(fmt::format("{}: cannot open for writing", path.string()));
+  // Encoded in memory, then written whole by the one atomic writer: every write(2) is checked
+  // there, so a full disk is reported with its reason and never leaves a part under `path`.
+  std::ostringstream out(std::ios::binary);
   write(file, out, path.string());
+  write_file_atomic(path, std::move(out).str());
 }
 
 }  // namespace scanbench::ply

@@ -1,15 +1,20 @@
 #include "scanbench/metrics/heatmap.h"
 
+#include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imagebuf.h>
 #include <OpenImageIO/imagebufalgo.h>
+#include <OpenImageIO/imageio.h>
 #include <fmt/format.h>
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <string>
+#include <system_error>
 #include <vector>
 
 #include "scanbench/core/errors.h"
+#include "scanbench/core/files.h"
 
 namespace scanbench::metrics {
 
@@ -33,10 +38,30 @@ void text(OIIO::ImageBuf& img, int x, int y, const std::string& s, int size,
                   img.geterror());
 }
 
+/// Encodes the PNG in memory (OIIO's IO proxy) and writes it with write_file_atomic: OIIO's PNG
+/// writer does not report a failed write to a full disk (a 0-byte and a truncated PNG were left
+/// with success), write_file_atomic checks every write and names the reason.
 void write_png(OIIO::ImageBuf& img, const std::filesystem::path& png) {
-  if (png.has_parent_path()) std::filesystem::create_directories(png.parent_path());
-  if (!img.write(png.string(), OIIO::TypeDesc::UINT8))
-    throw IoError(png.string() + ": cannot write PNG: " + img.geterror());
+  if (png.has_parent_path()) {
+    std::error_code ec;
+    std::filesystem::create_directories(png.parent_path(), ec);
+    if (ec) {
+      throw IoError(fmt::format("{}: cannot create the folder: {}", png.parent_path().string(),
+                                ec.message()));
+    }
+  }
+  std::vector<unsigned char> bytes;
+  OIIO::Filesystem::IOVecOutput proxy(bytes);
+  auto out = OIIO::ImageOutput::create("png");
+  OIIO::ImageSpec spec = img.spec();
+  spec.set_format(OIIO::TypeDesc::UINT8);
+  if (!out || !out->set_ioproxy(&proxy) || !out->open(png.string(), spec) ||
+      !img.write(out.get()) || !out->close() || bytes.empty()) {
+    throw IoError(png.string() +
+                  ": cannot encode PNG: " + (out ? out->geterror() : OIIO::geterror()));
+  }
+  write_file_atomic(png,
+                    std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
 }
 
 // Camera of view v: (u, v, depth) of a point relative to the frame centre; smaller depth is

@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 #include <tbb/parallel_for.h>
 
+#include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -17,6 +18,7 @@
 #include "scanbench/core/closest_point.h"
 #include "scanbench/core/colmap.h"
 #include "scanbench/core/errors.h"
+#include "scanbench/core/files.h"
 #include "scanbench/core/rng.h"
 #include "scanbench/core/timing.h"
 #include "sift_match.h"
@@ -205,13 +207,18 @@ void write_png(const fs::path& path, const std::vector<float>& img, int w, int h
   std::vector<unsigned char> bytes(img.size());
   for (std::size_t i = 0; i < img.size(); ++i)
     bytes[i] = static_cast<unsigned char>(std::lround(std::clamp(img[i], 0.0f, 1.0f) * 255.0f));
-  auto out = OIIO::ImageOutput::create(path.string());
+  // Encoded in memory (OIIO's IO proxy), written by write_file_atomic: OIIO's PNG writer does
+  // not report a failed write to a full disk, write_file_atomic checks each one.
+  std::vector<unsigned char> png;
+  OIIO::Filesystem::IOVecOutput proxy(png);
+  auto out = OIIO::ImageOutput::create("png");
   const OIIO::ImageSpec spec(w, h, 1, OIIO::TypeDesc::UINT8);
-  if (!out || !out->open(path.string(), spec) ||
-      !out->write_image(OIIO::TypeDesc::UINT8, bytes.data()) || !out->close()) {
-    throw IoError(fmt::format("{}: cannot write image: {}", path.string(),
+  if (!out || !out->set_ioproxy(&proxy) || !out->open(path.string(), spec) ||
+      !out->write_image(OIIO::TypeDesc::UINT8, bytes.data()) || !out->close() || png.empty()) {
+    throw IoError(fmt::format("{}: cannot encode image: {}", path.string(),
                               out ? out->geterror() : OIIO::geterror()));
   }
+  write_file_atomic(path, std::string_view(reinterpret_cast<const char*>(png.data()), png.size()));
 }
 
 std::string read_all(const fs::path& p) {
@@ -369,13 +376,12 @@ void map_and_align(const Rig& rig, const ScannerParams& p, const fs::path& ws,
         "the views' overlap)");
   const fs::path ref = ws / "reference_centres.txt";
   {
-    std::ofstream out(ref, std::ios::binary | std::ios::trunc);
+    std::string text;
     for (std::size_t i = 0; i < rig.views.size(); ++i) {
       const Eigen::Vector3d& c = rig.views[i].centre;
-      out << fmt::format("{} {:.17g} {:.17g} {:.17g}\n", view_name(i), c.x(), c.y(), c.z());
+      text += fmt::format("{} {:.17g} {:.17g} {:.17g}\n", view_name(i), c.x(), c.y(), c.z());
     }
-    out.flush();
-    if (!out) throw IoError(fmt::format("{}: cannot write", ref.string()));
+    write_file_atomic(ref, text);
   }
   fs::create_directories(ws / "sparse");
   colmap_step("model_aligner",

@@ -5,6 +5,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
+#include <unistd.h>
 
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -23,6 +24,7 @@
 
 #include "photo.h"
 #include "scanbench/core/errors.h"
+#include "scanbench/core/files.h"
 #include "scanbench/core/io.h"
 #include "scanbench/core/simd.h"
 #include "scanner_engine.h"
@@ -1146,23 +1148,28 @@ std::filesystem::path sidecar_path(const std::filesystem::path& ply) {
 }
 
 void write_scan(const Scan& s, const std::filesystem::path& ply) {
-  write_point_cloud(s.cloud, ply, PlyFormat::BinaryLittleEndian);
-  const std::filesystem::path side = sidecar_path(ply);
-  std::ofstream out(side, std::ios::binary | std::ios::trunc);
-  if (!out) throw IoError(fmt::format("{}: cannot open for writing", side.string()));
-  out << s.record.dump(2) << "\n";
-  out.flush();
-  if (!out) throw IoError(fmt::format("{}: write failed", side.string()));
+  namespace fs = std::filesystem;
+  // Each file whole (write_file_atomic); the workspace is copied to a temp folder beside its
+  // final name and renamed in, so a failed copy leaves neither a part nor a temp behind.
   if (s.workspace) {
-    std::filesystem::path ws = ply;
+    fs::path ws = ply;
     ws += ".colmap";
+    fs::path tmp =
+        ply.parent_path() / fmt::format(".{}.colmap.tmp.{}", ply.filename().string(), ::getpid());
     std::error_code ec;
-    std::filesystem::remove_all(ws, ec);
-    std::filesystem::copy(s.workspace->path(), ws, std::filesystem::copy_options::recursive, ec);
-    if (ec)
+    fs::remove_all(tmp, ec);
+    fs::copy(s.workspace->path(), tmp, fs::copy_options::recursive, ec);
+    if (!ec) fs::remove_all(ws, ec);
+    if (!ec) fs::rename(tmp, ws, ec);
+    if (ec) {
+      std::error_code ignored;
+      fs::remove_all(tmp, ignored);
       throw IoError(
           fmt::format("{}: cannot copy the COLMAP workspace: {}", ws.string(), ec.message()));
+    }
   }
+  write_point_cloud(s.cloud, ply, PlyFormat::BinaryLittleEndian);
+  write_file_atomic(sidecar_path(ply), s.record.dump(2) + "\n");
 }
 
 }  // namespace scanbench::scanner

@@ -11,8 +11,10 @@
 #include <cstring>
 #include <fstream>
 #include <memory>
+#include <sstream>
 
 #include "scanbench/core/errors.h"
+#include "scanbench/core/files.h"
 
 namespace scanbench::scanner::detail {
 
@@ -139,8 +141,7 @@ MatchListStats write_match_list(const std::vector<DatabaseImage>& images, const 
   tbb::parallel_for(std::size_t{0}, pairs.size(), [&](std::size_t k) {
     matches[k] = match_sift(images[pairs[k][0]].descriptors, images[pairs[k][1]].descriptors, o);
   });
-  std::ofstream out(list, std::ios::binary | std::ios::trunc);
-  if (!out) throw IoError(fmt::format("{}: cannot open for writing", list.string()));
+  std::ostringstream out;
   MatchListStats stats;
   stats.pairs = static_cast<int>(pairs.size());
   for (std::size_t k = 0; k < pairs.size(); ++k) {
@@ -152,8 +153,7 @@ MatchListStats write_match_list(const std::vector<DatabaseImage>& images, const 
       out << m[0] << ' ' << m[1] << '\n';
     out << '\n';
   }
-  out.flush();
-  if (!out) throw IoError(fmt::format("{}: write failed", list.string()));
+  write_file_atomic(list, std::move(out).str());
   return stats;
 }
 

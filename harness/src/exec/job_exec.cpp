@@ -3,6 +3,9 @@
 #include <fmt/format.h>
 #include <unistd.h>
 
+#include <cerrno>
+#include <cstdio>
+
 #include <algorithm>
 #include <cstring>
 #include <map>
@@ -12,10 +15,12 @@
 #include "scanbench/algorithms/registry.h"
 #include "scanbench/core/datasets.h"
 #include "scanbench/core/errors.h"
+#include "scanbench/core/files.h"
 #include "scanbench/core/io.h"
 #include "scanbench/core/stage_data.h"
 #include "scanbench/core/timing.h"
 #include "scanbench/harness/chain.h"
+#include "scanbench/harness/plugins.h"
 #include "scanbench/harness/records.h"
 #include "scanbench/harness/runner.h"
 #include "scanbench/harness/test_algorithms.h"
@@ -78,6 +83,84 @@ bool same_output(const StageData& a, const StageData& b, DataKind primary) {
   }
 }
 
+/// A cache entry (a scan and its record, a distance field): files in one folder that a job
+/// uses without building them when the entry's seal vouches for them. The seal, written
+/// atomically after the files, lists each with its byte size and SHA-256 (OpenSSL, plugins.h):
+/// a file truncated by a full disk, damaged or replaced later fails the check and is built
+/// again, never used. Entries of earlier versions have no seal and are built again once.
+struct CacheEntry {
+  fs::path seal;                ///< "<folder>/<key>.check.json"
+  std::vector<fs::path> files;  ///< in the seal's folder
+};
+
+/// Why the entry cannot be used ("" when it can): a file or the seal missing, not a regular
+/// file (a link is not trusted), or a size or hash that is not the sealed one.
+std::string cache_problem(const CacheEntry& e) try {
+  std::error_code ec;
+  if (!fs::is_regular_file(fs::symlink_status(e.seal, ec))) return "no seal";
+  // A seal is a few hundred bytes; a larger one is damaged (and is not parsed).
+  if (fs::file_size(e.seal, ec) > 16384 || ec) return "unreadable seal";
+  const Json seal = Json::parse(read_file(e.seal), nullptr, /*allow_exceptions=*/false);
+  if (!seal.is_object() || !seal.contains("files") || !seal["files"].is_object()) {
+    return "unreadable seal";
+  }
+  for (const fs::path& f : e.files) {
+    const std::string name = f.filename().string();
+    const Json& want = seal["files"].contains(name) ? seal["files"][name] : Json();
+    if (!want.is_object() || !want.value("bytes", Json()).is_number_unsigned() ||
+        !want.value("sha256", Json()).is_string()) {
+      return name + " is not in the seal";
+    }
+    if (!fs::is_regular_file(fs::symlink_status(f, ec))) return name + " is missing";
+    const std::uintmax_t bytes = fs::file_size(f, ec);
+    if (ec) return name + ": " + ec.message();
+    if (bytes != want["bytes"].get<std::uintmax_t>()) {
+      return fmt::format("{} has {} bytes, sealed with {}", name, bytes,
+                         want["bytes"].get<std::uintmax_t>());
+    }
+    if (file_sha256(f) != want["sha256"].get<std::string>()) {
+      return name + "'s SHA-256 is not the sealed one";
+    }
+  }
+  return "";
+} catch (const Error& err) {
+  return err.what();  // an unreadable file
+}
+
+/// Seals an entry whose files are written (write_file_atomic: each one whole).
+void seal_cache(const CacheEntry& e) {
+  Json files = Json::object();
+  for (const fs::path& f : e.files) {
+    std::error_code ec;
+    const std::uintmax_t bytes = fs::file_size(f, ec);
+    if (ec) throw IoError(fmt::format("{}: cannot read the size: {}", f.string(), ec.message()));
+    files[f.filename().string()] = {{"bytes", bytes}, {"sha256", file_sha256(f)}};
+  }
+  write_file_atomic(e.seal, Json{{"files", files}}.dump(1) + "\n");
+}
+
+/// Whether the entry can be used; a present entry that fails its check is reported in the job's
+/// log (the child's stderr) before it is built again.
+bool cache_usable(const CacheEntry& e, const fs::path& key_file, std::string_view what) {
+  const std::string why = cache_problem(e);
+  if (why.empty()) return true;
+  std::error_code ec;
+  bool present = fs::exists(fs::symlink_status(e.seal, ec));
+  for (const fs::path& f : e.files)
+    present = present || fs::exists(fs::symlink_status(f, ec));
+  if (present) {
+    std::fprintf(stderr, "scanbench: %s: cache entry fails its check (%s); %s it again\n",
+                 key_file.string().c_str(), why.c_str(), std::string(what).c_str());
+    std::fflush(stderr);
+  }
+  return false;
+}
+
+/// rename(2) with the reason in the error.
+void rename_or_throw(const fs::path& from, const fs::path& to) {
+  if (::rename(from.c_str(), to.c_str()) != 0) throw io_error(to, "cannot write", errno);
+}
+
 /// The record a job returns, built in parts; execute_job appends timing, sizes and artifacts
 /// last, in this order.
 struct JobParts {
@@ -112,28 +195,40 @@ ScanInput scan_pass(const Job& job, const TriangleMesh& mesh, const Eigen::Vecto
   if (r.res.contains("dataset_origin")) scan_key["origin"] = r.res["dataset_origin"];
   const std::string scan_hash = content_hash(scan_key.dump());
   const fs::path ply = out / "scans" / (scan_hash + ".ply");
+  const CacheEntry entry{out / "scans" / (scan_hash + ".check.json"),
+                         {ply, scanner::sidecar_path(ply)}};
   const double t_scan = wall_seconds();
-  const bool cached = from_ground_truth || from_points ||
-                      (fs::exists(ply) && fs::exists(scanner::sidecar_path(ply)));
+  const bool cached = from_ground_truth || from_points || cache_usable(entry, ply, "scanning");
   if (!cached) {
     const auto p = params_from_json<scanner::ScannerParams>(job.scanner_params,
                                                             "scanner " + job.scanner_label);
     const scanner::Scan s = scanner::scan(mesh, p, ctx);
-    // Write under a private name, then rename (sidecar first: the PLY marks completion). Jobs
+    // Written under a private name, renamed, then sealed (the seal marks a complete entry). Jobs
     // running at once (local children, Slurm tasks) may both scan: the bytes are the same (one
-    // seed), each rename is atomic, so a reader sees no file or a whole one.
+    // seed), each rename is atomic, so a reader sees no file or a whole one. On a failure (a
+    // full disk) the private files are removed.
     const fs::path tmp = out / "scans" / fmt::format(".{}.{}.ply", scan_hash, private_tag());
-    scanner::write_scan(s, tmp);
-    fs::rename(scanner::sidecar_path(tmp), scanner::sidecar_path(ply));
-    // A photogrammetric scan's COLMAP workspace (write_scan: <ply>.colmap/) goes along.
-    if (fs::path ws_tmp = fs::path(tmp) += ".colmap"; fs::exists(ws_tmp)) {
-      const fs::path ws = fs::path(ply) += ".colmap";
+    const fs::path ws_tmp = fs::path(tmp) += ".colmap";
+    try {
+      scanner::write_scan(s, tmp);
+      // A photogrammetric scan's COLMAP workspace (write_scan: <ply>.colmap/) goes along.
+      if (fs::exists(ws_tmp)) {
+        const fs::path ws = fs::path(ply) += ".colmap";
+        std::error_code ec;
+        fs::remove_all(ws, ec);
+        fs::rename(ws_tmp, ws, ec);
+        if (ec) fs::remove_all(ws_tmp, ec);  // another job's rename won: the bytes are the same
+      }
+      rename_or_throw(scanner::sidecar_path(tmp), scanner::sidecar_path(ply));
+      rename_or_throw(tmp, ply);
+      seal_cache(entry);
+    } catch (...) {
       std::error_code ec;
-      fs::remove_all(ws, ec);
-      fs::rename(ws_tmp, ws, ec);
-      if (ec) fs::remove_all(ws_tmp, ec);  // another job's rename won: the bytes are the same
+      fs::remove(tmp, ec);
+      fs::remove(scanner::sidecar_path(tmp), ec);
+      fs::remove_all(ws_tmp, ec);
+      throw;
     }
-    fs::rename(tmp, ply);
   }
   // Every job reads the scan back from the cache, so a cached and a fresh scan give the same
   // input bit for bit.
@@ -325,13 +420,18 @@ void outputs_pass(const Job& job, const metrics::GroundTruth* gt, const StageDat
   const std::string heatmap =
       write_job_heatmap(job, *gt, out, scored_mesh, mesh_samples, base, ctx);
   if (!heatmap.empty()) artifacts["heatmap"] = heatmap;
+  // The distance field, once per mesh: written whole (write_vdb) and sealed.
   const fs::path vdb = dir / "fields" / (mesh_key + ".vdb");
-  if (!fs::exists(vdb)) {
-    fs::create_directories(vdb.parent_path());
-    const fs::path tmp =
-        vdb.parent_path() / fmt::format(".{}.{}", private_tag(), vdb.filename().string());
-    gt->field().write_vdb(tmp, "distance");
-    fs::rename(tmp, vdb);
+  const CacheEntry entry{dir / "fields" / (mesh_key + ".check.json"), {vdb}};
+  if (!cache_usable(entry, vdb, "writing")) {
+    std::error_code ec;
+    fs::create_directories(vdb.parent_path(), ec);
+    if (ec) {
+      throw IoError(fmt::format("{}: cannot create the folder: {}", vdb.parent_path().string(),
+                                ec.message()));
+    }
+    gt->field().write_vdb(vdb, "distance");
+    seal_cache(entry);
   }
   artifacts["field"] = "fields/" + vdb.filename().string();
 }

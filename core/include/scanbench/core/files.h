@@ -25,7 +25,7 @@ namespace scanbench {
 /// Writes `text` to `path` atomically (see above). The parent folder must exist. Throws IoError
 /// "<path>: cannot write: <reason>" with the reason from errno ("No space left on device",
 /// "Read-only file system", "File name too long", "Permission denied", ...).
-void write_file_atomic(const std::filesystem::path& path, const std::string& text);
+void write_file_atomic(const std::filesystem::path& path, std::string_view text);
 
 /// Runs `write(tmp)` on a fresh temp path beside `path`, then checks that the writer left a
 /// regular, non-empty file there, fsyncs it and renames it to `path`. `write` should throw on any
