@@ -1,9 +1,11 @@
 #include "scanbench/core/run_program.h"
 
+#include <dirent.h>
 #include <fcntl.h>
 #include <fmt/format.h>
 #include <signal.h>
 #include <spawn.h>
+#include <sys/prctl.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -14,6 +16,8 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <mutex>
+#include <set>
 #include <thread>
 
 #include "scanbench/core/errors.h"
@@ -71,6 +75,62 @@ long proc_status_kb(const std::string& path, const std::string& field) {
   return -1;
 }
 
+// The programs run_program is waiting for, in every thread of this process (reap_orphans keeps
+// them).
+std::mutex g_running_mutex;
+std::set<pid_t>& running_programs() {
+  static std::set<pid_t> s;
+  return s;
+}
+
+struct RunningProgram {
+  explicit RunningProgram(pid_t p) : pid(p) {
+    std::lock_guard<std::mutex> g(g_running_mutex);
+    running_programs().insert(pid);
+  }
+  ~RunningProgram() {
+    std::lock_guard<std::mutex> g(g_running_mutex);
+    running_programs().erase(pid);
+  }
+  pid_t pid;
+};
+
+// The children of this process, from /proc/<pid>/stat's parent field (the fourth, after the
+// command name in parentheses, which may itself hold spaces and parentheses).
+std::vector<pid_t> children_of_self() {
+  std::vector<pid_t> out;
+  const pid_t self = ::getpid();
+  DIR* d = ::opendir("/proc");
+  if (!d) return out;
+  while (const dirent* e = ::readdir(d)) {
+    char* end = nullptr;
+    const long pid = std::strtol(e->d_name, &end, 10);
+    if (pid <= 0 || *end != 0) continue;
+    std::ifstream f(fmt::format("/proc/{}/stat", pid));
+    std::string stat;
+    std::getline(f, stat);
+    const auto close = stat.rfind(')');
+    if (close == std::string::npos) continue;
+    char state = 0;
+    long ppid = 0;
+    if (std::sscanf(stat.c_str() + close + 1, " %c %ld", &state, &ppid) == 2 && ppid == self) {
+      out.push_back(static_cast<pid_t>(pid));
+    }
+  }
+  ::closedir(d);
+  return out;
+}
+
+// After a program ended: in a subreaper, its orphans are now children of this process.
+// Elsewhere (a test binary calling run_program) nothing is reparented here, and this process's
+// other children are not ours to end.
+void end_orphans_of(pid_t program) {
+  int is_subreaper = 0;
+  if (::prctl(PR_GET_CHILD_SUBREAPER, &is_subreaper, 0, 0, 0) == 0 && is_subreaper) {
+    reap_orphans({program});
+  }
+}
+
 std::string with_log(std::string message, const fs::path& workdir) {
   const std::string tail = log_tail(workdir);
   return tail.empty() ? message + " (no output on stderr or stdout)" : message + ": " + tail;
@@ -107,6 +167,7 @@ void run_program(const std::vector<std::string>& argv, const fs::path& workdir, 
   if (rc != 0) {
     throw Error(fmt::format("{}: cannot run '{}': {}", stage, program, std::strerror(rc)));
   }
+  const RunningProgram registered(pid);
   // posix_spawn returns once the child has exec'ed: our peak now bounds the memory the child's
   // ru_maxrss inherited (see run_program.h).
   const long own_hwm_kb = proc_status_kb("/proc/self/status", "VmHWM");
@@ -121,6 +182,7 @@ void run_program(const std::vector<std::string>& argv, const fs::path& workdir, 
     ::kill(-pid, SIGKILL);
     while (::wait4(pid, &status, 0, &usage) < 0 && errno == EINTR) {
     }
+    end_orphans_of(pid);
   };
   for (auto pause = std::chrono::milliseconds(1);;
        pause = std::min(pause * 2, std::chrono::milliseconds(50))) {
@@ -145,8 +207,10 @@ void run_program(const std::vector<std::string>& argv, const fs::path& workdir, 
     }
     std::this_thread::sleep_for(pause);
   }
-  // The program's children may outlive it; they belong to its group.
+  // The program's children may outlive it: those in its group, and (in a subreaper, see
+  // become_subreaper) those it orphaned outside the group, such as a daemon started with setsid.
   ::kill(-pid, SIGKILL);
+  end_orphans_of(pid);
   const long maxrss_kb = usage.ru_maxrss;  // kB on Linux
   ctx.note_program_peak_rss_kb(own_hwm_kb >= 0 && maxrss_kb > own_hwm_kb ? maxrss_kb : sampled_kb);
   if (WIFSIGNALED(status)) {
@@ -159,6 +223,35 @@ void run_program(const std::vector<std::string>& argv, const fs::path& workdir, 
     throw Error(
         with_log(fmt::format("{}: '{}' exited with code {}", stage, program, code), workdir));
   }
+}
+
+void become_subreaper() {
+  ::prctl(PR_SET_CHILD_SUBREAPER, 1, 0, 0, 0);
+}
+
+int reap_orphans(const std::vector<int>& keep) {
+  int reaped = 0;
+  // Each pass ends the current orphans; their own children are reparented here and end in the
+  // next pass. A bound on the passes: a fork bomb must not keep this loop alive.
+  for (int pass = 0; pass < 64; ++pass) {
+    std::set<pid_t> kept(keep.begin(), keep.end());
+    {
+      std::lock_guard<std::mutex> g(g_running_mutex);
+      kept.insert(running_programs().begin(), running_programs().end());
+    }
+    std::vector<pid_t> orphans;
+    for (pid_t pid : children_of_self())
+      if (!kept.count(pid)) orphans.push_back(pid);
+    if (orphans.empty()) break;
+    for (pid_t pid : orphans)
+      ::kill(pid, SIGKILL);
+    for (pid_t pid : orphans) {
+      while (::waitpid(pid, nullptr, 0) < 0 && errno == EINTR) {
+      }
+      ++reaped;
+    }
+  }
+  return reaped;
 }
 
 void require_output(const fs::path& path, const fs::path& workdir, std::string_view program,

@@ -3,16 +3,35 @@
 #include <fmt/format.h>
 
 #include <cstdio>
+#include <filesystem>
+#include <string_view>
 
 #include "cli/commands.h"
 #include "scanbench/core/errors.h"
+#include "scanbench/core/run_program.h"
 #include "scanbench/core/simd.h"
 #include "scanbench/core/version.h"
 #include "scanbench/harness/plugins.h"
 
 namespace scanbench::harness {
 
+namespace {
+
+/// An environment failure (a read-only folder, a file where a folder should be, a name too long)
+/// as one line: the path, what failed and the reason, without the library's prefix.
+std::string filesystem_line(const std::filesystem::filesystem_error& e) {
+  std::string what = e.what();
+  constexpr std::string_view prefix = "filesystem error: ";
+  if (what.rfind(prefix, 0) == 0) what.erase(0, prefix.size());
+  if (const auto at = what.find(" ["); at != std::string::npos) what.erase(at);
+  return e.path1().empty() ? what : fmt::format("{}: {}", e.path1().string(), what);
+}
+
+}  // namespace
+
 int run_cli(int argc, char** argv) {
+  // Every process a step starts is this process's to end (run_program.h): orphans come here.
+  programs::become_subreaper();
   Cli cli;
   // The SIMD path (SCANBENCH_ISA is checked here, once, for every command: an ISA this binary or
   // CPU lacks is a one-line error).
@@ -71,6 +90,10 @@ int run_cli(int argc, char** argv) {
     return cli.action ? cli.action() : 0;
   } catch (const Error& e) {
     std::fprintf(stderr, "scanbench: %s\n", e.what());
+    return 2;
+  } catch (const std::filesystem::filesystem_error& e) {
+    // The environment, not scanbench: exit 2 like bad input (3 is for scanbench's own faults).
+    std::fprintf(stderr, "scanbench: %s\n", filesystem_line(e).c_str());
     return 2;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "scanbench: internal error: %s\n", e.what());

@@ -21,6 +21,7 @@
 #include "scanbench/harness/claims_render.h"
 #include "scanbench/harness/experiment.h"
 #include "scanbench/harness/finish.h"
+#include "scanbench/harness/folder_lock.h"
 #include "scanbench/harness/history.h"
 #include "scanbench/harness/protocol.h"
 #include "scanbench/harness/records.h"
@@ -58,6 +59,7 @@ Json run_claims(const ClaimsOptions& o) {
   const fs::path dir = o.claims_dir.empty() ? config_root() / "claims" : o.claims_dir;
   const std::vector<Claim> claims = load_claims(dir, o.filter);  // all validated before any run
   if (claims.empty()) throw ParamError(fmt::format("--filter '{}': no claim matches", o.filter));
+  const FolderLock lock = FolderLock::acquire(o.out, "scanbench claims", 0, true);
   fs::create_directories(o.out / "scans");
   const auto t0 = std::chrono::steady_clock::now();
   Json summary = {{"scanbench_claims", 1},
@@ -139,11 +141,26 @@ Json run_claims(const ClaimsOptions& o) {
   return summary;
 }
 
+int print_failed_claim_jobs(const Json& summary, const fs::path& out) {
+  int failed = 0;
+  for (const auto& c : summary.value("claims", Json::array())) {
+    const int n = c.value("jobs_failed", 0);
+    if (n == 0) continue;
+    if (failed == 0) fmt::print("\nclaims with failed jobs:\n");
+    failed += n;
+    fmt::print("  {}: {} of {} jobs failed (their reasons: scanbench status {})\n",
+               c.value("id", std::string()), n, c.value("jobs", 0),
+               (out / c.value("folder", std::string())).string());
+  }
+  return failed;
+}
+
 void add_claims_command(Cli& cli) {
   struct Args {
     ClaimsOptions o;
     std::string out, baseline, claims_dir, db;
     bool update_baseline = false;
+    bool allow_failures = false;
   };
   auto a = std::make_shared<Args>();
   a->o.jobs = 2;
@@ -163,6 +180,8 @@ void add_claims_command(Cli& cli) {
                 "Write this run's verdicts to the baseline file instead of comparing");
   sub->add_option("--claims", a->claims_dir, "Folder of claim files (default configs/claims)");
   sub->add_flag("--resume", a->o.resume, "Keep the records already in the results folder");
+  sub->add_flag("--allow-failures", a->allow_failures,
+                "Exit 0 even when jobs of the claims failed (default: exit 4, listed last)");
   add_db_option(sub, a->db, "Add the claims folder (its verdicts) to this database");
   sub->callback([&cli, a] {
     cli.action = [a] {
@@ -183,21 +202,24 @@ void add_claims_command(Cli& cli) {
         fmt::print("history: {} claims run {} in {}\n", h.added ? "added" : "already had",
                    h.identity, a->db);
       }
+      const int failed_jobs = print_failed_claim_jobs(s, o.out);
+      const int ok = failed_jobs > 0 && !a->allow_failures ? kExitJobsFailed : 0;
       if (a->update_baseline) {
+        const FolderLock lock = FolderLock::acquire(baseline.parent_path(),
+                                                    "scanbench claims --update-baseline", 0, true);
         Json b = s;
         b.erase("regressions");
-        fs::create_directories(baseline.parent_path());
         write_json_file(baseline, b);
         fmt::print("baseline updated: {}\n", baseline.string());
-        return 0;
+        return ok;
       }
       if (!s.contains("baseline")) {
         fmt::print("no baseline at {}: nothing to compare\n", baseline.string());
-        return 0;
+        return ok;
       }
       if (s["regressions"].empty()) {
         fmt::print("no claim that held in {} failed\n", baseline.string());
-        return 0;
+        return ok;
       }
       fmt::print("REGRESSION: held in {} and failed now: {}\n", baseline.string(),
                  s["regressions"].dump());

@@ -15,6 +15,7 @@
 #include "scanbench/harness/compare.h"
 #include "scanbench/harness/experiment.h"
 #include "scanbench/harness/finish.h"
+#include "scanbench/harness/folder_lock.h"
 #include "scanbench/harness/history.h"
 #include "scanbench/harness/protocol.h"
 #include "scanbench/harness/records.h"
@@ -36,6 +37,7 @@ struct RunArgs {
   bool retry_failed = false;
   std::string filter;
   bool quiet = false;
+  bool allow_failures = false;  ///< exit 0 even when jobs failed (else kExitJobsFailed)
   std::string db;  ///< history database (history.h): the finished folder is added when set
   // --executor slurm (run only)
   std::string executor = "local";
@@ -52,6 +54,8 @@ void add_run_options(CLI::App* sub, RunArgs& a) {
                   "Only jobs whose key (dataset|scanner|variant|point|seed) "
                   "matches this regex");
   sub->add_flag("-q,--quiet", a.quiet, "No progress output");
+  sub->add_flag("--allow-failures", a.allow_failures,
+                "Exit 0 even when jobs failed (default: exit 4, the failed jobs listed last)");
   add_db_option(sub, a.db, "Add the finished results folder to this database");
 }
 
@@ -84,8 +88,9 @@ void add_slurm_options(CLI::App* sub, RunArgs& a) {
 }
 
 /// The end of a run, whichever executor ran it: finish_run (DIR/tables.md), then the summary:
-/// statuses, the tables, the failed jobs.
-void finish_and_print(const std::string& name, const RunSummary& s, const fs::path& out) {
+/// statuses, the tables, and last the failed jobs with their one-line reasons. Returns how many
+/// of the folder's jobs failed.
+int finish_and_print(const std::string& name, const RunSummary& s, const fs::path& out) {
   const FinishedRun f = finish_run(out);
   std::string statuses;
   for (const auto& [k, v] : s.by_status)
@@ -93,19 +98,25 @@ void finish_and_print(const std::string& name, const RunSummary& s, const fs::pa
   fmt::print("\n{}: {} jobs selected, {} already done, {} ran ({})\n", name, s.planned, s.skipped,
              s.ran, statuses.empty() ? "none" : statuses);
   if (!f.records.empty()) fmt::print("\n{}\n", f.tables);
+  fmt::print("records: {}/runs.jsonl, {}/runs.csv\n", out.string(), out.string());
   int failed = 0;
   for (const auto& r : f.records) {
     if (r.value("status", std::string()) != "ok") {
-      if (failed++ == 0) fmt::print("failed jobs:\n");
-      fmt::print("  {:<8} {}: {}\n", r.value("status", std::string()),
-                 r.value("key", std::string()), r.value("error", std::string()));
+      if (failed++ == 0) fmt::print("\nfailed jobs (logs in {}/logs/<id>.log):\n", out.string());
+      fmt::print("  {:<8} {} ({}): {}\n", r.value("status", std::string()),
+                 r.value("key", std::string()), r.value("id", std::string()),
+                 r.value("error", std::string()));
     }
   }
-  fmt::print("records: {}/runs.jsonl, {}/runs.csv\n", out.string(), out.string());
+  if (failed > 0) {
+    fmt::print("{} of {} jobs failed; after a fix, run them again with: {} --retry-failed\n",
+               failed, f.records.size(), resume_command(out));
+  }
+  return failed;
 }
 
 /// --executor slurm: submits, and with --wait waits and prints the summary of the submitted jobs.
-void do_slurm_run(const Experiment& e, const RunOptions& o, const SlurmOptions& so) {
+int do_slurm_run(const Experiment& e, const RunOptions& o, const SlurmOptions& so) {
   const SlurmSubmission sub = submit_slurm(e, o, so);
   RunSummary s = sub.prepared.summary;
   const fs::path dir = fs::absolute(o.out).lexically_normal();
@@ -113,7 +124,7 @@ void do_slurm_run(const Experiment& e, const RunOptions& o, const SlurmOptions& 
     merge_and_finish(dir, "");
     fmt::print("{}: {} jobs selected, {} already done: nothing to submit (merged {}/runs.jsonl)\n",
                e.name, s.planned, s.skipped, o.out.string());
-    return;
+    return 0;
   }
   fmt::print(
       "{}: {} jobs selected, {} already done, {} submitted as submission {}: Slurm array job {} "
@@ -124,7 +135,7 @@ void do_slurm_run(const Experiment& e, const RunOptions& o, const SlurmOptions& 
       dir.string(), sub.id, dir.string());
   if (!so.wait) {
     fmt::print("  follow it with: scanbench status {}\n", dir.string());
-    return;
+    return 0;
   }
   std::fflush(stdout);
   wait_for_submission(dir, sub);
@@ -134,13 +145,23 @@ void do_slurm_run(const Experiment& e, const RunOptions& o, const SlurmOptions& 
     ++s.ran;
     ++s.by_status[read_json_file(rec).value("status", std::string("?"))];
   }
-  finish_and_print(e.name, s, dir);
+  const int failed = finish_and_print(e.name, s, dir);
   const FolderStatus st = folder_status(dir);
   if (!st.not_run.empty()) fmt::print("\n{}", render_status(st));
+  return failed + static_cast<int>(st.not_run.size());
 }
 
-/// Runs the config and prints the summary; returns the results folder.
-fs::path do_run(const RunArgs& a, const fs::path& default_config, const std::string& default_out) {
+/// A finished `run`: its folder, the folder's lock (held on for what the command does next:
+/// nightly's comparison and report, the history), and how many jobs failed or have no record.
+struct RunDone {
+  fs::path out;
+  std::shared_ptr<FolderLock> lock;
+  int failed = 0;
+};
+
+/// Runs the config and prints the summary.
+RunDone do_run(const RunArgs& a, const fs::path& default_config, const std::string& default_out,
+               const std::string& command) {
   const fs::path config = a.config.empty() ? default_config : fs::path(a.config);
   Experiment e = load_experiment(config);
   RunOptions o;
@@ -151,30 +172,41 @@ fs::path do_run(const RunArgs& a, const fs::path& default_config, const std::str
   o.retry_failed = a.retry_failed;
   o.filter = a.filter;
   o.quiet = a.quiet;
-  if (e.raw.contains("protocol")) {
-    // The declared parameter protocol (protocol.h): tuned values chosen on the tuning data
-    // (OUT/tuning-<variant>/), then the experiment runs at the protocol's values.
-    if (a.executor == "slurm") {
+  o.command = command;
+  RunDone done;
+  done.out = o.out;
+  if (a.executor == "slurm") {
+    if (e.raw.contains("protocol")) {
       throw ParamError(config.string() +
                        ": /protocol: not supported with --executor slurm (run "
                        "it locally, or set the values in the steps' params)");
     }
+    // The submission takes the folder's lock while it prepares the folder, the merge job after.
+    done.failed = do_slurm_run(e, o, a.slurm);
+    return done;
+  }
+  done.lock = std::make_shared<FolderLock>(FolderLock::acquire(o.out, command, 0, true));
+  refuse_if_submission_queued(o.out);
+  if (e.raw.contains("protocol")) {
+    // The declared parameter protocol (protocol.h): tuned values chosen on the tuning data
+    // (OUT/tuning-<variant>/), then the experiment runs at the protocol's values.
     const Protocol p =
         resolve_protocol(e.raw, parse_protocol(e.raw["protocol"], config.string() + ": /protocol"),
                          o.out, local_records_runner(o.jobs, o.resume, o.quiet));
     Json resolved = protocol_config(e.raw, p, false);
     e = parse_experiment(resolved, config.string());
     e.file = config;
-    fs::create_directories(o.out);
     write_json_file(o.out / "protocol.json", protocol_json(p));
   }
-  if (a.executor == "slurm") {
-    do_slurm_run(e, o, a.slurm);
-    return o.out;
-  }
   const RunSummary s = run_experiment(e, o);
-  finish_and_print(e.name, s, o.out);
-  return o.out;
+  done.failed = finish_and_print(e.name, s, o.out);
+  return done;
+}
+
+/// The exit code of a command that ran jobs: 0, or kExitJobsFailed when some failed (or have no
+/// record) unless the user allowed it.
+int jobs_exit_code(const RunDone& d, int more_failed, bool allow_failures) {
+  return d.failed + more_failed > 0 && !allow_failures ? kExitJobsFailed : 0;
 }
 
 }  // namespace
@@ -200,9 +232,9 @@ void add_run_command(Cli& cli) {
     }
     cli.action = [a, misuse] {
       if (!misuse.empty()) throw ParamError(misuse);
-      const fs::path out = do_run(*a, config_root() / "default.json", "");
-      if (a->executor == "local") add_to_history(a->db, out);
-      return 0;
+      const RunDone done = do_run(*a, config_root() / "default.json", "", "scanbench run");
+      if (a->executor == "local") add_to_history(a->db, done.out);
+      return jobs_exit_code(done, 0, a->allow_failures);
     };
   });
 }
@@ -243,11 +275,14 @@ void add_nightly_command(Cli& cli) {
     cli.action = [a] {
       const fs::path baseline =
           a->baseline.empty() ? project_root() / "results" / "baseline" : fs::path(a->baseline);
-      const fs::path out = do_run(a->run, config_root() / "nightly.json",
-                                  "results/nightly-" + utc_now("%Y%m%d-%H%M%S"));
+      const RunDone done =
+          do_run(a->run, config_root() / "nightly.json",
+                 "results/nightly-" + utc_now("%Y%m%d-%H%M%S"), "scanbench nightly");
+      const fs::path& out = done.out;
       // The papers' claims, quick set: DIR/claims/<id>/, summary also in DIR/claims.json (shown
       // by the report). A claim that held in the baseline and failed now is a regression.
       std::vector<std::string> claim_regressed;
+      int claims_failed = 0;
       if (!a->no_claims) {
         ClaimsOptions co;
         co.out = out / "claims";
@@ -256,10 +291,13 @@ void add_nightly_command(Cli& cli) {
         co.resume = a->run.resume;
         if (!a->update_baseline) co.baseline = baseline / "claims.json";
         Json cs = run_claims(co);
+        claims_failed = print_failed_claim_jobs(cs, co.out);
         for (const auto& id : cs["regressions"])
           claim_regressed.push_back(id.get<std::string>());
         fmt::print("\n{}", claims_markdown(cs));
         if (a->update_baseline) {
+          const FolderLock baseline_lock =
+              FolderLock::acquire(baseline, "scanbench nightly --update-baseline", 0, true);
           Json b = cs;
           b.erase("regressions");
           fs::create_directories(baseline);
@@ -272,9 +310,10 @@ void add_nightly_command(Cli& cli) {
       const HistoryAddResult added = add_to_history(a->run.db, out);
       if (a->update_baseline) {
         // Only the merged records (without histograms) and the config: small enough to commit.
-        fs::create_directories(baseline);
+        const FolderLock baseline_lock =
+            FolderLock::acquire(baseline, "scanbench nightly --update-baseline", 0, true);
         for (const char* f : {"runs.csv", "config.json"})
-          fs::copy_file(out / f, baseline / f, fs::copy_options::overwrite_existing);
+          write_file_atomic(baseline / f, read_file(out / f));  // never through a link
         std::string jsonl;
         for (Json r : load_records(out)) {
           r.erase("histograms");
@@ -283,7 +322,7 @@ void add_nightly_command(Cli& cli) {
         write_file_atomic(baseline / "runs.jsonl", jsonl);
         fmt::print("baseline updated: {}\n", baseline.string());
         write_report(out, {}, a->run.db);
-        return 0;
+        return jobs_exit_code(done, claims_failed, a->run.allow_failures);
       }
       if (!fs::exists(baseline / "runs.jsonl")) {
         throw IoError(fmt::format("{}: no baseline (run `scanbench nightly --update-baseline`)",
@@ -325,7 +364,8 @@ void add_nightly_command(Cli& cli) {
           ids += (ids.empty() ? "" : ", ") + id;
         fmt::print("claims that held in the baseline and failed now: {}\n", ids);
       }
-      return res.regressed() || !claim_regressed.empty() ? 1 : 0;
+      if (res.regressed() || !claim_regressed.empty()) return 1;
+      return jobs_exit_code(done, claims_failed, a->run.allow_failures);
     };
   });
 }

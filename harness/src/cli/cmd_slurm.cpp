@@ -5,11 +5,14 @@
 
 #include "cli/commands.h"
 #include "scanbench/harness/finish.h"
+#include "scanbench/harness/folder_lock.h"
 #include "scanbench/harness/slurm.h"
 
 namespace scanbench::harness {
 
 int merge_and_finish(const std::filesystem::path& dir, const std::string& submission) {
+  // The Slurm merge job may start while a reader-writer (`report`) holds the folder: it waits.
+  const FolderLock lock = FolderLock::acquire(dir, "scanbench merge", 600);
   const MergedFolder m = merge_folder(dir, submission);
   FinishOptions fo;
   fo.report = true;

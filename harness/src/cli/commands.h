@@ -11,6 +11,11 @@
 namespace scanbench::harness {
 
 /// The parsed command line: the chosen subcommand stores what to run in `action`.
+/// Exit codes (docs/cli.md): 0 success, 1 a regression, 2 bad input, usage or environment (one
+/// line naming the file and field, or the path and the reason), 3 an internal error, 4 jobs
+/// failed (`run`, `nightly`, `claims` without --allow-failures; the failed jobs are listed last).
+inline constexpr int kExitJobsFailed = 4;
+
 struct Cli {
   CLI::App app{
       "scanbench: evaluation and benchmark harness for point-set filtering and surface "
@@ -60,6 +65,10 @@ void add_db_option(CLI::App* sub, std::string& db, const std::string& what);
 
 /// `scanbench claims` (cmd_claims.cpp, claims.h): the papers' claims with verdicts.
 void add_claims_command(Cli& cli);
+/// Prints the claims whose jobs failed (with where to read the reasons); returns how many jobs
+/// failed over all claims of a `run_claims` summary.
+int print_failed_claim_jobs(const Json& summary, const std::filesystem::path& out);
+
 struct ClaimsOptions {
   std::filesystem::path out;         ///< results folder (DIR/<claim id>/, DIR/claims.json)
   std::filesystem::path claims_dir;  ///< default configs/claims

@@ -8,11 +8,13 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
 #include <deque>
+#include <optional>
 #include <regex>
 #include <set>
 #include <string>
@@ -21,6 +23,7 @@
 #include <vector>
 
 #include "scanbench/core/errors.h"
+#include "scanbench/core/run_program.h"
 #include "scanbench/harness/plugins.h"
 #include "scanbench/harness/records.h"
 
@@ -113,7 +116,9 @@ pid_t spawn(const fs::path& exe, const Child& c, double memory_limit_mb) {
   if (pid == 0) {
     prctl(PR_SET_PDEATHSIG, SIGKILL);
     if (getppid() != parent) _exit(125);
-    const int fd = open(log_s.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    // The parent removed any earlier log (or a link in its place): a fresh file, never written
+    // through a link.
+    const int fd = open(log_s.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644);
     if (fd >= 0) {
       dup2(fd, STDOUT_FILENO);
       dup2(fd, STDERR_FILENO);
@@ -258,8 +263,90 @@ Json finish_record(const Child& c, int wstatus, const struct rusage& ru, const J
 
 }  // namespace
 
+namespace {
+
+/// DIR/<sub> as a real folder: created when missing; a symbolic link or a file in its place is
+/// refused (the harness writes nothing through a link it did not make). The one link it makes,
+/// DIR/scans -> ../scans (claims and protocol tunings share their parent's scan cache), is kept.
+void ensure_subfolder(const fs::path& dir, const char* sub) {
+  const fs::path p = dir / sub;
+  const fs::file_status st = fs::symlink_status(p);
+  if (fs::is_symlink(st)) {
+    if (std::string_view(sub) == "scans" && fs::read_symlink(p) == fs::path("..") / "scans") return;
+    throw IoError(fmt::format(
+        "{}: is a symbolic link; scanbench writes nothing in a results folder through a link it "
+        "did not make (remove it, or choose another folder with -o)",
+        p.string()));
+  }
+  if (fs::exists(st) && !fs::is_directory(st)) {
+    throw IoError(fmt::format("{}: is not a folder (a file is in its place)", p.string()));
+  }
+  std::error_code ec;
+  fs::create_directory(p, ec);
+  if (ec) throw IoError(fmt::format("{}: cannot create the folder: {}", p.string(), ec.message()));
+}
+
+/// Removes what killed runs left behind: every entry of DIR/tmp, and the temp files (names
+/// starting with '.') in the record, cache and artifact folders. Called under the folder's lock,
+/// so no other writer owns them. fs::remove on a link removes the link, never its target.
+void remove_leftovers(const fs::path& dir) {
+  std::error_code ec;
+  auto remove_entry = [&](const fs::directory_entry& entry) {
+    if (fs::is_directory(entry.symlink_status())) {
+      fs::remove_all(entry.path(), ec);  // does not follow links inside
+    } else {
+      fs::remove(entry.path(), ec);
+    }
+    if (ec) {
+      throw IoError(
+          fmt::format("{}: cannot remove a leftover: {}", entry.path().string(), ec.message()));
+    }
+  };
+  for (const auto& entry : fs::directory_iterator(dir / "tmp"))
+    remove_entry(entry);
+  for (const char* sub : {"jobs", "scans", "outputs", "logs", "fields"}) {
+    const fs::path p = dir / sub;
+    if (!fs::is_directory(fs::symlink_status(p))) continue;  // absent, or the shared scans link
+    for (const auto& entry : fs::directory_iterator(p)) {
+      if (entry.path().filename().string().front() == '.') remove_entry(entry);
+    }
+  }
+  for (const auto& entry : fs::directory_iterator(dir)) {
+    const std::string name = entry.path().filename().string();
+    if (name.front() == '.' && name.find(".tmp.") != std::string::npos) remove_entry(entry);
+  }
+}
+
+/// The first JSON pointer at which two configs differ ("" when equal).
+std::string first_difference(const Json& a, const Json& b) {
+  const Json patch = Json::diff(a, b);
+  if (patch.empty()) return "";
+  const std::string path = patch[0].value("path", std::string());
+  return path.empty() ? "/" : path;
+}
+
+/// Refuses a folder that holds another experiment: its config.json's config differs from `e`'s.
+void check_same_experiment(const Experiment& e, const fs::path& out) {
+  const fs::path file = out / "config.json";
+  if (!fs::exists(fs::symlink_status(file))) return;
+  const Json held = read_json_file(file);
+  const Json held_config = held.is_object() ? held.value("config", Json()) : Json();
+  const std::string at = first_difference(held_config, e.raw);
+  if (at.empty()) return;
+  throw ParamError(fmt::format(
+      "{}: holds the results of another experiment ('{}'; its config.json differs at {}); "
+      "choose another folder with -o",
+      out.string(),
+      held_config.is_object() ? held_config.value("name", std::string("?")) : std::string("?"),
+      at));
+}
+
+}  // namespace
+
 PreparedRun prepare_run(const Experiment& e, const RunOptions& opts) {
   PreparedRun prep;
+  const fs::path out = opts.out;
+  prep.lock = std::make_shared<FolderLock>(FolderLock::acquire(out, opts.command, 0, true));
   prep.plan = expand(e);
   const Plan& plan = prep.plan;
   std::optional<std::regex> filter;
@@ -269,10 +356,18 @@ PreparedRun prepare_run(const Experiment& e, const RunOptions& opts) {
     } catch (const std::regex_error& ex) {
       throw ParamError(fmt::format("--filter '{}': not a valid regex: {}", opts.filter, ex.what()));
     }
+    if (std::none_of(plan.jobs.begin(), plan.jobs.end(),
+                     [&](const Job& j) { return std::regex_search(j.key, *filter); })) {
+      throw ParamError(fmt::format(
+          "--filter '{}': selects none of the plan's {} jobs (it is matched against keys such "
+          "as '{}')",
+          opts.filter, plan.jobs.size(),
+          plan.jobs.empty() ? std::string() : plan.jobs.front().key));
+    }
   }
-  const fs::path out = opts.out;
   for (const char* sub : {"jobs", "scans", "outputs", "logs", "tmp"})
-    fs::create_directories(out / sub);
+    ensure_subfolder(out, sub);
+  check_same_experiment(e, out);
 
   std::set<std::string> recorded;
   for (const auto& entry : fs::directory_iterator(out / "jobs")) {
@@ -294,9 +389,7 @@ PreparedRun prepare_run(const Experiment& e, const RunOptions& opts) {
       }
     }
   }
-  // Leftovers of a killed run.
-  for (const auto& entry : fs::directory_iterator(out / "tmp"))
-    fs::remove(entry.path());
+  remove_leftovers(out);
 
   Json config = Json::object();
   config["source"] = e.file.empty() ? Json(nullptr) : Json(fs::absolute(e.file).string());
@@ -363,7 +456,8 @@ void run_jobs(const std::vector<const Job*>& jobs, const RunOptions& opts, RunSu
       Json spec = {{"job", c.job->to_json()}, {"out", fs::absolute(out).string()}};
       if (!loaded_plugins().empty()) spec["plugins"] = plugins_json();  // the child loads them
       write_file_atomic(c.spec, spec.dump());
-      fs::remove(c.result);
+      fs::remove(c.result);  // a link is removed itself, never its target
+      fs::remove(c.log);
       if (hooks.started) hooks.started(*c.job);
       c.date = utc_now();
       c.start = Clock::now();
@@ -387,6 +481,12 @@ void run_jobs(const std::vector<const Job*>& jobs, const RunOptions& opts, RunSu
         fs::remove(it->result);
         it = running.erase(it);
         reaped = true;
+        // The job's processes end with it: what its steps orphaned (and a killed job's child
+        // left) was reparented to this subreaper (cli.cpp: become_subreaper).
+        std::vector<int> keep;
+        for (const auto& c : running)
+          keep.push_back(c.pid);
+        programs::reap_orphans(keep);
         continue;
       }
       if (!it->timed_out &&
@@ -467,6 +567,7 @@ int run_job_file(const fs::path& spec_path, const fs::path& result_path) {
     result["status"] = "error";
     result["error"] = fmt::format("internal error: {}", ex.what());
   }
+  programs::reap_orphans();  // nothing a step started outlives its job
   write_file_atomic(result_path, result.dump());
   return 0;
 }

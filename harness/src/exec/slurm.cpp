@@ -247,30 +247,6 @@ std::vector<std::string> submission_ids(const fs::path& dir) {
   return ids;
 }
 
-/// An exclusive, non-blocking lock on DIR/slurm/.lock for the time of one submission.
-class FolderLock {
- public:
-  explicit FolderLock(const fs::path& dir) {
-    fs::create_directories(dir / "slurm");
-    const fs::path p = dir / "slurm" / ".lock";
-    fd_ = ::open(p.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
-    if (fd_ < 0) throw IoError(fmt::format("{}: cannot open", p.string()));
-    if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
-      ::close(fd_);
-      throw SchedulerError(
-          fmt::format("{}: another `scanbench run --executor slurm` is submitting into this "
-                      "folder; nothing submitted",
-                      dir.string()));
-    }
-  }
-  ~FolderLock() { ::close(fd_); }
-  FolderLock(const FolderLock&) = delete;
-  FolderLock& operator=(const FolderLock&) = delete;
-
- private:
-  int fd_ = -1;
-};
-
 /// The "*** JOB 12 ON node CANCELLED AT 2026-... [DUE TO TIME LIMIT] ***" line that slurmstepd
 /// writes to a task's output when it stops it (the text between the stars), from byte `offset`
 /// on; the last one when there are several, "" when none.
@@ -319,17 +295,6 @@ std::string status_of_slurm_state(const std::string& state, const std::string& l
   return "interrupted";
 }
 
-std::string resume_hint(const fs::path& dir) {
-  std::string source = "CONFIG";
-  try {
-    const Json c = read_json_file(dir / "config.json");
-    if (c.contains("source") && c["source"].is_string()) source = c["source"].get<std::string>();
-  } catch (const Error&) {
-  }
-  return fmt::format("scanbench run {} -o {} --executor slurm --resume", shell_quote(source),
-                     shell_quote(dir.string()));
-}
-
 std::map<std::string, Job> plan_jobs(const fs::path& dir, std::vector<std::string>* order) {
   const Json plan = read_json_file(dir / "plan.json");
   std::map<std::string, Job> jobs;
@@ -352,6 +317,42 @@ extern "C" void on_sigterm(int) {
 
 // ---- submit -----------------------------------------------------------------------------------
 
+std::string resume_command(const fs::path& dir) {
+  std::string source = "CONFIG";
+  try {
+    const Json c = read_json_file(dir / "config.json");
+    if (c.contains("source") && c["source"].is_string()) source = c["source"].get<std::string>();
+  } catch (const Error&) {
+  }
+  const bool slurm = fs::is_directory(dir / "slurm") && !submission_ids(dir).empty();
+  return fmt::format("scanbench run {} -o {}{} --resume", shell_quote(source),
+                     shell_quote(dir.string()), slurm ? " --executor slurm" : "");
+}
+
+void refuse_if_submission_queued(const fs::path& dir_in) {
+  const fs::path dir = fs::absolute(dir_in).lexically_normal();
+  if (!fs::is_directory(dir / "slurm")) return;
+  const std::string squeue = find_on_path("squeue");
+  if (squeue.empty()) return;  // no Slurm here: no task of this machine can be writing
+  std::vector<QueueEntry> queued;
+  try {
+    queued = query_queue(squeue, folder_tag(dir));
+  } catch (const SchedulerError&) {
+    return;  // a controller that does not answer runs no task either
+  }
+  if (queued.empty()) return;
+  std::set<std::string> ids;
+  for (const auto& q : queued)
+    ids.insert(q.array_job);
+  std::string list;
+  for (const auto& id : ids)
+    list += (list.empty() ? "" : " ") + id;
+  throw SchedulerError(
+      fmt::format("{}: a Slurm submission is still writing this folder (jobs {} are in the "
+                  "queue); wait for them (scanbench status {}) or cancel them (scancel {})",
+                  dir.string(), list, dir.string(), list));
+}
+
 SlurmSubmission submit_slurm(const Experiment& e, const RunOptions& opts, const SlurmOptions& so) {
   if (so.chunk < 1) throw ParamError(fmt::format("--chunk: expected >= 1, got {}", so.chunk));
   const Tools tools = find_tools();
@@ -360,7 +361,9 @@ SlurmSubmission submit_slurm(const Experiment& e, const RunOptions& opts, const 
 
   const fs::path dir = fs::absolute(opts.out).lexically_normal();
   fs::create_directories(dir);
-  const FolderLock lock(dir);
+  // The folder's lock while the submission prepares it (folder_lock.h); the array's tasks then
+  // write only their own jobs' files, and the merge job takes the lock again.
+  const FolderLock lock = FolderLock::acquire(dir, "scanbench run --executor slurm", 0, true);
   const std::string tag = folder_tag(dir);
   const std::vector<QueueEntry> queued = query_queue(tools.squeue, tag);
   if (!queued.empty()) {
@@ -380,7 +383,7 @@ SlurmSubmission submit_slurm(const Experiment& e, const RunOptions& opts, const 
   RunOptions o = opts;
   o.out = dir;
   SlurmSubmission s;
-  s.prepared = prepare_run(e, o);
+  s.prepared = prepare_run(e, o);  // the same lock, re-entrant
   const PreparedRun& prep = s.prepared;
   const std::size_t n = prep.todo.size();
   if (n == 0) return s;  // nothing to submit: the caller merges and presents the folder
@@ -490,6 +493,7 @@ SlurmSubmission submit_slurm(const Experiment& e, const RunOptions& opts, const 
   record["merge_job"] = s.merge_job;
   record["sbatch"] = {array, merge};
   write_json_file(sub / "submission.json", record);
+  s.prepared.lock.reset();  // the merge job takes it (merge_and_finish)
   return s;
 }
 
@@ -653,7 +657,7 @@ MergedFolder merge_folder(const fs::path& dir, const std::string& submission) {
     const auto it = jobs.find(id);
     m.missing.push_back({id, it == jobs.end() ? std::string("?") : it->second.key});
   }
-  if (!m.missing.empty()) m.resume_hint = resume_hint(dir);
+  if (!m.missing.empty()) m.resume_hint = resume_command(dir);
   return m;
 }
 
@@ -750,7 +754,7 @@ FolderStatus folder_status(const fs::path& dir_in) {
     item.detail = r.value("error", std::string());
     (item.status == "ok" ? st.done : st.failed).push_back(item);
   }
-  if (!st.not_run.empty() || !st.failed.empty()) st.resume_hint = resume_hint(dir_in);
+  if (!st.not_run.empty() || !st.failed.empty()) st.resume_hint = resume_command(dir_in);
   return st;
 }
 

@@ -1,5 +1,7 @@
 #include "scanbench/harness/history.h"
 
+#include "scanbench/harness/folder_lock.h"
+
 #include <fmt/format.h>
 #include <sqlite3.h>
 
@@ -8,6 +10,7 @@
 #include <cstdio>
 #include <ctime>
 #include <map>
+#include <optional>
 #include <regex>
 #include <set>
 
@@ -402,6 +405,15 @@ void insert_jobs(Db& db, std::int64_t run_id, const std::vector<Json>& records,
 HistoryAddResult history_add(const fs::path& db_file, const fs::path& dir,
                              const std::string& machine) {
   if (!fs::is_directory(dir)) throw IoError(fmt::format("{}: not a results folder", dir.string()));
+  // Not while a run writes the folder (folder_lock.h): wait for it a minute, then refuse. A
+  // folder this process cannot write (a read-only copy) has no scanbench writer either.
+  std::optional<FolderLock> lock;
+  try {
+    lock.emplace(FolderLock::acquire(dir, "scanbench history add", 60));
+  } catch (const FolderBusyError&) {
+    throw;
+  } catch (const IoError&) {
+  }
   std::vector<Json> records;
   if (fs::exists(dir / "runs.jsonl") || fs::is_directory(dir / "jobs")) {
     records = load_records(dir);

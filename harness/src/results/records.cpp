@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <ctime>
 #include <fstream>
 #include <map>
@@ -24,6 +25,7 @@
 #include "scanbench/algorithms/pcl_peers.h"
 #include "scanbench/core/allocator.h"
 #include "scanbench/core/errors.h"
+#include "scanbench/core/json_text.h"
 #include "scanbench/core/simd.h"
 #include "scanbench/core/version.h"
 #include "scanbench/harness/plugins.h"
@@ -121,10 +123,7 @@ std::string read_file(const fs::path& path) {
 }
 
 Json read_json_file(const fs::path& path) {
-  const std::string text = read_file(path);
-  Json j = Json::parse(text, nullptr, false);
-  if (j.is_discarded()) throw IoError(fmt::format("{}: not valid JSON", path.string()));
-  return j;
+  return parse_json_text(read_file(path), path.string());
 }
 
 std::vector<Json> load_job_records(const fs::path& dir) {
@@ -160,36 +159,78 @@ std::vector<Json> load_job_records(const fs::path& dir) {
   return out;
 }
 
-std::vector<Json> load_records(const fs::path& dir) {
-  if (!fs::is_directory(dir)) throw IoError(fmt::format("{}: not a results folder", dir.string()));
-  const fs::path merged = dir / "runs.jsonl";
-  bool use_merged = fs::exists(merged);
-  if (use_merged && fs::is_directory(dir / "jobs")) {
-    const auto t = fs::last_write_time(merged);
-    for (const auto& e : fs::directory_iterator(dir / "jobs")) {
-      if (e.path().extension() == ".json" && fs::last_write_time(e.path()) > t) use_merged = false;
-    }
-  }
-  if (!use_merged) {
-    if (!fs::is_directory(dir / "jobs")) {
-      throw IoError(fmt::format("{}: no runs.jsonl and no jobs/ folder (not a results folder)",
-                                dir.string()));
-    }
-    return load_job_records(dir);
-  }
+namespace {
+
+/// The records of a runs.jsonl file; a line that is not a JSON object, or a job id that appears
+/// twice, is refused (a duplicated line would count a job twice in every median).
+std::vector<Json> read_runs_jsonl(const fs::path& merged) {
   std::vector<Json> out;
+  std::map<std::string, int> line_of;
   std::istringstream in(read_file(merged));
   int line_no = 0;
   for (std::string line; std::getline(in, line);) {
     ++line_no;
     if (line.empty()) continue;
-    Json r = Json::parse(line, nullptr, false);
-    if (r.is_discarded() || !r.is_object()) {
-      throw IoError(fmt::format("{}: line {}: not a JSON object", merged.string(), line_no));
+    const std::string where = fmt::format("{}: line {}", merged.string(), line_no);
+    Json r = parse_json_text(line, where);
+    if (!r.is_object() || !r.contains("id") || !r["id"].is_string()) {
+      throw IoError(fmt::format("{}: not a job record (an object with an \"id\")", where));
+    }
+    const auto [it, fresh] = line_of.emplace(r["id"].get<std::string>(), line_no);
+    if (!fresh) {
+      throw IoError(
+          fmt::format("{}: job {} appears twice (also line {}); the file is damaged "
+                      "(`scanbench merge {}` rebuilds it from jobs/)",
+                      where, it->first, it->second, merged.parent_path().string()));
     }
     out.push_back(std::move(r));
   }
   return out;
+}
+
+}  // namespace
+
+std::vector<Json> load_records(const fs::path& dir) {
+  if (!fs::is_directory(dir)) throw IoError(fmt::format("{}: not a results folder", dir.string()));
+  const fs::path merged = dir / "runs.jsonl";
+  const bool have_merged = fs::exists(merged);
+  const bool have_jobs = fs::is_directory(dir / "jobs");
+  if (!have_jobs) {
+    // A folder of merged records only (a committed baseline).
+    if (!have_merged) {
+      throw IoError(fmt::format("{}: no runs.jsonl and no jobs/ folder (not a results folder)",
+                                dir.string()));
+    }
+    return read_runs_jsonl(merged);
+  }
+  // jobs/ holds the records themselves (one file each, written atomically); runs.jsonl is their
+  // merge. It is used only when it says exactly what jobs/ says; else jobs/ is, with a line that
+  // says why (a run stopped before its merge, lines lost or duplicated).
+  std::vector<Json> records = load_job_records(dir);
+  if (!have_merged) return records;
+  std::string why;
+  try {
+    const std::vector<Json> lines = read_runs_jsonl(merged);
+    if (lines.size() != records.size()) {
+      why = fmt::format("holds {} records, jobs/ {}", lines.size(), records.size());
+    } else {
+      for (std::size_t i = 0; i < lines.size() && why.empty(); ++i) {
+        if (lines[i] != records[i]) {
+          why = fmt::format("line {} (job {}) differs from its record in jobs/", i + 1,
+                            lines[i].value("id", std::string("?")));
+        }
+      }
+    }
+  } catch (const IoError& e) {
+    why = e.what();
+  }
+  if (!why.empty()) {
+    std::fprintf(stderr,
+                 "scanbench: %s: %s; using the records in jobs/ (`scanbench merge %s` rewrites "
+                 "it)\n",
+                 merged.string().c_str(), why.c_str(), dir.string().c_str());
+  }
+  return records;
 }
 
 std::vector<double> record_samples(const Json& r, const std::string& q) {

@@ -48,6 +48,18 @@ void run_program(const std::vector<std::string>& argv, const std::filesystem::pa
 void require_output(const std::filesystem::path& path, const std::filesystem::path& workdir,
                     std::string_view program, std::string_view what, std::string_view stage);
 
+/// Makes this process a child subreaper (Linux prctl PR_SET_CHILD_SUBREAPER): a process orphaned
+/// below it (a daemon an external program started with setsid, outside the program's group)
+/// becomes its child rather than init's, so that reap_orphans can end it. `scanbench` sets it in
+/// every command; a job's child process and the runner thus own every process their steps start.
+void become_subreaper();
+
+/// Kills (SIGKILL) and reaps every child of this process that is neither a running run_program
+/// program nor in `keep`, and the children they leave, until none is left; returns how many. In
+/// a subreaper these are the orphans of finished programs and jobs. Called by run_program after
+/// its program ends, by the runner after each job, and by a job's child at its end.
+int reap_orphans(const std::vector<int>& keep = {});
+
 /// The last `lines` non-empty lines of workdir's stderr.txt, else of its stdout.txt ("" if none).
 std::string log_tail(const std::filesystem::path& workdir, int lines = 5);
 

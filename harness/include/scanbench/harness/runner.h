@@ -12,21 +12,24 @@
 #include <filesystem>
 #include <functional>
 #include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "scanbench/harness/experiment.h"
+#include "scanbench/harness/folder_lock.h"
 
 namespace scanbench::harness {
 
 struct RunOptions {
-  std::filesystem::path out;  ///< results folder
-  int jobs = 1;               ///< concurrent child processes
-  bool resume = false;        ///< skip jobs with a record in out/jobs
-  bool retry_failed = false;  ///< with resume: run failed jobs again
-  std::string filter;         ///< ECMAScript regex on the job key; empty = all
-  std::filesystem::path exe;  ///< the scanbench binary (default /proc/self/exe)
-  bool quiet = false;         ///< no progress output
+  std::filesystem::path out;              ///< results folder
+  int jobs = 1;                           ///< concurrent child processes
+  bool resume = false;                    ///< skip jobs with a record in out/jobs
+  bool retry_failed = false;              ///< with resume: run failed jobs again
+  std::string filter;                     ///< ECMAScript regex on the job key; empty = all
+  std::filesystem::path exe;              ///< the scanbench binary (default /proc/self/exe)
+  bool quiet = false;                     ///< no progress output
+  std::string command = "scanbench run";  ///< named in the folder's lock (folder_lock.h)
 };
 
 struct RunSummary {
@@ -43,15 +46,20 @@ RunSummary run_experiment(const Experiment& e, const RunOptions& opts);
 /// A run prepared in its results folder: the plan and the jobs still to run.
 struct PreparedRun {
   Plan plan;
-  std::vector<std::size_t> todo;  ///< indices into plan.jobs, in plan order
-  RunSummary summary;             ///< planned and skipped (ran is left 0)
+  std::vector<std::size_t> todo;     ///< indices into plan.jobs, in plan order
+  RunSummary summary;                ///< planned and skipped (ran is left 0)
+  std::shared_ptr<FolderLock> lock;  ///< the folder's lock, held while this value lives
 };
 
-/// The first half of every run, whatever executes the jobs: expands `e`, creates the folder's
-/// sub-folders, refuses a folder with records of this plan unless opts.resume, removes the
-/// leftovers in DIR/tmp, writes DIR/config.json and DIR/plan.json, and selects the jobs: those
-/// matching opts.filter, less (with resume) those with a record, except records with status
-/// "interrupted" (the scheduler stopped the job) and, with retry_failed, every status but "ok".
+/// The first half of every run, whatever executes the jobs: takes the folder's lock
+/// (folder_lock.h), expands `e`, creates the folder's sub-folders (refusing any that is a
+/// symbolic link or a file), refuses a folder that holds another experiment (DIR/config.json
+/// differs from `e`'s config) or records of this plan unless opts.resume, removes the leftovers of
+/// killed runs (DIR/tmp/*, temp files named ".*" in jobs/, scans/, outputs/, logs/, fields/),
+/// writes DIR/config.json and DIR/plan.json, and selects the jobs: those matching opts.filter,
+/// less (with resume) those with a record, except records with status "interrupted" (the
+/// scheduler stopped the job) and, with retry_failed, every status but "ok". Throws ParamError
+/// when the filter selects no job of the plan.
 PreparedRun prepare_run(const Experiment& e, const RunOptions& opts);
 
 /// Hooks of an executor around run_jobs (the Slurm array task uses them; see slurm.h).

@@ -37,6 +37,10 @@
 // "-merge"), so squeue finds them by name, and job ids reused after a controller reset are not
 // mistaken for ours.
 //
+// The folder's lock (folder_lock.h) is held by the submission while it prepares DIR and by the
+// merge job; the array tasks take none: each writes only its own jobs' files. A local run into a
+// folder whose submission is still queued is refused (refuse_if_submission_queued).
+//
 // Written against Slurm 22.05; it uses only sbatch --parsable/--array/--dependency=afterany,
 // squeue -r -n -o, scontrol ping / show job -o and sinfo -o, all present since Slurm 20.11.
 #include <filesystem>
@@ -71,6 +75,15 @@ struct SlurmSubmission {
   int tasks = 0;          ///< array tasks
   PreparedRun prepared;   ///< the plan and the submitted jobs (prepared.todo)
 };
+
+/// The command that continues DIR's run with the executor that wrote it ("scanbench run CONFIG
+/// -o DIR --resume", with "--executor slurm" when DIR holds a Slurm submission).
+std::string resume_command(const std::filesystem::path& dir);
+
+/// Throws SchedulerError when Slurm jobs of an earlier submission into `dir` are still queued or
+/// running (their tasks write the folder); nothing when `dir` has no submission or there is no
+/// squeue on PATH.
+void refuse_if_submission_queued(const std::filesystem::path& dir);
 
 /// Submits the jobs selected by prepare_run (see the top of this file). sbatch gets
 /// --time = the largest sum of timeout_s over a task's jobs plus 60 s, in whole minutes;
