@@ -1,3 +1,309 @@
+// Issue 49's honest tables, through the real binary where a user meets them: a table or report
+// never pools sweep points silently and says what a cell aggregates; the winners table compares a
+// swept variant at its best point, named with it; every name a user types into `table`,
+// `compare` or a config's "report"/"compare" is checked, with a suggestion; `compare` says "not
+// decidable" when its test cannot reach alpha with the repeats given; counts print as integers;
+// mesh and point outputs are flagged where a key cannot compare them.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <set>
+
 #include "cli_test_util.h"
+#include "scanbench/harness/compare.h"
+#include "scanbench/harness/stats.h"
+#include "scanbench/harness/table.h"
+
+namespace fs = std::filesystem;
+using scanbench::Json;
+using namespace scanbench::test;  // NOLINT(google-build-using-namespace): test helpers
+namespace h = scanbench::harness;
+
+namespace {
+
+/// One swept variant (test.subsample over stride, 2 seeds, 2 repeats) and one unswept on the
+/// same data; ~17K scan points, so counts reach five digits. Run once for the suite.
+class HonestTables : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = make_temp_dir("honest");
+    write(dir_ / "sweep.json", R"({
+      "scanbench_experiment": 1, "name": "sweep", "seeds": [1, 2], "repeats": 2,
+      "save_outputs": false,
+      "datasets": [{"name": "sphere"}],
+      "scanners": [{"preset": "clean", "params": {"views": 2, "resolution": 200}}],
+      "variants": [{"label": "sub", "algorithm": "test.subsample",
+                    "sweep": {"test.subsample.stride": [1, 2, 3, 5]}},
+                   {"label": "fixed", "algorithm": "test.subsample", "params": {"stride": 4}}],
+      "metrics": ["accuracy.p2plane", "regularity.nn_dist"],
+      "report": {"metrics": ["p2plane_mean_rel", "nn_dist_cv"]}
+    })");
+    const auto r = sh(sb() + " run " + (dir_ / "sweep.json").string() + " -o " + out().string() +
+                      " -q --jobs 2");
+    run_code_ = r.code;
+    run_text_ = r.out;
+  }
+  static void TearDownTestSuite() { fs::remove_all(dir_); }
+  void SetUp() override { ASSERT_EQ(run_code_, 0) << run_text_; }
+
+  static fs::path out() { return dir_ / "out"; }
+  /// A copy of the results folder whose config.json has `patch` merged into its "config".
+  static fs::path patched_copy(const std::string& name, const Json& patch) {
+    const fs::path copy = dir_ / name;
+    fs::remove_all(copy);
+    fs::copy(out(), copy, fs::copy_options::recursive);
+    Json cfg = Json::parse(slurp(copy / "config.json"));
+    cfg["config"].merge_patch(patch);
+    write(copy / "config.json", cfg.dump());
+    return copy;
+  }
+
+  static fs::path dir_;
+  static int run_code_;
+  static std::string run_text_;
+};
+
+fs::path HonestTables::dir_;
+int HonestTables::run_code_ = -1;
+std::string HonestTables::run_text_;
+
+/// The median of a metric per sweep point label of one variant, from the records.
+std::map<std::string, double> point_medians(const std::vector<Json>& recs,
+                                            const std::string& variant, const std::string& key) {
+  std::map<std::string, std::vector<double>> by_point;
+  for (const auto& r : recs)
+    if (r["variant"]["label"] == variant && r["status"] == "ok")
+      by_point[r["point_label"].get<std::string>()].push_back(r["metrics"][key].get<double>());
+  std::map<std::string, double> out;
+  for (auto& [p, v] : by_point) {
+    std::sort(v.begin(), v.end());
+    out[p] = v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
+  }
+  return out;
+}
+
+/// The one line a refused command prints (stderr merged): exactly one non-empty line.
+void expect_one_line_refusal(const Result& r, const std::string& must_contain) {
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find(must_contain), std::string::npos) << r.out;
+  std::string trimmed = r.out;
+  while (!trimmed.empty() && trimmed.back() == '\n')
+    trimmed.pop_back();
+  EXPECT_EQ(trimmed.find('\n'), std::string::npos) << r.out;
+}
+
+}  // namespace
+
+TEST_F(HonestTables, TableKeepsSweepPointsApartUnlessAskedAndSaysWhatACellHolds) {
+  const auto sep =
+      sh(sb() + " table " + out().string() + " --rows dataset --cols variant --metric nn_dist_cv");
+  ASSERT_EQ(sep.code, 0) << sep.out;
+  // One column per sweep point, named with the point; the unswept variant as is.
+  for (const char* col :
+       {"sub (stride=1)", "sub (stride=2)", "sub (stride=3)", "sub (stride=5)", "| fixed |"})
+    EXPECT_NE(sep.out.find(col), std::string::npos) << col << "\n" << sep.out;
+  EXPECT_NE(sep.out.find("sweep points separate"), std::string::npos) << sep.out;
+  EXPECT_NE(sep.out.find("2 seeds"), std::string::npos) << sep.out;
+
+  const auto pooled = sh(sb() + " table " + out().string() +
+                         " --rows dataset --cols variant --metric nn_dist_cv --pool-sweeps");
+  ASSERT_EQ(pooled.code, 0) << pooled.out;
+  EXPECT_EQ(pooled.out.find("stride="), std::string::npos) << pooled.out;
+  EXPECT_NE(pooled.out.find("sweep points pooled (--pool-sweeps: up to 4 per cell)"),
+            std::string::npos)
+      << pooled.out;
+
+  // Timing cells hold every timing sample: repeats x seeds.
+  const auto time = sh(sb() + " table " + out().string() + " --metric time.total");
+  ASSERT_EQ(time.code, 0) << time.out;
+  EXPECT_NE(time.out.find("every timing sample (2 repeats x 2 seeds"), std::string::npos)
+      << time.out;
+}
+
+TEST_F(HonestTables, WinnersCompareEachVariantAtItsBestSweepPoint) {
+  const std::vector<Json> recs = read_jsonl(out() / "runs.jsonl");
+  const auto r = sh(sb() + " report " + out().string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  const std::string html = slurp(out() / "index.html");
+  const auto w0 = html.find("<table id=\"winners\">");
+  ASSERT_NE(w0, std::string::npos);
+  const std::string winners = html.substr(w0, html.find("</table>", w0) - w0);
+  EXPECT_NE(html.find("each swept variant at its best sweep point"), std::string::npos);
+  EXPECT_NE(winners.find("sub (4 sweep points), fixed"), std::string::npos) << winners;
+  for (const char* key : {"nn_dist_cv", "p2plane_mean_rel"}) {
+    // The expected winner from the records: the swept variant at its argmin, against the fixed.
+    const auto sub = point_medians(recs, "sub", key);
+    const auto fixed = point_medians(recs, "fixed", key);
+    ASSERT_EQ(sub.size(), 4u);
+    ASSERT_EQ(fixed.size(), 1u);
+    const auto best = std::min_element(
+        sub.begin(), sub.end(), [](const auto& a, const auto& b) { return a.second < b.second; });
+    const double fixed_value = fixed.begin()->second;
+    const std::string expected = best->second <= fixed_value
+                                     ? "sub (" + best->first + ") " + h::format_number(best->second)
+                                     : "fixed " + h::format_number(fixed_value);
+    EXPECT_NE(winners.find(expected), std::string::npos) << key << ": " << expected << "\n"
+                                                         << winners;
+  }
+  // Histograms per sweep point, labelled with the point; the unswept variant on its own.
+  EXPECT_NE(html.find("p2plane histogram (sphere / clean): sub, per sweep point"),
+            std::string::npos);
+  EXPECT_NE(html.find("p2plane histogram (sphere / clean)</title>"), std::string::npos);
+  // Sweep plots carry the unswept variant as a reference line.
+  EXPECT_NE(html.find("<line class=\"ref\""), std::string::npos);
+}
+
+TEST_F(HonestTables, UnknownNamesAreRefusedWithASuggestion) {
+  const std::string dir = out().string();
+  expect_one_line_refusal(sh(sb() + " table " + dir + " --metric nn_dist_c"),
+                          "table: --metric: unknown quantity 'nn_dist_c' (did you mean "
+                          "'nn_dist_cv'?)");
+  // A registered key this run did not compute.
+  expect_one_line_refusal(sh(sb() + " table " + dir + " --metric fscore"),
+                          "no record has 'fscore'");
+  expect_one_line_refusal(sh(sb() + " table " + dir + " --rows param:test.subsample.strid"),
+                          "no record has the parameter 'test.subsample.strid' (did you mean "
+                          "'test.subsample.stride'?)");
+  expect_one_line_refusal(sh(sb() + " table " + dir + " --cols variantt"),
+                          "unknown field 'variantt' (did you mean 'variant'?)");
+  expect_one_line_refusal(sh(sb() + " compare " + dir + " " + dir + " --metric p2plane_mean_rell"),
+                          "compare: --metric: unknown quantity 'p2plane_mean_rell' (did you mean "
+                          "'p2plane_mean_rel'?)");
+  // Names in a config's "report" and "compare" objects, checked where they are used.
+  const fs::path rep =
+      patched_copy("bad-report", Json::parse(R"({"report": {"metrics": ["nn_dist_cvv"]}})"));
+  expect_one_line_refusal(sh(sb() + " report " + rep.string()),
+                          "/config/report/metrics/0: unknown quantity 'nn_dist_cvv' (did you "
+                          "mean 'nn_dist_cv'?)");
+  const fs::path rx = patched_copy("bad-x", Json::parse(R"({"report": {"x": "strde"}})"));
+  expect_one_line_refusal(sh(sb() + " report " + rx.string()),
+                          "/config/report/x: 'strde' is no swept key of the records (did you mean "
+                          "'test.subsample.stride'?)");
+  const fs::path cmp =
+      patched_copy("bad-compare",
+                   Json::parse(R"({"compare": {"metrics": {"p2plane_mean_rell": {"rel": 0.1}}}})"));
+  expect_one_line_refusal(sh(sb() + " compare " + dir + " " + cmp.string()),
+                          "/compare/metrics/p2plane_mean_rell: unknown metric key (did you mean "
+                          "'p2plane_mean_rel'?)");
+  const fs::path ign =
+      patched_copy("bad-ignore", Json::parse(R"({"compare": {"ignore": ["nn_dist_mea"]}})"));
+  expect_one_line_refusal(sh(sb() + " compare " + dir + " " + ign.string()),
+                          "/compare/ignore: unknown metric key 'nn_dist_mea' (did you mean");
+  // Known names still pass.
+  EXPECT_EQ(
+      sh(sb() + " table " + dir + " --metric nn_dist_cv --rows param:test.subsample.stride").code,
+      0);
+}
+
+TEST_F(HonestTables, CompareWithTwoRepeatsSaysNotDecidable) {
+  const std::string dir = out().string();
+  const fs::path json = dir_ / "compare.json";
+  const auto r = sh(sb() + " compare " + dir + " " + dir + " --json " + json.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("timing comparisons are not decidable"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("it needs 4 repeats per side"), std::string::npos) << r.out;
+  const Json res = Json::parse(slurp(json));
+  EXPECT_EQ(res["repeats_needed"], 4);
+  int time_total = 0;
+  for (const auto& v : res["comparisons"]) {
+    if (v["quantity"] != "time.total") continue;
+    ++time_total;
+    EXPECT_EQ(v["verdict"], "not decidable") << v.dump();
+    EXPECT_NE(v["note"].get<std::string>().find("not decidable with 2 repeats"), std::string::npos)
+        << v.dump();
+  }
+  EXPECT_EQ(time_total, 10);
+  EXPECT_GE(res["undecidable"].get<int>(), time_total);  // time.total and every phase
+}
+
+TEST(HonestTablesStats, SmallestAttainablePAndRepeatsNeeded) {
+  // Two fully separated samples: 2 / C(n1 + n2, n1) in the exact branch.
+  EXPECT_NEAR(h::mann_whitney_min_p(2, 2), 2.0 / 6.0, 1e-12);
+  EXPECT_NEAR(h::mann_whitney_min_p(3, 3), 2.0 / 20.0, 1e-12);
+  EXPECT_NEAR(h::mann_whitney_min_p(4, 4), 2.0 / 70.0, 1e-12);
+  EXPECT_NEAR(h::mann_whitney_min_p(2, 5), 2.0 / 21.0, 1e-12);
+  EXPECT_DOUBLE_EQ(h::mann_whitney_min_p(1, 1), 1.0);
+  EXPECT_DOUBLE_EQ(h::mann_whitney_min_p(0, 3), 1.0);
+  EXPECT_EQ(h::mann_whitney_repeats_needed(0.05), 4);
+  EXPECT_EQ(h::mann_whitney_repeats_needed(0.1), 4);  // 3 vs 3 reaches 0.1, not below it
+  EXPECT_EQ(h::mann_whitney_repeats_needed(0.2), 3);
+}
+
+TEST(HonestTablesStats, CompareDecidesAtFourRepeatsAndNotAtTwo) {
+  auto record = [](std::vector<double> times) {
+    Json r = {{"key", "sphere|clean|v||seed=1"}, {"status", "ok"}, {"metrics", Json::object()}};
+    r["timing"] = {{"total_s", times}, {"phases", Json::object()}};
+    return r;
+  };
+  // 3x slower, fully separated samples.
+  const auto two = h::compare_records({record({1.0, 1.1})}, {record({3.0, 3.1})}, {});
+  ASSERT_EQ(two.verdicts.size(), 2u);
+  EXPECT_EQ(two.verdicts[1].verdict, "not decidable");
+  EXPECT_TRUE(two.verdicts[1].notable);  // a change that would count: listed without --all
+  EXPECT_NE(two.table().find("not decidable with 2 repeats"), std::string::npos) << two.table();
+  EXPECT_EQ(two.undecidable, 1);
+  EXPECT_FALSE(two.regressed());
+  const auto four =
+      h::compare_records({record({1.0, 1.1, 1.05, 1.02})}, {record({3.0, 3.1, 3.05, 3.02})}, {});
+  EXPECT_EQ(four.verdicts[1].verdict, "regression");
+  EXPECT_EQ(four.undecidable, 0);
+}
+
+TEST_F(HonestTables, CountsPrintAsIntegers) {
+  EXPECT_EQ(h::format_number(20630), "20630");
+  EXPECT_EQ(h::format_number(20630.5), "20630.5");
+  EXPECT_EQ(h::format_number(1234567), "1234567");
+  EXPECT_EQ(h::format_number(0.001914), "0.001914");
+  EXPECT_EQ(h::format_number(2.5e-8), "2.500e-08");
+  const std::vector<Json> recs = read_jsonl(out() / "runs.jsonl");
+  const double scan_points = recs.front()["sizes"]["scan_points"].get<double>();
+  ASSERT_GE(scan_points, 1e4);  // five digits: 4 significant digits would show an exponent
+  const std::string count = std::to_string(static_cast<long long>(scan_points));
+  const auto t = sh(sb() + " table " + out().string() + " --metric sizes.scan_points");
+  ASSERT_EQ(t.code, 0) << t.out;
+  EXPECT_NE(t.out.find(count), std::string::npos) << t.out;
+  EXPECT_EQ(t.out.find("e+0"), std::string::npos) << t.out;
+  ASSERT_EQ(sh(sb() + " report " + out().string()).code, 0);
+  const std::string html = slurp(out() / "index.html");
+  const auto jobs = html.find("<table id=\"jobs\">");
+  ASSERT_NE(jobs, std::string::npos);
+  EXPECT_NE(html.find(count, jobs), std::string::npos);
+  EXPECT_EQ(html.find("e+0", jobs), std::string::npos);
+}
+
+TEST(HonestTablesMesh, MeshAndPointOutputsFlaggedOnChamferKeys) {
+  const fs::path dir = make_temp_dir("honest-mesh");
+  write(dir / "mesh.json", R"({
+    "scanbench_experiment": 1, "name": "mesh", "seed": 3, "save_outputs": false,
+    "datasets": [{"name": "sphere"}],
+    "scanners": [{"preset": "clean", "params": {"views": 2, "resolution": 40}}],
+    "variants": [
+      {"label": "mesh", "algorithm": "test.sphere_mesh", "params": {"resolution": 8}},
+      {"label": "points", "algorithm": "test.subsample", "params": {"stride": 2}}],
+    "metrics": ["accuracy.chamfer", "surface.chamfer"],
+    "report": {"metrics": ["fscore", "chamfer_rel"]}
+  })");
+  const fs::path out = dir / "out";
+  const auto run =
+      sh(sb() + " run " + (dir / "mesh.json").string() + " -o " + out.string() + " -q");
+  ASSERT_EQ(run.code, 0) << run.out;
+  const auto t = sh(sb() + " table " + out.string() + " --metric fscore");
+  ASSERT_EQ(t.code, 0) << t.out;
+  EXPECT_NE(t.out.find("Note: not comparable in 1 row"), std::string::npos) << t.out;
+  EXPECT_NE(t.out.find("(mesh) |"), std::string::npos) << t.out;
+  std::size_t bold = 0;
+  for (auto at = t.out.find("**"); at != std::string::npos; at = t.out.find("**", at + 2))
+    ++bold;
+  EXPECT_EQ(bold, 2u) << "only the title is bold: no best in a mixed row\n" << t.out;
+  // time.total compares them fine: no note.
+  const auto tt = sh(sb() + " table " + out.string() + " --metric time.total");
+  EXPECT_EQ(tt.out.find("not comparable"), std::string::npos) << tt.out;
+  ASSERT_EQ(sh(sb() + " report " + out.string()).code, 0);
+  const std::string html = slurp(out / "index.html");
+  EXPECT_NE(html.find("mesh and point outputs not comparable on this key"), std::string::npos);
+  EXPECT_NE(html.find("mesh outputs: mesh"), std::string::npos);
+  EXPECT_NE(html.find("point outputs: points"), std::string::npos);
+  fs::remove_all(dir);
+}

@@ -1,4 +1,4 @@
-// scanbench compare BASE NEW [--json FILE] [--all] [tolerance options]
+// scanbench compare BASE NEW [--json FILE] [--all] [--metric Q ...] [tolerance options]
 #include <fmt/format.h>
 
 #include "cli/commands.h"
@@ -14,16 +14,20 @@ void add_compare_command(Cli& cli) {
     std::string base, now, json;
     bool all = false, no_timing = false;
     std::optional<double> alpha, time_threshold, rel, abs, min_time;
+    std::vector<std::string> metrics;
   };
   auto a = std::make_shared<Args>();
   CLI::App* sub = cli.app.add_subcommand(
       "compare",
       "Compare two results folders: accuracy with declared tolerances, timings with a "
-      "Mann-Whitney U test; exit 1 on any regression");
+      "Mann-Whitney U test (\"not decidable\" with too few repeats); exit 1 on any regression");
   sub->add_option("base", a->base, "Baseline results folder")->required();
   sub->add_option("new", a->now, "New results folder")->required();
   sub->add_option("--json", a->json, "Write every comparison and the verdict to this file");
   sub->add_flag("--all", a->all, "List unchanged quantities too");
+  sub->add_option("--metric", a->metrics,
+                  "Compare only this quantity (a metric key, time.total, time.<phase>; "
+                  "repeatable) and the status; one the records hold");
   sub->add_option("--alpha", a->alpha, "U-test significance level (default 0.05)")
       ->check(CLI::Range(0.0, 1.0));
   sub->add_option("--time-threshold", a->time_threshold,
@@ -50,6 +54,7 @@ void add_compare_command(Cli& cli) {
       if (a->rel) o.default_tolerance.rel = *a->rel;
       if (a->abs) o.default_tolerance.abs = *a->abs;
       if (a->no_timing) o.timing = false;
+      o.only = a->metrics;
       const CompareResult res = compare_records(load_records(a->base), load_records(a->now), o);
       fmt::print("{}", res.table(a->all));
       if (!a->json.empty()) write_json_file(a->json, res.to_json());

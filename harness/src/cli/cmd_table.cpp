@@ -1,4 +1,5 @@
-// scanbench table DIR [--format md|csv|tex|html] [--rows F] [--cols F] [--metric Q] [-o FILE]
+// scanbench table DIR [--format md|csv|tex|html] [--rows F] [--cols F] [--metric Q] [--pool-sweeps]
+//                 [-o FILE]
 #include <fmt/format.h>
 
 #include "cli/commands.h"
@@ -16,7 +17,7 @@ void add_table_command(Cli& cli) {
   CLI::App* sub = cli.app.add_subcommand(
       "table",
       "Comparison table of a results folder: best value per row marked, spread over "
-      "repeats");
+      "repeats; sweep points separate unless --pool-sweeps");
   sub->add_option("dir", a->dir, "Results folder")->required();
   sub->add_option("--format", a->format, "md, csv, tex or html")
       ->check(CLI::IsMember({"md", "csv", "tex", "html"}));
@@ -27,7 +28,10 @@ void add_table_command(Cli& cli) {
   sub->add_option("--cols", a->spec.cols, "Column fields (as --rows)")->capture_default_str();
   sub->add_option("--metric", a->spec.metric,
                   "Metric key, time.total, time.cpu, time.<phase>, peak_rss_mb or sizes.<key> "
-                  "(default p2plane_mean_rel)");
+                  "(default p2plane_mean_rel); one the records hold");
+  sub->add_flag("--pool-sweeps", a->spec.pool_sweeps,
+                "Pool the sweep points of a variant into one cell (the header says so); by "
+                "default a variant's sweep points are separate columns");
   sub->add_option("-o,--out", a->out, "Write to this file instead of stdout");
   sub->callback([&cli, a] {
     cli.action = [a] {

@@ -11,6 +11,7 @@
 #include "scanbench/core/errors.h"
 #include "scanbench/harness/records.h"
 #include "scanbench/harness/stats.h"
+#include "scanbench/harness/table.h"
 #include "scanbench/metrics/registry.h"
 
 namespace scanbench::harness {
@@ -47,6 +48,34 @@ Tolerance parse_tolerance(const Json& j, const std::string& where, Tolerance t) 
     }
   }
   return t;
+}
+
+/// Unknown names refused where they are used: the config's per-metric tolerances and ignore list
+/// (a key no metric declares and no record holds) and the quantities of --metric (one no record
+/// holds).
+void check_names(const CompareOptions& o, const std::vector<Json>& base,
+                 const std::vector<Json>& now) {
+  std::vector<Json> all = base;
+  all.insert(all.end(), now.begin(), now.end());
+  const std::vector<std::string> present = record_quantities(all);
+  auto known = [&](const std::string& k) {
+    return metrics::key_direction(k).has_value() ||
+           std::find(present.begin(), present.end(), k) != present.end();
+  };
+  for (const auto& [k, t] : o.metric_tolerances) {
+    if (!known(k)) {
+      throw ParamError(fmt::format("{}/metrics/{}: unknown metric key{}", o.source, k,
+                                   did_you_mean(k, present)));
+    }
+  }
+  for (const auto& k : o.ignore) {
+    if (!known(k)) {
+      throw ParamError(fmt::format("{}/ignore: unknown metric key '{}'{}", o.source, k,
+                                   did_you_mean(k, present)));
+    }
+  }
+  for (const auto& q : o.only)
+    if (!all.empty()) check_quantity(all, q, "compare: --metric");
 }
 
 std::string fmt_num(double v) {
@@ -111,6 +140,7 @@ CompareOptions CompareOptions::from_json(const Json& j, const std::string& where
       o.ignore.push_back(x.get<std::string>());
     }
   }
+  o.source = where;
   return o;
 }
 
@@ -124,9 +154,9 @@ Tolerance CompareOptions::tolerance(const std::string& metric) const {
 
 Json Verdict::to_json() const {
   auto num = [](double v) { return std::isfinite(v) ? Json(v) : Json(nullptr); };
-  return {{"key", key},        {"quantity", quantity}, {"kind", kind},
-          {"base", num(base)}, {"new", num(now)},      {"change", num(change)},
-          {"p", num(p)},       {"verdict", verdict},   {"note", note}};
+  return {{"key", key},      {"quantity", quantity},  {"kind", kind}, {"base", num(base)},
+          {"new", num(now)}, {"change", num(change)}, {"p", num(p)},  {"verdict", verdict},
+          {"note", note},    {"notable", notable}};
 }
 
 Json CompareResult::to_json() const {
@@ -134,6 +164,8 @@ Json CompareResult::to_json() const {
   j["regressions"] = regressions;
   j["improvements"] = improvements;
   j["unchanged"] = unchanged;
+  j["undecidable"] = undecidable;
+  if (undecidable > 0) j["repeats_needed"] = repeats_needed;
   j["verdict"] = regressed() ? "regression" : "ok";
   j["isa"] = {{"base", base_isas}, {"new", new_isas}};
   j["notes"] = notes;
@@ -152,7 +184,8 @@ std::string CompareResult::table(bool all) const {
   out += "|---|---|---:|---:|---:|---:|---|\n";
   int shown = 0;
   for (const auto& v : verdicts) {
-    if (!all && v.verdict != "regression" && v.verdict != "improvement" && v.verdict != "new") {
+    if (!all && v.verdict != "regression" && v.verdict != "improvement" && v.verdict != "new" &&
+        !v.notable) {
       continue;
     }
     ++shown;
@@ -160,19 +193,36 @@ std::string CompareResult::table(bool all) const {
     out += fmt::format("| {} | {} | {} | {} | {} | {} | {} |\n", v.key, v.quantity, base,
                        v.kind == "status" ? "" : fmt_num(v.now),
                        v.kind == "status" ? "" : fmt::format("{:+.1f}%", 100 * v.change),
-                       v.kind == "time" ? fmt::format("{:.3g}", v.p) : "",
-                       v.verdict == "regression" ? "**REGRESSION**" : v.verdict);
+                       v.kind == "time" && std::isfinite(v.p) ? fmt::format("{:.3g}", v.p) : "",
+                       v.verdict == "regression"      ? std::string("**REGRESSION**")
+                       : v.verdict == "not decidable" ? v.verdict + ": " + v.note
+                                                      : v.verdict);
   }
   if (shown == 0) out += "| (no significant changes) | | | | | | |\n";
-  out += fmt::format("\n{} comparisons: {} regressions, {} improvements, {} unchanged -> {}\n",
-                     verdicts.size(), regressions, improvements, unchanged,
-                     regressed() ? "REGRESSION" : "OK");
+  out += fmt::format("\n{} comparisons: {} regressions, {} improvements, {} unchanged",
+                     verdicts.size(), regressions, improvements, unchanged);
+  if (undecidable > 0) out += fmt::format(", {} timings not decidable", undecidable);
+  out += fmt::format(" -> {}\n", regressed() ? "REGRESSION" : "OK");
+  if (undecidable > 0) {
+    out += fmt::format(
+        "{} timing comparisons are not decidable: too few repeats for the U test to reach its "
+        "threshold; {}\n",
+        undecidable,
+        repeats_needed > 0 ? fmt::format("it needs {} repeats per side (\"repeats\" in the config)",
+                                         repeats_needed)
+                           : std::string("no number of repeats reaches this alpha"));
+  }
   return out;
 }
 
 CompareResult compare_records(const std::vector<Json>& base, const std::vector<Json>& now,
                               const CompareOptions& o) {
+  check_names(o, base, now);
   CompareResult res;
+  res.repeats_needed = mann_whitney_repeats_needed(o.alpha);
+  const auto wanted = [&o](const std::string& q) {
+    return o.only.empty() || std::find(o.only.begin(), o.only.end(), q) != o.only.end();
+  };
   std::map<std::string, const Json*> new_by_key;
   for (const auto& r : now)
     new_by_key[r.value("key", std::string())] = &r;
@@ -200,6 +250,8 @@ CompareResult compare_records(const std::vector<Json>& base, const std::vector<J
       ++res.regressions;
     } else if (v.verdict == "improvement") {
       ++res.improvements;
+    } else if (v.verdict == "not decidable") {
+      ++res.undecidable;
     } else {
       ++res.unchanged;
     }
@@ -240,6 +292,7 @@ CompareResult compare_records(const std::vector<Json>& base, const std::vector<J
     for (const auto& [k, bv] : bm.items()) {
       if (!bv.is_number() || !nm.contains(k) || !nm[k].is_number()) continue;
       if (std::find(o.ignore.begin(), o.ignore.end(), k) != o.ignore.end()) continue;
+      if (!wanted(k)) continue;
       const Tolerance t = o.tolerance(k);
       Verdict v;
       v.key = key;
@@ -272,6 +325,7 @@ CompareResult compare_records(const std::vector<Json>& base, const std::vector<J
     for (const auto& [phase, samples] : bphases.items())
       quantities.push_back("time." + phase);
     for (const auto& q : quantities) {
+      if (!wanted(q)) continue;
       const std::vector<double> bs = record_samples(b, q);
       const std::vector<double> ns = record_samples(n, q);
       if (bs.empty() || ns.empty()) continue;
@@ -282,9 +336,21 @@ CompareResult compare_records(const std::vector<Json>& base, const std::vector<J
       v.base = median(bs);
       v.now = median(ns);
       v.change = v.base > 0 ? (v.now - v.base) / v.base : 0.0;
-      if (bs.size() < 2 || ns.size() < 2) {
-        v.verdict = "n/a";
-        v.note = "too few repeats for a U test";
+      const int n1 = static_cast<int>(bs.size()), n2 = static_cast<int>(ns.size());
+      const double min_p = mann_whitney_min_p(n1, n2);
+      if (!(min_p < o.alpha)) {
+        // The test cannot reach alpha with these samples, whatever they are: no verdict.
+        v.verdict = "not decidable";
+        v.p = NAN;
+        v.note = fmt::format(
+            "not decidable with {}: the U test's smallest p is {:.3g}, not below alpha {}; {}",
+            n1 == n2 ? fmt::format("{} {}", n1, n1 == 1 ? "repeat" : "repeats")
+                     : fmt::format("{} and {} repeats", n1, n2),
+            min_p, o.alpha,
+            res.repeats_needed > 0 ? fmt::format("needs {} per side", res.repeats_needed)
+                                   : std::string("no number of repeats reaches it"));
+        v.notable =
+            std::abs(v.change) > o.time_threshold && std::abs(v.now - v.base) > o.min_time_s;
         add(v);
         continue;
       }

@@ -10,6 +10,7 @@
 #include <set>
 
 #include "scanbench/core/errors.h"
+#include "scanbench/core/json_text.h"
 #include "scanbench/core/paths.h"
 #include "scanbench/core/timing.h"
 #include "scanbench/harness/claims_render.h"
@@ -132,8 +133,15 @@ std::string legend(const std::vector<std::string>& names) {
   return s;
 }
 
+/// A horizontal reference line (an unswept variant on a sweep plot).
+struct RefLine {
+  std::string name;
+  double y;
+};
+
 std::string line_plot(const std::string& title, const std::string& xlabel,
-                      const std::string& ylabel, const std::vector<Series>& series) {
+                      const std::string& ylabel, const std::vector<Series>& series,
+                      const std::vector<RefLine>& refs = {}) {
   double xlo = INFINITY, xhi = -INFINITY, ylo = INFINITY, yhi = -INFINITY;
   for (const auto& s : series) {
     for (const auto& [x, y] : s.pts) {
@@ -145,6 +153,11 @@ std::string line_plot(const std::string& title, const std::string& xlabel,
     }
   }
   if (!std::isfinite(xlo)) return "";
+  for (const auto& r : refs) {
+    if (!std::isfinite(r.y)) continue;
+    ylo = std::min(ylo, r.y);
+    yhi = std::max(yhi, r.y);
+  }
   std::string svg = svg_open(title);
   Axes a{};
   svg += draw_axes(a, xlo, xhi, ylo, yhi, xlabel, ylabel);
@@ -161,8 +174,24 @@ std::string line_plot(const std::string& title, const std::string& xlabel,
                        path, color(i));
     names.push_back(series[i].name);
   }
-  svg += legend(names) + "</svg>";
-  return svg;
+  svg += legend(names);
+  // Reference lines: dashed grey shades, listed under the series in the legend.
+  std::size_t shown_refs = 0;
+  for (const auto& r : refs) {
+    if (!std::isfinite(r.y) || names.size() + shown_refs >= 16) continue;
+    const char* grey = shown_refs % 2 == 0 ? "#555" : "#999";
+    const int ly = kT + 8 + static_cast<int>(names.size() + shown_refs) * 15;
+    svg += fmt::format(
+        "<line class=\"ref\" x1=\"{0}\" x2=\"{1}\" y1=\"{2:.1f}\" y2=\"{2:.1f}\" stroke=\"{3}\" "
+        "stroke-dasharray=\"5 3\"><title>{4}: {5}</title></line>"
+        "<line x1=\"{6}\" x2=\"{7}\" y1=\"{8}\" y2=\"{8}\" stroke=\"{3}\" stroke-dasharray=\"5 "
+        "3\"/>"
+        "<text x=\"{9}\" y=\"{10}\">{4}</text>",
+        kL, kW - kR, a.py(r.y), grey, html_escape(r.name), html_escape(format_number(r.y)),
+        kW - kR + 6, kW - kR + 18, ly - 3, kW - kR + 22, ly + 1);
+    ++shown_refs;
+  }
+  return svg + "</svg>";
 }
 
 std::string heatmap(const std::string& title, const std::string& xlabel, const std::string& ylabel,
@@ -324,9 +353,15 @@ std::string history_section(const fs::path& db, const std::vector<Json>& records
   std::string baseline;
   std::ifstream in(project_root() / "results" / "baseline" / "runs.jsonl");
   std::string line;
+  std::string baseline_problem;
   if (std::getline(in, line)) {
-    const Json r = Json::parse(line, nullptr, false);
-    if (r.is_object()) baseline = r.value("context", Json::object()).value("commit", std::string());
+    try {
+      const Json r = parse_json_text(line, "results/baseline/runs.jsonl:1");
+      const Json c = r.is_object() ? r.value("context", Json::object()) : Json::object();
+      if (c.is_object()) baseline = c.value("commit", std::string());
+    } catch (const Error& e) {
+      baseline_problem = e.what();  // the plots stand without the marker; the page says why
+    }
   }
   std::string html;
   int shown = 0;
@@ -338,9 +373,12 @@ std::string history_section(const fs::path& db, const std::vector<Json>& records
       "<h2>History</h2>\n<p>From <code>{}</code>: per dataset and variant (its first job) the "
       "headline metrics over the commits of every machine and time.total over this machine's; "
       "grey: every sample, line: median per commit, dashed red: change points (`scanbench history "
-      "changes`), green: the baseline's commit{}.{}</p>\n",
+      "changes`), green: the baseline's commit{}.{}{}</p>\n",
       html_escape(db.string()), baseline.empty() ? "" : " " + html_escape(baseline),
-      shown > 120 ? fmt::format(" The first 120 of {} plots are shown.", shown) : "");
+      shown > 120 ? fmt::format(" The first 120 of {} plots are shown.", shown) : "",
+      baseline_problem.empty()
+          ? ""
+          : " The baseline's commit is not marked: " + html_escape(baseline_problem) + ".");
   if (shown == 0) return out + "<p>No quantity has two commits in the database yet.</p>\n";
   return out + "<div class=\"plots\" id=\"history\">\n" + html + "</div>\n";
 }
@@ -447,53 +485,100 @@ std::string link(const fs::path& dir, const std::string& rel, const std::string&
 namespace {
 
 // The first screen: per dataset, which variants ran and, for each headline quantity that has a
-// direction, the variant with the best median (the tables below mark the same cells).
+// direction, the winner: each variant at its best sweep point (best_points, table.h), then the
+// best of those. Mesh and point outputs on a key that scores them differently get a winner each,
+// marked not comparable.
 std::string winners_section(const std::vector<Json>& records,
                             const std::vector<std::string>& metrics) {
-  std::vector<Table> tables;
+  struct Column {
+    std::string metric;
+    int better;
+    std::vector<VariantBest> bests;
+  };
+  std::vector<Column> cols;
   for (const std::string& m : metrics) {
-    TableSpec spec;
-    spec.rows = "dataset+scanner";
-    spec.metric = m;
-    Table t = build_table(records, spec);
-    if (t.better != 0 && !t.row_labels.empty()) tables.push_back(std::move(t));
+    const int better = quantity_direction(m);
+    if (better == 0) continue;
+    auto bests = best_points(records, m, "dataset+scanner");
+    if (!bests.empty()) cols.push_back({m, better, std::move(bests)});
   }
-  if (tables.empty()) return "";
-  std::string h =
-      "<h2>What was compared and what won</h2>\n<table id=\"winners\"><tr><th>dataset</th>"
-      "<th>compared</th>";
-  for (const Table& t : tables)
-    h += fmt::format("<th>{} ({})</th>", html_escape(t.metric), t.better > 0 ? "higher" : "lower");
-  h += "</tr>\n";
-  std::set<std::string> rows;
-  for (const Table& t : tables)
-    rows.insert(t.row_labels.begin(), t.row_labels.end());
-  for (const std::string& row : rows) {
-    std::set<std::string> compared;
-    std::string cells;
-    for (const Table& t : tables) {
-      const auto it = std::find(t.row_labels.begin(), t.row_labels.end(), row);
-      std::string best;
-      if (it != t.row_labels.end()) {
-        const auto& r = t.cells[static_cast<std::size_t>(it - t.row_labels.begin())];
-        for (std::size_t c = 0; c < r.size(); ++c) {
-          if (r[c].n > 0) compared.insert(t.col_labels[c]);
-          if (r[c].best) {
-            best += fmt::format("{}{} {}", best.empty() ? "" : ", ", html_escape(t.col_labels[c]),
-                                format_number(r[c].median));
-          }
-        }
+  if (cols.empty()) return "";
+  // Rows and the variants compared in each (with their number of sweep points), first seen.
+  std::vector<std::string> rows;
+  std::map<std::string, std::vector<std::pair<std::string, int>>> compared;
+  bool any_swept = false, any_incomparable = false;
+  for (const Column& c : cols) {
+    for (const VariantBest& b : c.bests) {
+      if (std::find(rows.begin(), rows.end(), b.row) == rows.end()) rows.push_back(b.row);
+      auto& list = compared[b.row];
+      auto it = std::find_if(list.begin(), list.end(),
+                             [&](const auto& e) { return e.first == b.variant; });
+      if (it == list.end()) {
+        list.push_back({b.variant, b.points});
+      } else {
+        it->second = std::max(it->second, b.points);
       }
-      cells += "<td style=\"text-align:left\">" + (best.empty() ? "-" : best) + "</td>";
+      any_swept = any_swept || !b.point.empty();
     }
+  }
+  std::string body;
+  for (const std::string& row : rows) {
     std::string list;
-    for (const std::string& v : compared)
-      list += (list.empty() ? "" : ", ") + html_escape(v);
-    h += fmt::format(
+    for (const auto& [v, n] : compared[row]) {
+      list += (list.empty() ? "" : ", ") + html_escape(v) +
+              (n > 1 ? fmt::format(" ({} sweep points)", n) : "");
+    }
+    std::string cells;
+    for (const Column& c : cols) {
+      // The winners per scored kind (one kind unless the key cannot compare mesh and points).
+      std::map<std::string, std::vector<const VariantBest*>> by_kind;
+      for (const VariantBest& b : c.bests)
+        if (b.row == row)
+          by_kind[mesh_points_incomparable(c.metric) ? b.output_kind : ""].push_back(&b);
+      std::string cell;
+      for (const auto& [kind, bs] : by_kind) {
+        double best = c.better > 0 ? -INFINITY : INFINITY;
+        for (const VariantBest* b : bs)
+          best = c.better > 0 ? std::max(best, b->median) : std::min(best, b->median);
+        std::string names;
+        for (const VariantBest* b : bs) {
+          if (b->median != best) continue;
+          names += fmt::format("{}{} {}", names.empty() ? "" : ", ", html_escape(b->label()),
+                               format_number(b->median));
+        }
+        if (by_kind.size() > 1)
+          names = (kind == "mesh" ? "mesh" : "point") + std::string(" outputs: ") + names;
+        cell += (cell.empty() ? "" : "<br>") + names;
+      }
+      if (by_kind.size() > 1) {
+        any_incomparable = true;
+        cell += "<br><i>mesh and point outputs not comparable on this key</i>";
+      }
+      cells += "<td style=\"text-align:left\">" + (cell.empty() ? "-" : cell) + "</td>";
+    }
+    body += fmt::format(
         "<tr><td style=\"text-align:left\">{}</td><td style=\"text-align:left\">{}"
         "</td>{}</tr>\n",
         html_escape(row), list, cells);
   }
+  std::string h =
+      "<h2>What was compared and what won</h2>\n<p class=\"aggregates\">Each value: the median "
+      "over "
+      "the seeds of one variant and sweep point (one value per job; time.* over every timing "
+      "sample)";
+  if (any_swept) {
+    h += "; each swept variant at its best sweep point (the argmin, or the argmax where higher is "
+         "better, over its points, named with the point's value), then the best variant";
+  }
+  h += ".";
+  if (any_incomparable) {
+    h += " Mesh outputs are scored on samples of their surface and point outputs on their own "
+         "points: on the keys marked, each kind has its own winner.";
+  }
+  h += "</p>\n<table id=\"winners\"><tr><th>dataset</th><th>compared</th>";
+  for (const Column& c : cols)
+    h += fmt::format("<th>{} ({})</th>", html_escape(c.metric), c.better > 0 ? "higher" : "lower");
+  h += "</tr>\n" + body;
   return h + "</table>\n";
 }
 
@@ -504,12 +589,36 @@ namespace {
 /// The quantities the report shows: "report": {"metrics": [...]} of the config, else the main
 /// ones present among the ok records (point outputs, then the surface metrics of mesh outputs:
 /// surface.h, mesh_facts.h), else the records' default metric unless it is time.total.
+/// A configured name no record holds (a typo would plot nothing) is a ParamError naming `where`
+/// (the config's "report" object) with a suggestion; so is an "x" that is no swept key.
 std::vector<std::string> report_metrics(const Json& report_cfg, const std::vector<Json>& records,
-                                        const std::vector<const Json*>& ok) {
+                                        const std::vector<const Json*>& ok,
+                                        const std::string& where) {
   std::vector<std::string> metrics;
+  if (report_cfg.contains("x") && report_cfg["x"].is_string() && !ok.empty()) {
+    const std::string x = report_cfg["x"].get<std::string>();
+    std::set<std::string> swept;
+    for (const Json* r : ok) {
+      const Json point = r->value("point", Json::object());
+      for (const auto& item : point.items())
+        swept.insert(item.key());
+    }
+    if (!swept.count(x)) {
+      throw ParamError(fmt::format("{}/x: '{}' is no swept key of the records{}", where, x,
+                                   did_you_mean(x, {swept.begin(), swept.end()})));
+    }
+  }
   if (report_cfg.contains("metrics") && report_cfg["metrics"].is_array()) {
-    for (const auto& m : report_cfg["metrics"])
-      if (m.is_string()) metrics.push_back(m.get<std::string>());
+    const Json& list = report_cfg["metrics"];
+    for (std::size_t i = 0; i < list.size(); ++i) {
+      if (!list[i].is_string()) {
+        throw ParamError(
+            fmt::format("{}/metrics/{}: expected a metric key, got {}", where, i, list[i].dump()));
+      }
+      const std::string m = list[i].get<std::string>();
+      if (!ok.empty()) check_quantity(records, m, fmt::format("{}/metrics/{}", where, i));
+      metrics.push_back(m);
+    }
     return metrics;
   }
   for (const char* m : {"p2plane_mean_rel", "nn_dist_cv", "chamfer_rel", "fscore",
@@ -672,7 +781,8 @@ std::vector<SweepGroup> sweep_groups(const std::vector<const Json*>& ok, const J
 
 /// Each shown quantity and time.total against the group's first swept key, one line per value
 /// of the other swept keys.
-std::string sweep_plots(const SweepGroup& g, const std::vector<std::string>& metrics) {
+std::string sweep_plots(const SweepGroup& g, const std::vector<std::string>& metrics,
+                        const std::vector<const SweepGroup*>& unswept) {
   std::string html;
   const std::string& xkey = g.keys.front();
   std::vector<std::string> skeys;
@@ -683,8 +793,16 @@ std::string sweep_plots(const SweepGroup& g, const std::vector<std::string>& met
   plot_metrics.push_back("time.total");
   for (const auto& m : plot_metrics) {
     const auto series = build_series(g.records, xkey, skeys, m, false);
-    const std::string svg = line_plot(
-        fmt::format("{}: {} vs {} ({})", g.variant, m, short_key(xkey), g.group), xkey, m, series);
+    std::vector<RefLine> refs;
+    for (const SweepGroup* u : unswept) {
+      std::vector<double> ys;
+      for (const Json* r : u->records)
+        if (const double y = record_value(*r, m); std::isfinite(y)) ys.push_back(y);
+      if (!ys.empty()) refs.push_back({u->variant, median(ys)});
+    }
+    const std::string svg =
+        line_plot(fmt::format("{}: {} vs {} ({})", g.variant, m, short_key(xkey), g.group), xkey, m,
+                  series, refs);
     if (!svg.empty()) html += svg + "\n";
   }
   return html;
@@ -750,22 +868,39 @@ std::string compression_plot(const SweepGroup& g, const std::vector<std::string>
 std::string sweep_sections(const std::vector<const Json*>& ok, const Json& report_cfg,
                            const std::vector<std::string>& metrics) {
   std::string sweep_html, heat_html, comp_html;
-  for (const SweepGroup& g : sweep_groups(ok, report_cfg)) {
+  const std::vector<SweepGroup> groups = sweep_groups(ok, report_cfg);
+  for (const SweepGroup& g : groups) {
     if (!g.keys.empty()) {
-      sweep_html += sweep_plots(g, metrics);
+      // The variants run without a sweep on the same data: reference lines.
+      std::vector<const SweepGroup*> unswept;
+      for (const SweepGroup& u : groups) {
+        if (u.group != g.group || u.variant == g.variant) continue;
+        const bool no_point = std::all_of(u.records.begin(), u.records.end(), [](const Json* r) {
+          return r->value("point", Json::object()).empty();
+        });
+        if (no_point) unswept.push_back(&u);
+      }
+      sweep_html += sweep_plots(g, metrics, unswept);
       if (g.keys.size() == 2 && !metrics.empty()) heat_html += sweep_heatmaps(g, metrics);
     }
     comp_html += compression_plot(g, metrics);
   }
   std::string h;
   if (!sweep_html.empty()) {
-    h += "<h2>Sweeps</h2>\n<div class=\"plots\" id=\"sweeps\">\n" + sweep_html + "</div>\n";
+    h += "<h2>Sweeps</h2>\n<p class=\"aggregates\">Each marker: the median over the seeds of one "
+         "sweep point (time.total: of each job's median over its repeats); dashed lines: the "
+         "variants run "
+         "without a sweep on the same dataset and scanner (median over their seeds).</p>\n"
+         "<div class=\"plots\" id=\"sweeps\">\n" +
+         sweep_html + "</div>\n";
   }
   if (!comp_html.empty()) {
     h += "<h2>Error against compression</h2>\n<div class=\"plots\">\n" + comp_html + "</div>\n";
   }
   if (!heat_html.empty()) {
-    h += "<h2>Heatmaps</h2>\n<div class=\"plots\" id=\"heatmaps\">\n" + heat_html + "</div>\n";
+    h += "<h2>Heatmaps</h2>\n<p class=\"aggregates\">Each cell: one sweep point, the median over "
+         "its seeds.</p>\n<div class=\"plots\" id=\"heatmaps\">\n" +
+         heat_html + "</div>\n";
   }
   return h;
 }
@@ -983,42 +1118,78 @@ std::string cost_section(const std::vector<const Json*>& ok, const Json& report_
          "</div>\n<div class=\"plots\" id=\"cost-plots\">\n" + plots + "</div>\n";
 }
 
-/// Error histograms: per dataset/scanner group, one line per variant (first sweep point, first
-/// seed), normalised to fractions of the points.
+/// Error histograms per dataset/scanner group (the first seed of each job, normalised to
+/// fractions of the points): one plot of the unswept variants (a line each), and per swept
+/// variant plots of its sweep points (a line per point, labelled with it; at most 10 a plot).
 std::string histograms_section(const std::vector<const Json*>& ok) {
-  std::string hist_html;
-  std::map<std::string, std::map<std::string, std::map<std::string, const Json*>>> firsts;
+  struct Entry {
+    std::string variant, point;
+    const Json* record;
+  };
   std::vector<std::string> hist_names;
+  std::map<std::string, std::map<std::string, std::vector<Entry>>> entries;  // name, group
   for (const Json* r : ok) {
     const Json hists = r->value("histograms", Json::object());
     for (const auto& [hn, hv] : hists.items()) {
+      if (!hv.is_object() || !hv.contains("counts") || !hv["counts"].is_array()) continue;
       if (std::find(hist_names.begin(), hist_names.end(), hn) == hist_names.end()) {
         hist_names.push_back(hn);
       }
-      auto& slot = firsts[hn][group_of(*r)];
-      const std::string v = field_value(*r, "variant");
-      if (!slot.count(v)) slot[v] = r;
+      auto& list = entries[hn][group_of(*r)];
+      const std::string v = field_value(*r, "variant"), p = field_value(*r, "point");
+      const bool seen = std::any_of(list.begin(), list.end(),
+                                    [&](const Entry& e) { return e.variant == v && e.point == p; });
+      if (!seen) list.push_back({v, p, r});
     }
   }
+  std::string hist_html;
+  auto plot = [&](const std::string& title, const std::string& hn,
+                  const std::vector<std::pair<std::string, const Json*>>& lines) {
+    std::vector<Series> series;
+    std::string unit;
+    for (const auto& [name, r] : lines) {
+      const Json& hj = (*r)["histograms"][hn];
+      unit = hj.value("unit", std::string());
+      series.push_back(histogram_series(name, hj));
+    }
+    const std::string svg = line_plot(title, hn + (unit.empty() ? "" : " [" + unit + "]"),
+                                      "fraction of points", series);
+    if (!svg.empty()) hist_html += svg + "\n";
+  };
+  constexpr std::size_t kPerPlot = 10;
   for (const auto& hn : hist_names) {
-    for (const auto& [group, by_v] : firsts[hn]) {
-      std::vector<Series> series;
-      std::string unit;
-      for (const auto& [v, r] : by_v) {
-        const Json& hj = (*r)["histograms"][hn];
-        if (!hj.contains("counts") || !hj["counts"].is_array()) continue;
-        unit = hj.value("unit", std::string());
-        series.push_back(histogram_series(v, hj));
+    for (const auto& [group, list] : entries[hn]) {
+      std::vector<std::pair<std::string, const Json*>> unswept;
+      std::vector<std::string> swept_order;
+      std::map<std::string, std::vector<std::pair<std::string, const Json*>>> swept;
+      for (const Entry& e : list) {
+        if (e.point.empty()) {
+          unswept.push_back({e.variant, e.record});
+          continue;
+        }
+        if (!swept.count(e.variant)) swept_order.push_back(e.variant);
+        swept[e.variant].push_back({e.point, e.record});
       }
-      const std::string svg =
-          line_plot(fmt::format("{} histogram ({})", hn, group),
-                    hn + (unit.empty() ? "" : " [" + unit + "]"), "fraction of points", series);
-      if (!svg.empty()) hist_html += svg + "\n";
+      if (!unswept.empty()) plot(fmt::format("{} histogram ({})", hn, group), hn, unswept);
+      for (const auto& v : swept_order) {
+        const auto& pts = swept[v];
+        for (std::size_t from = 0; from < pts.size(); from += kPerPlot) {
+          const std::size_t to = std::min(pts.size(), from + kPerPlot);
+          const std::string which = pts.size() <= kPerPlot ? "per sweep point"
+                                                           : fmt::format("sweep points {}-{} of {}",
+                                                                         from + 1, to, pts.size());
+          plot(fmt::format("{} histogram ({}): {}, {}", hn, group, v, which), hn,
+               {pts.begin() + static_cast<std::ptrdiff_t>(from),
+                pts.begin() + static_cast<std::ptrdiff_t>(to)});
+        }
+      }
     }
   }
   if (hist_html.empty()) return "";
-  return "<h2>Error histograms</h2>\n<div class=\"plots\" id=\"histograms\">\n" + hist_html +
-         "</div>\n";
+  return "<h2>Error histograms</h2>\n<p class=\"aggregates\">Each line: one job (its first "
+         "seed); a swept variant has a line per sweep point, labelled with the point.</p>\n"
+         "<div class=\"plots\" id=\"histograms\">\n" +
+         hist_html + "</div>\n";
 }
 
 /// Every job with its status, sizes and links to its files (artifacts, and any .vdb, .png or
@@ -1067,7 +1238,8 @@ fs::path write_report(const fs::path& dir, const fs::path& out_arg, const fs::pa
   std::vector<const Json*> ok;
   for (const auto& r : records)
     if (is_ok(r)) ok.push_back(&r);
-  const std::vector<std::string> metrics = report_metrics(report_cfg, records, ok);
+  const std::vector<std::string> metrics =
+      report_metrics(report_cfg, records, ok, (dir / "config.json").string() + ": /config/report");
 
   std::string h = head_section(name, cfg, records);
   h += winners_section(records, metrics);

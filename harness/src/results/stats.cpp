@@ -92,4 +92,20 @@ MannWhitneyResult mann_whitney_u(const std::vector<double>& a, const std::vector
   return r;
 }
 
+double mann_whitney_min_p(int n1, int n2) {
+  if (n1 <= 0 || n2 <= 0) return 1.0;
+  // The test itself on the most extreme arrangement, so the bound follows whichever branch
+  // (exact or normal approximation) the test takes at these sizes.
+  std::vector<double> a(static_cast<std::size_t>(n1)), b(static_cast<std::size_t>(n2));
+  std::iota(a.begin(), a.end(), 0.0);
+  std::iota(b.begin(), b.end(), static_cast<double>(n1));
+  return mann_whitney_u(a, b).p;
+}
+
+int mann_whitney_repeats_needed(double alpha) {
+  for (int n = 1; n <= 1000; ++n)
+    if (mann_whitney_min_p(n, n) < alpha) return n;
+  return 0;
+}
+
 }  // namespace scanbench::harness

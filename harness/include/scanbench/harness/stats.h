@@ -18,4 +18,12 @@ struct MannWhitneyResult {
 /// least 4 repeats on each side.
 MannWhitneyResult mann_whitney_u(const std::vector<double>& a, const std::vector<double>& b);
 
+/// The smallest p-value mann_whitney_u can give with n1 and n2 samples: that of two fully
+/// separated samples (no ties), e.g. 2 / C(4, 2) = 0.333 for 2 vs 2, 0.1 for 3 vs 3, 0.0286 for
+/// 4 vs 4. 1 when either is 0.
+double mann_whitney_min_p(int n1, int n2);
+/// The fewest samples per side (n vs n) at which mann_whitney_min_p(n, n) < alpha; alpha in
+/// (0, 1]. 0 when even 1000 per side cannot (alpha below about 1e-300).
+int mann_whitney_repeats_needed(double alpha);
+
 }  // namespace scanbench::harness
