@@ -239,7 +239,7 @@ TEST(FolderRecords, ADamagedRunsJsonlIsCheckedAgainstJobs) {
   auto r = sh(sb() + " table " + out.string() + " --format csv", false);
   EXPECT_EQ(r.code, 0);
   EXPECT_EQ(r.out, table_csv);
-  r = sh(sb() + " table " + out.string() + " --format csv 2>&1 >/dev/null");
+  r = sh("sh -c '" + sb() + " table " + out.string() + " --format csv 2>&1 >/dev/null'");
   EXPECT_NE(r.out.find("holds 2 records, jobs/ 4; using the records in jobs/"), std::string::npos)
       << r.out;
 
@@ -284,9 +284,11 @@ TEST(JobProcesses, ADaemonisedChildOfAnExternalStepEndsWithItsJob) {
   const auto recs = by_variant(read_jsonl(dir / "out" / "runs.jsonl"));
   EXPECT_EQ(recs.at("ok")["status"], "ok") << recs.at("ok").dump();
   EXPECT_EQ(recs.at("hang")["status"], "timeout") << recs.at("hang").dump();
-  const auto left = sh("pgrep -f " + marker);
+  // "[d]" matches the daemon's command line but not this pattern in pgrep's own shell.
+  const std::string pattern = "scanbench-[d]aemon-" + std::to_string(getpid());
+  const auto left = sh("pgrep -af '" + pattern + "'");
   EXPECT_NE(left.code, 0) << "daemons left: " << left.out;
-  sh("pkill -f " + marker);
+  sh("pkill -f '" + pattern + "'");
 }
 
 // A failed job makes `run` exit 4 with the failed jobs and their reasons last, and says how to run
