@@ -9,6 +9,9 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <limits>
 #include <string>
 
 #include "scanbench/algorithms/cgal_reconstruction.h"
@@ -124,6 +127,114 @@ TEST(Poisson, CommandLineWritesAClosedMesh) {
                           " -o " + (dir / "x.ply").string() + " 2> /dev/null";
   EXPECT_NE(std::system(bad.c_str()), 0);
   EXPECT_FALSE(fs::exists(dir / "x.ply"));
+  fs::remove_all(dir);
+}
+
+// The unit octahedron: 6 vertices (+-x, +-y, +-z), 8 outward faces, 4 at each vertex.
+TriangleMesh octahedron() {
+  TriangleMesh m;
+  m.vertices.resize(3, 6);
+  m.vertices << 1, -1, 0, 0, 0, 0, 0, 0, 1, -1, 0, 0, 0, 0, 0, 0, 1, -1;
+  m.faces.resize(3, 8);
+  m.faces << 0, 2, 1, 3, 2, 1, 3, 0,  //
+      2, 1, 3, 0, 0, 2, 1, 3,         //
+      4, 4, 4, 4, 5, 5, 5, 5;
+  return m;
+}
+
+// COLMAP 3.8's PoissonRecon 8.0 can place a vertex at NaN (poisson.h): such vertices and the
+// faces using them are dropped and counted, the others keep their order and faces renumbered.
+TEST(Poisson, DropsNonFiniteVerticesAndTheFacesUsingThem) {
+  const TriangleMesh finite = octahedron();
+  const PoissonMesh same = drop_nonfinite_vertices(finite);
+  EXPECT_EQ(same.dropped_vertices, 0);
+  EXPECT_EQ(same.dropped_faces, 0);
+  EXPECT_EQ(same.mesh.vertices, finite.vertices);
+  EXPECT_EQ(same.mesh.faces, finite.faces);
+
+  TriangleMesh m = octahedron();
+  m.vertices(1, 2) = std::numeric_limits<float>::quiet_NaN();  // +y
+  const PoissonMesh r = drop_nonfinite_vertices(m);
+  EXPECT_EQ(r.read_vertices, 6);
+  EXPECT_EQ(r.read_faces, 8);
+  EXPECT_EQ(r.dropped_vertices, 1);
+  EXPECT_EQ(r.dropped_faces, 4);
+  ASSERT_EQ(r.mesh.num_vertices(), 5);
+  ASSERT_EQ(r.mesh.num_faces(), 4);
+  EXPECT_TRUE(r.mesh.vertices.allFinite());
+  EXPECT_NO_THROW(r.mesh.validate("test"));
+  // The kept faces are the original faces without vertex 2, by position.
+  for (Eigen::Index f = 0, k = 0; f < m.num_faces(); ++f) {
+    if ((m.faces.col(f).array() == 2).any()) continue;
+    for (int c = 0; c < 3; ++c) {
+      EXPECT_EQ(r.mesh.vertices.col(r.mesh.faces(c, k)), m.vertices.col(m.faces(c, f)));
+    }
+    ++k;
+  }
+  // The open hole: the 4 edges of the square around +y are boundary edges now.
+  EXPECT_FALSE(r.mesh.is_closed_and_oriented());
+}
+
+// PoissonRecon's PLY (float x y z, uchar red green blue, face list uchar int) with a NaN vertex:
+// read_mesh refuses it; read_poisson_mesh drops and counts; a truncated file stays an IoError.
+TEST(Poisson, ReadsPoissonReconsPlyDroppingNaNVertices) {
+  const fs::path dir = fs::temp_directory_path() / ("sb_poisson_nan_" + std::to_string(getpid()));
+  fs::create_directories(dir);
+  TriangleMesh m = octahedron();
+  m.vertices.col(5).setConstant(std::numeric_limits<float>::quiet_NaN());  // -z
+  std::string bytes =
+      "ply\nformat binary_little_endian 1.0\nelement vertex 6\nproperty float x\nproperty "
+      "float y\nproperty float z\nproperty uchar red\nproperty uchar green\nproperty uchar "
+      "blue\nelement face 8\nproperty list uchar int vertex_indices\nend_header\n";
+  for (Eigen::Index v = 0; v < 6; ++v) {
+    bytes.append(reinterpret_cast<const char*>(m.vertices.col(v).data()), 3 * sizeof(float));
+    bytes.append(3, static_cast<char>(128));
+  }
+  for (Eigen::Index f = 0; f < 8; ++f) {
+    bytes.push_back(3);
+    bytes.append(reinterpret_cast<const char*>(m.faces.col(f).data()), 3 * sizeof(int));
+  }
+  const auto write = [&](const fs::path& p, const std::string& b) {
+    std::ofstream(p, std::ios::binary) << b;
+  };
+  write(dir / "nan.ply", bytes);
+  EXPECT_THROW(read_mesh(dir / "nan.ply"), IoError);
+  const PoissonMesh r = read_poisson_mesh(dir / "nan.ply");
+  EXPECT_EQ(r.dropped_vertices, 1);
+  EXPECT_EQ(r.dropped_faces, 4);
+  EXPECT_EQ(r.mesh.num_vertices(), 5);
+  EXPECT_EQ(r.mesh.num_faces(), 4);
+  EXPECT_TRUE(r.mesh.vertices.allFinite());
+  EXPECT_EQ(r.mesh.vertices, m.vertices.leftCols(5));
+  // Truncated: read_mesh's own reason, not a mesh.
+  write(dir / "cut.ply", bytes.substr(0, bytes.size() - 5));
+  const std::string cut = error_of([&] { read_poisson_mesh(dir / "cut.ply"); });
+  EXPECT_NE(cut.find("cut.ply"), std::string::npos) << cut;
+  fs::remove_all(dir);
+}
+
+// The scan: fandisk_block, preset moderate, seed 9, PCA normals. COLMAP 3.8 returns 3 NaN
+// vertices of 158841 at depth 8; the command now writes the mesh without them and says so.
+TEST(Poisson, FandiskBlockModerateSeed9GivesAMeshAndANote) {
+  const fs::path dir = fs::temp_directory_path() / ("sb_poisson_fb9_" + std::to_string(getpid()));
+  fs::create_directories(dir);
+  const std::string bin = SCANBENCH_BINARY;
+  const std::string d = dir.string();
+  const std::string cmd = bin + " scan --dataset fandisk_block --preset moderate --seed 9 -o " + d +
+                          "/scan.ply > /dev/null && " + bin + " algo normals.pca -i " + d +
+                          "/scan.ply -o " + d + "/n.ply > /dev/null && " + bin +
+                          " algo reconstruct.poisson -i " + d + "/n.ply -o " + d + "/m.ply 2> " +
+                          d + "/err.txt > /dev/null";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+  std::ifstream err(dir / "err.txt");
+  const std::string note((std::istreambuf_iterator<char>(err)), std::istreambuf_iterator<char>());
+  EXPECT_NE(note.find("reconstruct.poisson: note: colmap poisson_mesher (PoissonRecon 8.0) "
+                      "placed 3 of 158841 vertices at NaN; dropped them and the "),
+            std::string::npos)
+      << note;
+  const TriangleMesh m = read_mesh(dir / "m.ply");
+  EXPECT_EQ(m.num_vertices(), 158841 - 3);
+  EXPECT_GT(m.num_faces(), 317000);
   fs::remove_all(dir);
 }
 

@@ -28,9 +28,25 @@
 // Determinism: PoissonRecon's output depends on its thread count (63520 vs 63523 vertices on
 // that sphere with 1 vs 2 threads), so it always runs with one thread (--PoissonMeshing.
 // num_threads 1): results are identical at any harness thread count. Timer: "poisson".
+//
+// Non-finite vertices (a defect of PoissonRecon 8.0, fixed upstream; COLMAP 4.0 bundles
+// PoissonRecon 18.75): when the implicit function at a cube corner equals the iso-value exactly
+// (in float), the Hermite fit along a crossing edge has its root at t = 1; COLMAP's build
+// (-ffast-math) computes it a rounding step above 1, IsoSurface's GetIsoVertex keeps no root in
+// [0, 1] and divides 0 by 0, and the clamp to [0, 1] lets the NaN through; the barycentre
+// vertices of the polygons around it (added to triangulate them) are NaN too. Later PoissonRecon
+// falls back to the linear root, t = 1: the corner, where the edge's other vertices lie. Seen on
+// an ordinary scan: fandisk_block, preset moderate, seed 9, PCA normals, depth 8 (3 of 158841
+// vertices). The handling, the same for every input: every vertex with a non-finite coordinate
+// and every face using one are dropped (read_poisson_mesh), and a one-line note on stderr (the
+// job's log in a run) gives the numbers; the mesh then has a hole there (boundary edges in
+// mesh.facts). Nothing else is changed.
+#include <filesystem>
+
 #include "scanbench/core/params.h"
 #include "scanbench/core/run_context.h"
 #include "scanbench/core/stage_data.h"
+#include "scanbench/core/triangle_mesh.h"
 
 namespace scanbench::algorithms {
 
@@ -57,5 +73,27 @@ struct PoissonParams {
 /// reconstruct.poisson. Throws InputError for points without normals, Error when colmap fails
 /// (see above). The result holds the mesh.
 StageData poisson(const StageData& in, const PoissonParams& p, RunContext& ctx);
+
+/// A mesh read from PoissonRecon's output, less its non-finite vertices.
+struct PoissonMesh {
+  TriangleMesh mesh;
+  Eigen::Index read_vertices = 0;     ///< vertices in the file
+  Eigen::Index read_faces = 0;        ///< faces in the file
+  Eigen::Index dropped_vertices = 0;  ///< vertices with a non-finite coordinate, dropped
+  Eigen::Index dropped_faces = 0;     ///< faces using one of them, dropped
+};
+
+/// Reads colmap poisson_mesher's output `ply` (PoissonRecon's PLY: binary little endian, element
+/// vertex with float x y z and any further scalars, element face with a list of vertex indices;
+/// triangles only) and drops every vertex with a non-finite coordinate and every face that uses
+/// one (drop_nonfinite_vertices). A file without such vertices gives read_mesh's mesh. Throws
+/// IoError("<ply>: ...") for a missing, truncated or malformed file, a non-triangle face or an
+/// index out of range. The mesh is not validated (it may have no face left).
+PoissonMesh read_poisson_mesh(const std::filesystem::path& ply);
+
+/// Removes every vertex of `mesh` with a non-finite coordinate and every face that uses one; the
+/// other vertices keep their order and the faces are renumbered. Sets the dropped_* counts of the
+/// result; the caller's `mesh` is moved into it.
+PoissonMesh drop_nonfinite_vertices(TriangleMesh mesh);
 
 }  // namespace scanbench::algorithms
