@@ -2,8 +2,7 @@
 
 #include <fmt/format.h>
 
-#include <fstream>
-
+#include "scanbench/core/json_text.h"
 #include "scanbench/core/paths.h"
 #include "scanbench/scanner/scanner.h"
 
@@ -12,10 +11,9 @@ namespace scanbench::scanner {
 namespace {
 
 Json read_json(const std::filesystem::path& file) {
-  std::ifstream in(file, std::ios::binary);
-  if (!in) throw IoError(fmt::format("{}: cannot open scanner preset", file.string()));
-  Json j = Json::parse(in, nullptr, /*allow_exceptions=*/false);
-  if (j.is_discarded()) throw IoError(fmt::format("{}: not valid JSON", file.string()));
+  JsonTextOptions options;
+  options.reject_duplicate_keys = true;
+  Json j = parse_json_file(file, "scanner preset", options);
   if (!j.is_object()) throw IoError(fmt::format("{}: expected a JSON object", file.string()));
   return j;
 }

@@ -5,13 +5,12 @@
 
 #include <algorithm>
 #include <cmath>
-#include <fstream>
 #include <regex>
 #include <set>
-#include <sstream>
 
 #include "config/json_checks.h"
 #include "scanbench/core/errors.h"
+#include "scanbench/core/json_text.h"
 #include "scanbench/harness/experiment.h"
 
 namespace scanbench::harness {
@@ -256,6 +255,7 @@ Claim parse_claim(const Json& j, const std::string& where, const std::string& de
   }
   Claim c;
   c.id = get_string(j, "id", w0, false, default_id);
+  check_label(c.id, w0 + (j.contains("id") ? "/id" : "/"));  // DIR/<id>/ in `scanbench claims`
   c.claim = get_string(j, "claim", w0, true);
   c.source = get_string(j, "source", w0, true);
   c.paper = get_string(j, "paper", w0, false, "");
@@ -292,16 +292,10 @@ Claim parse_claim(const Json& j, const std::string& where, const std::string& de
 }
 
 Claim load_claim(const fs::path& file) {
-  std::ifstream in(file);
-  if (!in) throw IoError(fmt::format("{}: cannot open claim file", file.string()));
-  std::stringstream ss;
-  ss << in.rdbuf();
-  Json j;
-  try {
-    j = Json::parse(ss.str(), nullptr, true, /*ignore_comments=*/true);
-  } catch (const std::exception& e) {
-    throw IoError(fmt::format("{}: not valid JSON: {}", file.string(), e.what()));
-  }
+  JsonTextOptions options;
+  options.ignore_comments = true;
+  options.reject_duplicate_keys = true;
+  const Json j = parse_json_file(file, "claim file", options);
   Claim c = parse_claim(j, file.string(), file.stem().string());
   c.file = file;
   return c;

@@ -2,11 +2,11 @@
 
 #include <cstdlib>
 #include <filesystem>
-#include <fstream>
 #include <vector>
 
 #include "scanbench/core/errors.h"
 #include "scanbench/core/io.h"
+#include "scanbench/core/json_text.h"
 #include "scanbench/core/run_program.h"
 #include "scanbench/harness/chain.h"
 
@@ -57,10 +57,15 @@ StageData run_in_own_process(const std::string& exe,
   if (!produced.kinds().has(io.primary)) {
     throw Error(entry.name + ": scanbench algo produced no " + std::string(kind_name(io.primary)));
   }
-  std::ifstream t(timings);
-  const Json record = Json::parse(t);
-  for (const auto& [phase, seconds] : record.at("phases").items())
+  const Json record = parse_json_file(timings, "timings of scanbench algo");
+  const Json phases = record.is_object() ? record.value("phases", Json()) : Json();
+  if (!phases.is_object()) throw IoError(timings.string() + ": expected an object \"phases\"");
+  for (const auto& [phase, seconds] : phases.items()) {
+    if (!seconds.is_number()) {
+      throw IoError(timings.string() + ": /phases/" + phase + ": expected a number of seconds");
+    }
     ctx.add_phase_time(phase, seconds.get<double>());
+  }
   return StageData::carry(std::move(produced), input, io.produces);
 }
 

@@ -1,12 +1,18 @@
 #include "scanbench/harness/plugins.h"
 
 #include <dlfcn.h>
+#include <elf.h>
 #include <fmt/format.h>
+#include <link.h>
 #include <openssl/evp.h>
 
 #include <algorithm>
+#include <cerrno>
+#include <cstdint>
 #include <cstdlib>
+#include <cstring>
 #include <fstream>
+#include <limits>
 #include <memory>
 #include <set>
 
@@ -85,6 +91,80 @@ void check_entries(const fs::path& file, const Collector& c) {
 
 using Handle = std::unique_ptr<void, int (*)(void*)>;
 
+/// Refuses a file that dlopen could not map whole (IoError, one line). The loader maps each
+/// segment of the file's program headers; a segment that ends beyond the end of the file (a
+/// truncated copy, a download cut short) is mapped all the same, and its first touch beyond
+/// the end raises SIGBUS inside dlopen. So before dlopen: the ELF header (magic, this build's
+/// class and byte order, a shared object), the program header table and every segment's file
+/// bytes are checked against the file's size. No library reads ELF headers without also mapping
+/// the file, hence <elf.h> by hand.
+void check_elf_file(const fs::path& file) {
+  using Ehdr = ElfW(Ehdr);
+  using Phdr = ElfW(Phdr);
+  std::ifstream in(file, std::ios::binary);
+  std::error_code ec;
+  const std::uint64_t size = fs::file_size(file, ec);
+  if (!in || ec) {
+    throw IoError(fmt::format("plugin {}: cannot read: {}", file.string(),
+                              ec ? ec.message() : std::strerror(errno)));
+  }
+  const auto incomplete = [&](const std::string& what, std::uint64_t end) {
+    throw IoError(fmt::format(
+        "plugin {}: not a complete shared library ({} ends at byte {}, beyond the file's {} bytes)",
+        file.string(), what, end, size));
+  };
+  Ehdr eh{};
+  if (size < sizeof eh) {
+    if (size >= SELFMAG) {
+      char magic[SELFMAG];
+      if (in.read(magic, SELFMAG) && std::memcmp(magic, ELFMAG, SELFMAG) == 0) {
+        incomplete("the ELF header", sizeof eh);
+      }
+    }
+    throw IoError(fmt::format("plugin {}: not a shared library (no ELF header)", file.string()));
+  }
+  in.read(reinterpret_cast<char*>(&eh), sizeof eh);
+  if (!in || std::memcmp(eh.e_ident, ELFMAG, SELFMAG) != 0) {
+    throw IoError(fmt::format("plugin {}: not a shared library (no ELF header)", file.string()));
+  }
+  constexpr unsigned char kClass = sizeof(void*) == 8 ? ELFCLASS64 : ELFCLASS32;
+  constexpr unsigned char kData =
+      __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__ ? ELFDATA2LSB : ELFDATA2MSB;
+  if (eh.e_ident[EI_CLASS] != kClass || eh.e_ident[EI_DATA] != kData) {
+    throw IoError(fmt::format("plugin {}: an ELF file for another kind of machine ({}-bit, {})",
+                              file.string(), eh.e_ident[EI_CLASS] == ELFCLASS64 ? 64 : 32,
+                              eh.e_ident[EI_DATA] == ELFDATA2LSB ? "little-endian" : "big-endian"));
+  }
+  if (eh.e_type != ET_DYN) {
+    throw IoError(fmt::format("plugin {}: not a shared library (ELF type {}, expected {})",
+                              file.string(), eh.e_type, ET_DYN));
+  }
+  if (eh.e_phnum == 0 || eh.e_phentsize != sizeof(Phdr)) {
+    throw IoError(fmt::format("plugin {}: not a shared library ({} program headers of {} bytes)",
+                              file.string(), eh.e_phnum, eh.e_phentsize));
+  }
+  // Offsets come from the file: compared as differences, so no sum can wrap around.
+  const std::uint64_t table = std::uint64_t{eh.e_phnum} * sizeof(Phdr);
+  if (eh.e_phoff > size || table > size - eh.e_phoff) {
+    incomplete("the program header table",
+               eh.e_phoff > std::numeric_limits<std::uint64_t>::max() - table ? eh.e_phoff
+                                                                              : eh.e_phoff + table);
+  }
+  std::vector<Phdr> ph(eh.e_phnum);
+  in.seekg(static_cast<std::streamoff>(eh.e_phoff));
+  in.read(reinterpret_cast<char*>(ph.data()), static_cast<std::streamsize>(table));
+  if (!in) throw IoError(fmt::format("plugin {}: cannot read its program headers", file.string()));
+  for (std::size_t i = 0; i < ph.size(); ++i) {
+    if (ph[i].p_offset > size || ph[i].p_filesz > size - ph[i].p_offset) {
+      const std::uint64_t end =
+          ph[i].p_offset > std::numeric_limits<std::uint64_t>::max() - ph[i].p_filesz
+              ? ph[i].p_offset
+              : ph[i].p_offset + ph[i].p_filesz;
+      incomplete(fmt::format("program header {}", i), end);
+    }
+  }
+}
+
 void* symbol(void* handle, const fs::path& file, const char* name) {
   dlerror();
   void* s = dlsym(handle, name);
@@ -142,6 +222,7 @@ const LoadedPlugin& load_plugin(const fs::path& file, const std::string& origin)
   lp.path = path;
   lp.origin = origin;
   lp.sha256 = file_sha256(path);
+  check_elf_file(path);
 
   // RTLD_NOW: an unresolved symbol is this error, not a crash in the middle of a job.
   dlerror();

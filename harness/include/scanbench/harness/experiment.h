@@ -107,7 +107,26 @@ struct Experiment {
   Json raw;                             ///< the config as read
 };
 
-/// Reads and validates a config file. Throws IoError (unreadable, not JSON) or ParamError.
+/// The longest label or name a config may give (bytes). Experiment names, dataset, scanner,
+/// step and variant labels and claim ids become parts of file and folder names (results/<name>,
+/// OUT/tuning-<variant>, DIR/<claim id>) and of table cells.
+inline constexpr std::size_t kMaxLabelLength = 100;
+
+/// Throws ParamError "<where>: "<label>" <why>" unless `label` is safe as one component of a
+/// path inside a results folder: not empty, at most kMaxLabelLength bytes, no '/' or '\\', not
+/// "." or "..", no control character (bytes below 0x20 and 0x7f). Every label and name is checked
+/// when a config or claim file is parsed, so no user text can lead a write out of the folder.
+void check_label(const std::string& label, const std::string& where);
+
+/// The most jobs one experiment may expand to. The job count (datasets x scanners x variants x
+/// sweep points x seeds, each sweep's points counted before duplicates are merged) is computed
+/// with saturating arithmetic when the config is parsed, before any job is built, so a sweep
+/// product of 1e12 is refused in one line instead of exhausting memory.
+inline constexpr std::uint64_t kMaxJobs = 100000;
+
+/// Reads and validates a config file. Throws IoError (unreadable, not JSON, nested deeper than
+/// kJsonMaxDepth, core/json_text.h) or ParamError (a duplicate key, an invalid value or label,
+/// more than kMaxJobs jobs).
 Experiment load_experiment(const std::filesystem::path& file);
 /// Validates a parsed config; `where` prefixes messages (usually the file name).
 Experiment parse_experiment(const Json& config, const std::string& where);
