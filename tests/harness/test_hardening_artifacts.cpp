@@ -15,6 +15,8 @@
 #include <vector>
 
 #include "cli_test_util.h"
+#include "scanbench/core/errors.h"
+#include "scanbench/core/files.h"
 #include "scanbench/core/params.h"
 #include "scanbench/metrics/distance_field.h"
 
@@ -91,9 +93,10 @@ class ArtifactsTest : public ::testing::Test {
         << "mount tmpfs (the tests run as root): " << std::strerror(errno);
     mounted_ = true;
   }
-  void resize_disk(const std::string& size) {
+  /// Remounts disk() with another size, or read-only.
+  void resize_disk(const std::string& size, unsigned long flags = 0) {
     const std::string opts = "size=" + size + ",mode=0755";
-    ASSERT_EQ(::mount("tmpfs", disk().c_str(), "tmpfs", MS_REMOUNT, opts.c_str()), 0)
+    ASSERT_EQ(::mount("tmpfs", disk().c_str(), "tmpfs", MS_REMOUNT | flags, opts.c_str()), 0)
         << std::strerror(errno);
   }
   /// A scan of the sphere (3.6 MB, 112,299 points) on the normal disk, the input of eval and algo.
@@ -302,4 +305,66 @@ TEST_F(ArtifactsSymlink, OutputsEntryLinkTargetUnchanged) {
   EXPECT_EQ(slurp(target), "keep");
   EXPECT_FALSE(fs::is_symlink(link));
   EXPECT_TRUE(fs::is_regular_file(link));
+}
+
+// The writer itself (core files.h), on the reasons a user meets: each message names the final
+// path and the kernel's reason; the final name keeps its old bytes and no temp is left.
+TEST_F(ArtifactsDiskFull, WriterNamesTheReason) {
+  const fs::path long_name = root_ / std::string(300, 'x');
+  try {
+    scanbench::write_file_atomic(long_name, "a");
+    ADD_FAILURE() << "no error for a 300-byte name";
+  } catch (const scanbench::IoError& e) {
+    EXPECT_NE(std::string(e.what()).find("File name too long"), std::string::npos) << e.what();
+  }
+  mount_disk("8k");
+  const fs::path f = disk() / "f.txt";
+  scanbench::write_file_atomic(f, "old");
+  try {
+    scanbench::write_file_atomic(f, std::string(64 * 1024, 'n'));
+    ADD_FAILURE() << "no error on a full disk";
+  } catch (const scanbench::IoError& e) {
+    EXPECT_EQ(std::string(e.what()), f.string() + ": cannot write: No space left on device");
+  }
+  EXPECT_EQ(slurp(f), "old");
+  resize_disk("8k", MS_RDONLY);
+  try {
+    scanbench::write_file_atomic(f, "new");
+    ADD_FAILURE() << "no error on a read-only file system";
+  } catch (const scanbench::IoError& e) {
+    EXPECT_EQ(std::string(e.what()), f.string() + ": cannot write: Read-only file system");
+  }
+  EXPECT_EQ(slurp(f), "old");
+  EXPECT_EQ(files_under(disk()), std::set<std::string>{"f.txt"});
+}
+
+// write_via_temp (a writer that can only write to a path): a failing writer's temp is removed
+// and its message names the final path; an empty result is refused; a link at the final name
+// is replaced, its target unchanged.
+TEST_F(ArtifactsSymlink, WriteViaTempChecksAndReplacesTheLink) {
+  const fs::path target = root_ / "target.txt";
+  write(target, "keep");
+  const fs::path out = root_ / "out.bin";
+  fs::create_symlink(target, out);
+  fs::path seen;
+  try {
+    scanbench::write_via_temp(out, [&](const fs::path& tmp) {
+      seen = tmp;
+      write(tmp, "part");
+      throw scanbench::IoError(tmp.string() + ": cannot encode");
+    });
+    ADD_FAILURE() << "the writer's error was lost";
+  } catch (const scanbench::IoError& e) {
+    EXPECT_EQ(std::string(e.what()), out.string() + ": cannot encode");
+  }
+  EXPECT_EQ(seen.parent_path(), root_);
+  EXPECT_TRUE(scanbench::is_temp_name(seen.filename().string())) << seen;
+  EXPECT_FALSE(fs::exists(seen));
+  EXPECT_THROW(scanbench::write_via_temp(out, [](const fs::path&) {}), scanbench::IoError);
+  EXPECT_TRUE(fs::is_symlink(out));  // both failures left the old entry
+  scanbench::write_via_temp(out, [](const fs::path& tmp) { write(tmp, "whole"); });
+  EXPECT_FALSE(fs::is_symlink(out));
+  EXPECT_EQ(slurp(out), "whole");
+  EXPECT_EQ(slurp(target), "keep");
+  EXPECT_EQ(files_under(root_), (std::set<std::string>{"out.bin", "target.txt"}));
 }
