@@ -9,7 +9,8 @@
 #                              binary the end-to-end, corpus and Slurm tests run: the whole test
 #                              suite again, sanitized. Reuses the objects an `input` build of the
 #                              same tree made (same flags for core/ and tests/).
-#   SCANBENCH_FUZZ_CONFIG=1    with `input`, also builds and fuzzes the config loader
+#   SCANBENCH_FUZZ_CONFIG=1    with `input`, also builds and fuzzes the config loader and the
+#                              record readers (fuzz_experiment, fuzz_records: they need the harness)
 #   SCANBENCH_FUZZ_SECONDS=N   each fuzz target's time (default 20)
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -30,9 +31,9 @@ if [ "$scope" = all ]; then
   (cd "$san" && ctest --output-on-failure -j"$(nproc)" --timeout 1800)
 else
   targets=(test_core test_core_io fuzz_readers fuzz_stage_file)
-  skip='_NOT_BUILT$|FuzzSmoke.fuzz_experiment'
+  skip='_NOT_BUILT$|FuzzSmoke.fuzz_experiment|FuzzSmoke.fuzz_records'
   if [ "${SCANBENCH_FUZZ_CONFIG:-0}" = 1 ]; then
-    targets+=(fuzz_experiment)
+    targets+=(fuzz_experiment fuzz_records)
     skip='_NOT_BUILT$'
   fi
   cmake --build "$san" -j"$(nproc)" --target "${targets[@]}"
