@@ -2,6 +2,7 @@
 // another experiment refused, nothing written through links, leftovers removed, runs.jsonl
 // checked against jobs/, a job's daemonised children ended with it, environment errors as exit 2,
 // failed jobs as exit 4 with their reasons last.
+#include <fcntl.h>
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/stat.h>
@@ -308,4 +309,74 @@ TEST(RunExit, FailedJobsExitFourWithTheirReasonsLast) {
   EXPECT_EQ(r.out.find("--executor slurm"), std::string::npos) << r.out;
   r = sh(run_cmd(dir / "a.json", dir / "out", "--resume --allow-failures"), false);
   EXPECT_EQ(r.code, 0) << r.out;
+}
+
+// Ctrl-C (SIGINT to the run): the running jobs are stopped and recorded "interrupted", the run
+// exits 130 saying how to resume, and --resume completes it.
+TEST(RunExit, InterruptedRunSaysHowToResume) {
+  const fs::path dir = make_temp_dir("sigint");
+  write(dir / "a.json", small_config("sigint", 3, 3000));
+  const fs::path out = dir / "out";
+  const std::string log = (dir / "run.log").string();
+  const pid_t pid = fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    setenv("SCANBENCH_TEST_ALGORITHMS", "1", 1);
+    const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    dup2(fd, 1);
+    dup2(fd, 2);
+    const std::string exe = sb(), cfg = (dir / "a.json").string(), o = out.string();
+    execl(exe.c_str(), exe.c_str(), "run", cfg.c_str(), "-o", o.c_str(), "-q",
+          static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  // Once a job's child runs, interrupt.
+  for (int i = 0; i < 1000 && !fs::exists(out / "tmp"); ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  bool started = false;
+  for (int i = 0; i < 1000 && !started; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    started = fs::exists(out / "tmp") && !fs::is_empty(out / "tmp");
+  }
+  ASSERT_TRUE(started);
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  ASSERT_EQ(kill(pid, SIGINT), 0);
+  int status = 0;
+  ASSERT_EQ(waitpid(pid, &status, 0), pid);
+  ASSERT_TRUE(WIFEXITED(status)) << slurp(log);
+  EXPECT_EQ(WEXITSTATUS(status), 130) << slurp(log);
+  const std::string text = slurp(log);
+  EXPECT_NE(text.find("interrupted after"), std::string::npos) << text;
+  EXPECT_NE(text.find("-o " + out.string() + " --resume"), std::string::npos) << text;
+  int interrupted = 0;
+  for (const auto& r : read_jsonl(out / "runs.jsonl"))
+    interrupted += r["status"] == "interrupted";
+  EXPECT_GE(interrupted, 1);
+  const auto again = sh(run_cmd(dir / "a.json", out, "--resume"));
+  EXPECT_EQ(again.code, 0) << again.out;
+  const auto recs = read_jsonl(out / "runs.jsonl");
+  ASSERT_EQ(recs.size(), 3u);
+  for (const auto& r : recs)
+    EXPECT_EQ(r["status"], "ok") << r.dump();
+}
+
+// `scanbench help [CMD]`, no arguments and an unknown command.
+TEST(RunExit, HelpAndUnknownCommands) {
+  auto r = sh(sb() + " help");
+  EXPECT_EQ(r.code, 0);
+  EXPECT_NE(r.out.find("Subcommands:"), std::string::npos) << r.out;
+  r = sh(sb() + " help run");
+  EXPECT_EQ(r.code, 0);
+  EXPECT_NE(r.out.find("--allow-failures"), std::string::npos) << r.out;
+  r = sh(sb());
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.out.find("Subcommands:"), std::string::npos) << r.out;
+  r = sh(sb() + " rnu x.json");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_EQ(last_line(r.out),
+            "scanbench: unknown command 'rnu' (did you mean 'run'?); `scanbench help` lists the "
+            "commands");
+  r = sh(sb() + " help tabel");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.out.find("did you mean 'table'?"), std::string::npos) << r.out;
 }

@@ -12,6 +12,8 @@
 #include "scanbench/core/simd.h"
 #include "scanbench/core/version.h"
 #include "scanbench/harness/plugins.h"
+#include "scanbench/harness/runner.h"
+#include "scanbench/harness/table.h"  // did_you_mean
 
 namespace scanbench::harness {
 
@@ -25,6 +27,46 @@ std::string filesystem_line(const std::filesystem::filesystem_error& e) {
   if (what.rfind(prefix, 0) == 0) what.erase(0, prefix.size());
   if (const auto at = what.find(" ["); at != std::string::npos) what.erase(at);
   return e.path1().empty() ? what : fmt::format("{}: {}", e.path1().string(), what);
+}
+
+/// Handles what CLI11 reports as "A subcommand is required": no arguments (the help, exit 2),
+/// `help` and `help CMD` (the help, exit 0), and a first argument that names no command (one line
+/// with a suggestion, exit 2). Returns -1 for everything else, which CLI11 parses.
+int help_or_unknown(const CLI::App& app, int argc, char** argv) {
+  std::vector<std::string> names;
+  for (const CLI::App* sub : app.get_subcommands([](const CLI::App* a) {
+         return !a->get_group().empty();  // the hidden ones (job, slurm-task) are not offered
+       })) {
+    names.push_back(sub->get_name());
+  }
+  auto unknown = [&](const std::string& name) {
+    std::fprintf(stderr, "scanbench: unknown command '%s'%s; `scanbench help` lists the commands\n",
+                 name.c_str(), did_you_mean(name, names).c_str());
+    return 2;
+  };
+  if (argc < 2) {
+    std::fputs(app.help().c_str(), stdout);
+    return 2;
+  }
+  const std::string first = argv[1];
+  if (first == "help") {
+    if (argc == 2) {
+      std::fputs(app.help().c_str(), stdout);
+      return 0;
+    }
+    const std::string name = argv[2];
+    for (const CLI::App* sub : app.get_subcommands({})) {
+      if (sub->get_name() == name) {
+        std::fputs(sub->help().c_str(), stdout);
+        return 0;
+      }
+    }
+    return unknown(name);
+  }
+  if (first.empty() || first.front() == '-') return -1;  // options (--version, --plugin F)
+  for (const CLI::App* sub : app.get_subcommands({}))
+    if (sub->get_name() == first) return -1;
+  return unknown(first);
 }
 
 }  // namespace
@@ -72,6 +114,8 @@ int run_cli(int argc, char** argv) {
   add_claims_command(cli);
   add_history_command(cli);
 
+  // `scanbench help [CMD]`, no command at all, and an unknown command named as such.
+  if (const int code = help_or_unknown(cli.app, argc, argv); code >= 0) return code;
   try {
     cli.app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -88,6 +132,9 @@ int run_cli(int argc, char** argv) {
   }
   try {
     return cli.action ? cli.action() : 0;
+  } catch (const Interrupted& e) {
+    std::fprintf(stderr, "scanbench: %s\n", e.what());
+    return 130;  // the shell's code for a process stopped by SIGINT
   } catch (const Error& e) {
     std::fprintf(stderr, "scanbench: %s\n", e.what());
     return 2;

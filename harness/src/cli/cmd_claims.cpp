@@ -74,6 +74,7 @@ Json run_claims(const ClaimsOptions& o) {
     ro.jobs = o.jobs;
     ro.resume = o.resume;
     ro.quiet = true;
+    ro.command = "scanbench claims";
     // One scan cache for every claim: DIR/<id>/scans is a link to DIR/scans.
     fs::create_directories(ro.out);
     if (!fs::exists(fs::symlink_status(ro.out / "scans"))) {

@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <csignal>
 #include <cstdlib>
 #include <cstring>
 #include <deque>
@@ -512,6 +513,40 @@ std::vector<Json> merge_records(const fs::path& out) {
   return records;
 }
 
+namespace {
+
+volatile std::sig_atomic_t g_interrupted = 0;
+extern "C" void on_interrupt(int) {
+  g_interrupted = 1;
+}
+
+/// SIGINT and SIGTERM handled for the life of this value (then restored): the runner stops its
+/// children and records them instead of dying with its records half-merged.
+class InterruptGuard {
+ public:
+  InterruptGuard() {
+    g_interrupted = 0;
+    struct sigaction sa {};
+    sa.sa_handler = on_interrupt;
+    sigemptyset(&sa.sa_mask);
+    sa.sa_flags = SA_RESTART;
+    sigaction(SIGINT, &sa, &old_int_);
+    sigaction(SIGTERM, &sa, &old_term_);
+  }
+  ~InterruptGuard() {
+    sigaction(SIGINT, &old_int_, nullptr);
+    sigaction(SIGTERM, &old_term_, nullptr);
+  }
+  InterruptGuard(const InterruptGuard&) = delete;
+  InterruptGuard& operator=(const InterruptGuard&) = delete;
+
+ private:
+  struct sigaction old_int_ {};
+  struct sigaction old_term_ {};
+};
+
+}  // namespace
+
 RunSummary run_experiment(const Experiment& e, const RunOptions& opts) {
   PreparedRun prep = prepare_run(e, opts);
   std::vector<const Job*> todo;
@@ -524,8 +559,33 @@ RunSummary run_experiment(const Experiment& e, const RunOptions& opts) {
                  e.name.c_str(), prep.plan.jobs.size(), prep.summary.planned, prep.summary.skipped,
                  todo.size(), opts.jobs, opts.out.string().c_str());
   }
-  run_jobs(todo, opts, prep.summary);
+  {
+    const InterruptGuard guard;
+    RunHooks hooks;
+    hooks.stop = [] { return g_interrupted != 0; };
+    // Ctrl-C reaches the children too (one process group): a job that died of it, or that the
+    // stop killed, did not fail; it was stopped, and --resume runs it again.
+    hooks.amend = [](const Job&, Json& r) {
+      if (g_interrupted && r.value("status", std::string()) != "ok") {
+        r["status"] = "interrupted";
+        r["error"] = "stopped by SIGINT/SIGTERM (Ctrl-C) before it finished";
+      }
+    };
+    run_jobs(todo, opts, prep.summary, hooks);
+  }
   merge_records(opts.out);
+  if (g_interrupted) {
+    const int done = prep.summary.by_status.count("ok") ? prep.summary.by_status.at("ok") : 0;
+    const std::string again =
+        opts.command == "scanbench run"
+            ? fmt::format("scanbench run {} -o {} --resume",
+                          e.file.empty() ? std::string("CONFIG") : e.file.string(),
+                          opts.out.string())
+            : "the same command with --resume";
+    throw Interrupted(fmt::format(
+        "{}: interrupted after {} of {} jobs; the finished ones are recorded; resume with: {}",
+        opts.out.string(), done + prep.summary.skipped, prep.summary.planned, again));
+  }
   return prep.summary;
 }
 

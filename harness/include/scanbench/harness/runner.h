@@ -21,6 +21,15 @@
 
 namespace scanbench::harness {
 
+/// A run stopped by SIGINT or SIGTERM (Ctrl-C): its finished jobs are recorded and merged, the
+/// jobs it stopped are recorded "interrupted" (`--resume` runs them again). Message: "DIR:
+/// interrupted after N of M jobs; resume with: scanbench run CONFIG -o DIR --resume". The CLI
+/// exits 130.
+class Interrupted : public Error {
+ public:
+  using Error::Error;
+};
+
 struct RunOptions {
   std::filesystem::path out;              ///< results folder
   int jobs = 1;                           ///< concurrent child processes
