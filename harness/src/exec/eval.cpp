@@ -57,13 +57,22 @@ EvalResult eval_point_truth(const EvalRequest& q) {
   return res;
 }
 
+/// The folder of --heatmap or --vdb; IoError with the reason (a file in the way, read-only).
+void make_folder(const fs::path& dir) {
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) {
+    throw IoError(fmt::format("{}: cannot create the folder: {}", dir.string(), ec.message()));
+  }
+}
+
 /// --heatmap DIR: the point-to-plane error of what the point metrics saw on four views, and
 /// one image per histogram of the record. Returns the files written.
 Json write_eval_images(const fs::path& dir, const metrics::GroundTruth& gt,
                        const PointCloud& points, const metrics::HeatmapParams& heat,
                        const Json& record) {
   Json images = Json::array();
-  fs::create_directories(dir);
+  make_folder(dir);
   const auto closest = gt.closest_points(points.positions);
   const Eigen::VectorXf e = metrics::point_to_plane_errors(points.positions, closest);
   const fs::path png = dir / "heatmap_p2plane.png";
@@ -83,7 +92,7 @@ Json write_eval_images(const fs::path& dir, const metrics::GroundTruth& gt,
 Json write_eval_fields(const fs::path& dir, const metrics::GroundTruth& gt,
                        const TriangleMesh* out_mesh) {
   Json fields = Json::array();
-  fs::create_directories(dir);
+  make_folder(dir);
   gt.field().write_vdb(dir / "ground_truth.vdb", "ground_truth");
   fields.push_back((dir / "ground_truth.vdb").string());
   if (out_mesh) {
