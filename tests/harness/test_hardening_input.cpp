@@ -14,6 +14,7 @@
 #include "scanbench/core/json_text.h"
 #include "scanbench/harness/claim_file.h"
 #include "scanbench/harness/experiment.h"
+#include "scanbench/harness/protocol.h"
 
 namespace scanbench::test {
 namespace {
@@ -304,6 +305,13 @@ TEST(InputLabels, ClaimIdIsALabel) {
   const std::string msg = error_of<ParamError>([&] { (void)harness::load_claim(dir / "c.json"); });
   EXPECT_NE(msg.find("c.json: /id: \"../../x\" contains '/'"), std::string::npos) << msg;
   fs::remove_all(dir);
+}
+
+TEST(InputLabels, ProtocolVariantLabelIsALabel) {
+  const Json protocol = Json::parse(R"({"variants": {"../../x": {"resample.wlop.h": {}}}})");
+  const std::string msg =
+      error_of<ParamError>([&] { (void)harness::parse_protocol(protocol, "cfg.json: /protocol"); });
+  EXPECT_EQ(msg.rfind("cfg.json: /protocol/variants: \"../../x\" contains '/'", 0), 0u) << msg;
 }
 
 // Every shipped config and claim still loads under the label, depth and job-count checks.

@@ -228,6 +228,9 @@ Protocol parse_protocol(const Json& j, const std::string& where) {
     protocol_fail(where + "/variants", "expected an object: variant label -> its parameters");
   }
   for (const auto& [label, params] : j["variants"].items()) {
+    // The label names the tuning folder OUT/tuning-<label> (resolve_protocol): checked here too,
+    // not only as a variant's label, for callers that parse a protocol on its own.
+    check_label(label, where + "/variants");
     const std::string w = where + "/variants/" + label;
     if (!params.is_object() || params.empty()) {
       protocol_fail(w, "expected an object: \"<step>.<param>\" -> its source");
