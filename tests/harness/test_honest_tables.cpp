@@ -153,6 +153,12 @@ TEST_F(HonestTables, WinnersCompareEachVariantAtItsBestSweepPoint) {
   EXPECT_NE(html.find("p2plane histogram (sphere / clean)</title>"), std::string::npos);
   // Sweep plots carry the unswept variant as a reference line.
   EXPECT_NE(html.find("<line class=\"ref\""), std::string::npos);
+  // The setup: effective parameters with the swept values, the scan size as an integer.
+  EXPECT_NE(html.find("stride=<b>{1, 2, 3, 5}</b>"), std::string::npos);
+  const std::string scan_points =
+      std::to_string(recs.front()["sizes"]["scan_points"].get<long long>());
+  EXPECT_NE(html.find("<td>" + scan_points + "</td>", html.find("id=\"setup-scans\"")),
+            std::string::npos);
 }
 
 TEST_F(HonestTables, UnknownNamesAreRefusedWithASuggestion) {

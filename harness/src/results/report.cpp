@@ -692,7 +692,8 @@ std::string baseline_section(const fs::path& dir) {
        "<th>change</th><th>p</th><th>verdict</th></tr>\n";
   for (const auto& v : cmp.value("comparisons", Json::array())) {
     const std::string verdict = v.value("verdict", std::string());
-    if (verdict != "regression" && verdict != "improvement") continue;
+    const bool undecided_notable = verdict == "not decidable" && v.value("notable", false);
+    if (verdict != "regression" && verdict != "improvement" && !undecided_notable) continue;
     auto num = [&](const char* k) {
       return v.contains(k) && v[k].is_number() ? format_number(v[k].get<double>()) : "";
     };
@@ -701,9 +702,16 @@ std::string baseline_section(const fs::path& dir) {
         "<td class=\"{}\">{}</td></tr>\n",
         html_escape(v.value("key", "")), html_escape(v.value("quantity", "")), num("base"),
         num("new"), num("change"), num("p"), verdict == "regression" ? "regression" : "",
-        html_escape(verdict));
+        html_escape(undecided_notable ? v.value("note", verdict) : verdict));
   }
-  return h + "</table>\n";
+  h += "</table>\n";
+  if (cmp.value("undecidable", 0) > 0) {
+    h += fmt::format(
+        "<p>{} timing comparisons are not decidable: too few repeats for the U test to reach its "
+        "threshold (it needs {} per side); those whose change would count are listed above.</p>\n",
+        cmp.value("undecidable", 0), cmp.value("repeats_needed", 0));
+  }
+  return h;
 }
 
 /// The jobs that failed, with their reasons and logs; empty when none did.
@@ -792,7 +800,8 @@ std::string sweep_plots(const SweepGroup& g, const std::vector<std::string>& met
   std::vector<std::string> plot_metrics = metrics;
   plot_metrics.push_back("time.total");
   for (const auto& m : plot_metrics) {
-    const auto series = build_series(g.records, xkey, skeys, m, false);
+    auto series = build_series(g.records, xkey, skeys, m, false);
+    if (series.size() == 1 && skeys.empty()) series.front().name = g.variant;
     std::vector<RefLine> refs;
     for (const SweepGroup* u : unswept) {
       std::vector<double> ys;
@@ -1192,6 +1201,102 @@ std::string histograms_section(const std::vector<const Json*>& ok) {
          hist_html + "</div>\n";
 }
 
+/// A JSON value as a setup table shows it: strings bare, floats as %g, the rest as JSON.
+std::string setup_value(const Json& v) {
+  if (v.is_string()) return v.get<std::string>();
+  if (v.is_number_float()) return fmt::format("{:g}", v.get<double>());
+  return v.dump();
+}
+
+/// What ran: per variant its chain with the effective parameters (of its first ok job; swept
+/// keys with every value they took), per dataset and scanner the scanner's settings and the scan
+/// size (median over the seeds, and the range).
+std::string setup_section(const std::vector<const Json*>& ok) {
+  if (ok.empty()) return "";
+  std::vector<std::string> variants;
+  std::map<std::string, std::vector<const Json*>> by_variant;
+  for (const Json* r : ok) {
+    const std::string v = field_value(*r, "variant");
+    if (!by_variant.count(v)) variants.push_back(v);
+    by_variant[v].push_back(r);
+  }
+  std::string h =
+      "<h2>Setup</h2>\n<table id=\"setup-variants\"><caption>Each variant's chain and effective "
+      "parameters (defaults filled in); swept parameters with every value they took</caption>"
+      "<tr><th>variant</th><th>step</th><th>parameters</th></tr>\n";
+  for (const auto& v : variants) {
+    const auto& rs = by_variant[v];
+    // Swept values per step parameter (the chain's params of each job differ only there).
+    std::map<std::string, std::vector<std::string>> values;  // "<step>/<param>" -> values
+    for (const Json* r : rs) {
+      const Json chain = (*r)["variant"].value("chain", Json::array());
+      for (std::size_t i = 0; i < chain.size(); ++i) {
+        const Json params = chain[i].value("params", Json::object());
+        for (const auto& [k, val] : params.items()) {
+          auto& vs = values[fmt::format("{}/{}", i, k)];  // in the order the jobs ran
+          if (std::find(vs.begin(), vs.end(), setup_value(val)) == vs.end())
+            vs.push_back(setup_value(val));
+        }
+      }
+    }
+    const Json chain = (*rs.front())["variant"].value("chain", Json::array());
+    for (std::size_t i = 0; i < chain.size(); ++i) {
+      std::string params;
+      const Json ps = chain[i].value("params", Json::object());
+      for (const auto& [k, val] : ps.items()) {
+        const auto& vs = values[fmt::format("{}/{}", i, k)];
+        const std::string shown =
+            vs.size() > 1
+                ? fmt::format("<b>{{{}}}</b>", html_escape(fmt::format("{}", fmt::join(vs, ", "))))
+                : html_escape(setup_value(val));
+        params += (params.empty() ? "" : ", ") + html_escape(k) + "=" + shown;
+      }
+      h += fmt::format(
+          "<tr><td style=\"text-align:left\">{}</td><td style=\"text-align:left\">{}</td>"
+          "<td style=\"text-align:left;font-size:11px\">{}</td></tr>\n",
+          i == 0 ? html_escape(v) : "", html_escape(chain[i].value("algorithm", std::string())),
+          params);
+    }
+  }
+  h += "</table>\n";
+  // Datasets and scanners.
+  std::vector<std::string> groups;
+  std::map<std::string, std::vector<const Json*>> by_group;
+  for (const Json* r : ok) {
+    const std::string g = group_of(*r);
+    if (!by_group.count(g)) groups.push_back(g);
+    by_group[g].push_back(r);
+  }
+  h += "<table id=\"setup-scans\"><caption>Each dataset and scanner: the scanner's settings and "
+       "the scan size (median over the seeds, and the range)</caption><tr><th>dataset / "
+       "scanner</th><th>preset</th><th>settings</th><th>scan points</th><th>outliers</th></tr>\n";
+  for (const auto& g : groups) {
+    const auto& rs = by_group[g];
+    auto stat = [&rs](const char* q) {
+      std::vector<double> xs;
+      for (const Json* r : rs)
+        if (const double x = record_value(*r, q); std::isfinite(x)) xs.push_back(x);
+      if (xs.empty()) return std::string("-");
+      const auto [lo, hi] = std::minmax_element(xs.begin(), xs.end());
+      return *lo == *hi ? format_number(*lo)
+                        : fmt::format("{} ({} .. {})", format_number(median(xs)),
+                                      format_number(*lo), format_number(*hi));
+    };
+    const Json scanner = (*rs.front()).value("scanner", Json::object());
+    std::string settings;
+    const Json scanner_params = scanner.value("params", Json::object());
+    for (const auto& [k, val] : scanner_params.items())
+      settings +=
+          (settings.empty() ? "" : ", ") + html_escape(k) + "=" + html_escape(setup_value(val));
+    h += fmt::format(
+        "<tr><td style=\"text-align:left\">{}</td><td>{}</td><td style=\"text-align:left;"
+        "font-size:11px\">{}</td><td>{}</td><td>{}</td></tr>\n",
+        html_escape(g), html_escape(scanner.value("preset", std::string())), settings,
+        stat("sizes.scan_points"), stat("sizes.scan_outliers"));
+  }
+  return h + "</table>\n";
+}
+
 /// Every job with its status, sizes and links to its files (artifacts, and any .vdb, .png or
 /// .exr next to its outputs).
 std::string jobs_section(const fs::path& dir, const std::vector<Json>& records) {
@@ -1255,6 +1360,7 @@ fs::path write_report(const fs::path& dir, const fs::path& out_arg, const fs::pa
   h += cost_section(ok, report_cfg);
   h += histograms_section(ok);
   if (!history_db.empty()) h += history_section(history_db, records, metrics);
+  h += setup_section(ok);
   h += jobs_section(dir, records);
   h += "<p>Generated by <code>scanbench report</code>.</p>\n</body></html>\n";
   write_file_atomic(out, h);
