@@ -318,9 +318,15 @@ void load_config_plugins(const Json& config, const fs::path& config_file) {
 }
 
 void load_spec_plugins(const Json& list) {
+  if (!list.is_array()) throw IoError("job spec: /plugins: expected a list");
   for (const auto& j : list) {
-    const LoadedPlugin& p = load_plugin(j.at("path").get<std::string>(), "job spec");
-    const std::string want = j.at("sha256").get<std::string>();
+    if (!j.is_object() || !j.value("path", Json()).is_string() ||
+        !j.value("sha256", Json()).is_string()) {
+      throw IoError("job spec: /plugins: expected {\"path\", \"sha256\"} strings, got " +
+                    j.dump().substr(0, 80));
+    }
+    const LoadedPlugin& p = load_plugin(j["path"].get<std::string>(), "job spec");
+    const std::string want = j["sha256"].get<std::string>();
     if (p.sha256 != want) {
       throw Error(
           fmt::format("plugin {}: the file changed since the run started (sha256 {} then, {} now)",
