@@ -41,7 +41,7 @@ TEST(HarnessE2E, CrashHangAndMemoryBlowUpFailOnlyTheirJobs) {
   })");
   const auto r = sh(sb() + " run " + (dir / "iso.json").string() + " -o " + (dir / "out").string() +
                     " --jobs 2");
-  ASSERT_EQ(r.code, 0) << r.out;
+  ASSERT_EQ(r.code, 4) << r.out;  // jobs failed (docs/cli.md, exit codes)
   const auto recs = read_jsonl(dir / "out" / "runs.jsonl");
   ASSERT_EQ(recs.size(), 5u) << r.out;
   auto m = by_variant(recs);

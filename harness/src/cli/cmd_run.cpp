@@ -71,7 +71,7 @@ HistoryAddResult add_to_history(const std::string& db, const fs::path& out) {
 void add_slurm_options(CLI::App* sub, RunArgs& a) {
   sub->add_option("--executor", a.executor,
                   "local: child processes on this machine (default); slurm: one Slurm job array "
-                  "and a dependent merge job (README, \"On a cluster\")")
+                  "and a dependent merge job (docs/cluster.md)")
       ->check(CLI::IsMember({"local", "slurm"}));
   sub->add_option("--partition", a.slurm.partition, "Slurm partition (default: the cluster's)");
   sub->add_option("--array-limit", a.slurm.array_limit,

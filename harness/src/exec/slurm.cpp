@@ -667,7 +667,7 @@ std::string render_missing(const MergedFolder& m) {
                                 m.missing.size() == 1 ? "" : "s");
   for (const auto& [id, key] : m.missing)
     out += fmt::format("  {}  {}\n", id, key);
-  return out + fmt::format("resubmit them with: {}\n", m.resume_hint);
+  return out + fmt::format("run them with: {}\n", m.resume_hint);
 }
 
 // ---- status -----------------------------------------------------------------------------------

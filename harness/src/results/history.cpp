@@ -345,7 +345,7 @@ std::string label_of(const Json& r, const char* field) {
 }
 
 /// Every quantity of a record with its samples: metric keys, time.*, peak_rss_mb, sizes.*.
-std::vector<std::pair<std::string, std::vector<double>>> record_quantities(const Json& r) {
+std::vector<std::pair<std::string, std::vector<double>>> quantities_of_record(const Json& r) {
   std::vector<std::pair<std::string, std::vector<double>>> out;
   // Named locals: a temporary in a range-for initialiser dies before the loop (C++20).
   const Json metrics = r.value("metrics", Json::object());
@@ -388,7 +388,7 @@ void insert_jobs(Db& db, std::int64_t run_id, const std::vector<Json>& records,
     job.run();
     const std::int64_t job_id = db.last_id();
     ++res.jobs;
-    for (const auto& [q, samples] : record_quantities(r)) {
+    for (const auto& [q, samples] : quantities_of_record(r)) {
       const std::int64_t dir = quantity_direction(q);
       for (std::size_t i = 0; i < samples.size(); ++i) {
         sample.bind(1, job_id).bind(2, q).bind(3, static_cast<std::int64_t>(i));

@@ -741,8 +741,11 @@ std::string tables_section(const std::vector<Json>& records,
                            const std::vector<std::string>& metrics) {
   std::string h = "<h2>Tables</h2>\n";
   std::vector<std::string> table_quantities = metrics;
-  table_quantities.push_back("time.total");
-  table_quantities.push_back("peak_rss_mb");
+  // The two the report adds of its own accord, where the records have them (records merged from
+  // other tools, or a job that never ran a step, may not): names a user typed are checked.
+  const std::vector<std::string> held = record_quantities(records);
+  for (const char* q : {"time.total", "peak_rss_mb"})
+    if (std::find(held.begin(), held.end(), q) != held.end()) table_quantities.push_back(q);
   for (const auto& q : table_quantities) {
     TableSpec spec;
     spec.metric = q;
