@@ -380,3 +380,21 @@ TEST(RunExit, HelpAndUnknownCommands) {
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.out.find("did you mean 'table'?"), std::string::npos) << r.out;
 }
+
+// A record in jobs/ nested 200,000 deep (a damaged or planted file): `merge` and `table` refuse
+// it in one line naming the file, under a memory limit, and never crash.
+TEST(FolderRecords, ADeepRecordIsRefusedInOneLine) {
+  const fs::path dir = make_temp_dir("deep-record");
+  write(dir / "a.json", small_config("deep", 1));
+  const fs::path out = dir / "out";
+  ASSERT_EQ(sh(run_cmd(dir / "a.json", out)).code, 0);
+  const std::string id = job_ids(out).front();
+  write(out / "jobs" / (id + ".json"), std::string(200000, '[') + std::string(200000, ']'));
+  for (const std::string cmd : {" merge ", " table "}) {
+    const auto r = sh("ulimit -v 2097152; " + sb() + cmd + out.string());
+    EXPECT_EQ(r.code, 2) << cmd << r.out;
+    EXPECT_EQ(count_lines(r.out), 1) << cmd << r.out;
+    EXPECT_NE(r.out.find(id + ".json: JSON nested deeper than 100 levels"), std::string::npos)
+        << cmd << r.out;
+  }
+}

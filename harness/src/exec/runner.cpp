@@ -242,8 +242,9 @@ Json finish_record(const Child& c, int wstatus, const struct rusage& ru, const J
   r["error"] = error;
   Json timing = Json::object();
   if (result.is_object()) {
-    for (const char* k : {"metrics", "histograms", "metric_params", "skipped", "sizes", "artifacts",
-                          "repeat_outputs_identical", "output_kind", "dataset_origin"}) {
+    for (const char* k :
+         {"metrics", "histograms", "metric_params", "skipped", "scoring", "sizes", "artifacts",
+          "repeat_outputs_identical", "output_kind", "dataset_origin"}) {
       if (result.contains(k)) r[k] = result[k];
     }
     if (result.contains("timing")) timing = result["timing"];
@@ -312,10 +313,8 @@ void remove_leftovers(const fs::path& dir) {
       if (entry.path().filename().string().front() == '.') remove_entry(entry);
     }
   }
-  for (const auto& entry : fs::directory_iterator(dir)) {
-    const std::string name = entry.path().filename().string();
-    if (name.front() == '.' && name.find(".tmp.") != std::string::npos) remove_entry(entry);
-  }
+  for (const auto& entry : fs::directory_iterator(dir))
+    if (is_temp_name(entry.path().filename().string())) remove_entry(entry);
 }
 
 /// The first JSON pointer at which two configs differ ("" when equal).
