@@ -14,6 +14,7 @@
 #include "cli_test_util.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/harness/claims.h"
+#include "scanbench/harness/claims_render.h"
 
 namespace fs = std::filesystem;
 using scanbench::Json;
@@ -294,6 +295,57 @@ TEST(ClaimRules, MatchedJudgesEveryPointInTheBudgetBandAndNoOther) {
   o = judge_rule(r, recs);
   EXPECT_EQ(o.verdict, "inconclusive");
   EXPECT_NE(o.reason.find("empty"), std::string::npos) << o.reason;
+}
+
+// Fair chains (issue 50): two compared variants whose steps after their methods differ are refused
+// at load with the file, the variants and the step; the same with the difference declared loads,
+// and claims.json and the table show the declaration.
+TEST(ClaimFiles, ComparedChainsDifferOnlyInTheirMethodsOrDeclareIt) {
+  auto with_chains = [](Json x_chain, Json y_chain, Json chains) {
+    Json c = claim_json({good_rule()});
+    c["experiment"]["variants"] =
+        Json::array({{{"label", "x"}, {"chain", x_chain}}, {{"label", "y"}, {"chain", y_chain}}});
+    if (!chains.is_null()) c["chains"] = chains;
+    return c;
+  };
+  const Json x = Json::array(
+      {{{"algorithm", "resample.wlop"}}, {{"algorithm", "normals.pca"}, {"params", {{"k", 10}}}}});
+  const Json y_same = Json::array(
+      {{{"algorithm", "resample.clop"}}, {{"algorithm", "normals.pca"}, {"params", {{"k", 10}}}}});
+  Json y_other = y_same;
+  y_other[1]["params"]["k"] = 20;
+  const Json y_none = Json::array({{{"algorithm", "resample.clop"}}});
+  const Json methods = {{"x", {"resample.wlop"}}, {"y", {"resample.clop"}}};
+  auto refused = [](const Json& c, const std::string& want) {
+    try {
+      parse_claim(c, "c.json", "c");
+      ADD_FAILURE() << "accepted: " << c["chains"].dump();
+    } catch (const scanbench::ParamError& e) {
+      EXPECT_NE(std::string(e.what()).find(want), std::string::npos) << e.what();
+      EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos) << e.what();
+    }
+  };
+  EXPECT_NO_THROW(parse_claim(with_chains(x, y_same, {{"methods", methods}}), "c.json", "c"));
+  refused(with_chains(x, y_other, {{"methods", methods}}),
+          "c.json: /chains: variants 'x' and 'y' differ outside their methods: downstream step 1 "
+          "('normals.pca' with params {\"k\":10} vs {\"k\":20})");
+  // The method's own normals going downstream: y has no normals step after its method.
+  refused(with_chains(x, y_none, {{"methods", methods}}),
+          "downstream step 1 ('normals.pca' vs none)");
+  refused(with_chains(x, y_same, Json()), "c.json: /chains/methods/x: missing");
+  refused(with_chains(x, y_same, {{"methods", {{"x", {"normals.pca", "resample.wlop"}}}}}),
+          "/chains/methods/x: 'resample.wlop' is not the next step");
+  const Json declared = {{"methods", methods},
+                         {"downstream_differs", {{"y", {{"reason", "its own normals"}}}}}};
+  const Claim c = parse_claim(with_chains(x, y_none, declared), "c.json", "c");
+  ClaimOutcome o;
+  o.verdict = "held";
+  const Json j = claim_result_json(c, o);
+  EXPECT_EQ(j["chains"]["downstream_differs"]["y"]["reason"], "its own normals");
+  const std::string md = claims_markdown({{"claims", Json::array({j})}});
+  EXPECT_NE(md.find("declared: y: chain differs outside its method (its own normals)"),
+            std::string::npos)
+      << md;
 }
 
 TEST(ClaimFiles, TradeoffRulesRejectBadFields) {

@@ -248,7 +248,7 @@ Claim parse_claim(const Json& j, const std::string& where, const std::string& de
   const std::string w0 = where + ": ";  // + "/key": "file: /key"
   check_keys(j, w0,
              {"scanbench_claim", "id", "claim", "source", "paper", "notes", "experiment", "quick",
-              "rules"});
+              "rules", "chains"});
   if (!j.contains("scanbench_claim") || !j["scanbench_claim"].is_number_integer() ||
       j["scanbench_claim"].get<int>() != kClaimVersion) {
     fail(w0 + "/scanbench_claim", fmt::format("expected claim format version {}", kClaimVersion));
@@ -273,7 +273,12 @@ Claim parse_claim(const Json& j, const std::string& where, const std::string& de
   }
   for (std::size_t i = 0; i < j["rules"].size(); ++i)
     c.rules.push_back(parse_rule(j["rules"][i], fmt::format("{}/rules/{}", w0, i)));
-  // Both experiments must load, and every selector name a variant/dataset of each.
+  if (j.contains("chains")) c.chains = parse_chains(j["chains"], w0 + "/chains");
+  std::vector<std::pair<std::string, std::string>> compared;
+  for (const auto& r : c.rules)
+    if (r.has_b) compared.emplace_back(r.a.variant, r.b.variant);
+  // Both experiments must load, every selector name a variant/dataset of each, and the compared
+  // chains differ only in their methods.
   for (bool q : {false, true}) {
     if (q && c.quick.is_null()) continue;
     const std::string w = where + (q ? " (quick)" : "") + ": /experiment";
@@ -287,6 +292,8 @@ Claim parse_claim(const Json& j, const std::string& where, const std::string& de
         check_selector(c.rules[i].match_hi, e, rw + "/match/hi");
       }
     }
+    check_fair_chains(c.experiment_config(q), c.chains, compared,
+                      where + (q ? " (quick)" : "") + ": /chains");
   }
   return c;
 }

@@ -197,6 +197,62 @@ std::set<ProtocolDataKey> protocol_data_keys(const Plan& plan) {
   return keys;
 }
 
+/// One step of a variant as compared by check_fair_chains: everything that decides what it does.
+struct ChainStepView {
+  std::string label;
+  Json what;  ///< {"algorithm", "params", "sweep", "protocol"}
+};
+
+/// The steps of a variant object, each with its params, the variant's sweep values of that step
+/// and the protocol entries of that step (from config["protocol"]["variants"][label]).
+std::vector<ChainStepView> chain_steps(const Json& config, const Json& variant,
+                                       const std::string& label) {
+  std::vector<Json> steps;
+  if (variant.contains("chain") && variant["chain"].is_array()) {
+    steps.assign(variant["chain"].begin(), variant["chain"].end());
+  } else {
+    steps.push_back({{"algorithm", variant.value("algorithm", std::string())},
+                     {"params", variant.value("params", Json::object())}});
+  }
+  const Json entries =
+      config.contains("protocol") && config["protocol"].is_object()
+          ? config["protocol"].value("variants", Json::object()).value(label, Json::object())
+          : Json::object();
+  std::vector<ChainStepView> out;
+  for (const auto& st : steps) {
+    ChainStepView v;
+    v.label = st.value("label", st.value("algorithm", std::string()));
+    const std::string prefix = v.label + ".";
+    Json sweep = Json::object(), protocol = Json::object();
+    for (const auto& sw : protocol_variant_sweeps(variant))
+      for (const auto& [k, x] : sw.items())
+        if (k.rfind(prefix, 0) == 0 && k.find('.', prefix.size()) == std::string::npos)
+          sweep[k].push_back(x);
+    for (const auto& [k, x] : entries.items())
+      if (k.rfind(prefix, 0) == 0 && k.find('.', prefix.size()) == std::string::npos)
+        protocol[k] = x;
+    v.what = {{"algorithm", st.value("algorithm", std::string())},
+              {"params", st.value("params", Json::object())},
+              {"sweep", sweep},
+              {"protocol", protocol}};
+    out.push_back(std::move(v));
+  }
+  return out;
+}
+
+/// What differs between two steps, in a few words ("" when nothing).
+std::string chain_step_difference(const ChainStepView& a, const ChainStepView& b) {
+  if (a.label != b.label || a.what["algorithm"] != b.what["algorithm"]) {
+    return fmt::format("'{}' vs '{}'", a.label, b.label);
+  }
+  for (const char* part : {"params", "sweep", "protocol"})
+    if (a.what[part] != b.what[part]) {
+      return fmt::format("'{}' with {} {} vs {}", a.label, part, a.what[part].dump(),
+                         b.what[part].dump());
+    }
+  return "";
+}
+
 }  // namespace
 
 Json ProtocolObjective::to_json() const {
@@ -211,9 +267,10 @@ std::vector<const ProtocolParam*> Protocol::tuned(const std::string& variant) co
 }
 
 Protocol parse_protocol(const Json& j, const std::string& where) {
-  harness::check_keys(j, where, {"tuning", "objective", "variants"});
+  harness::check_keys(j, where, {"tuning", "objective", "variants", "chains"});
   Protocol p;
   p.where = where;
+  if (j.contains("chains")) p.chains = parse_chains(j["chains"], where + "/chains");
   if (j.contains("tuning")) {
     harness::check_keys(j["tuning"], where + "/tuning", {"datasets", "scanners", "seed", "seeds"});
     if (!j["tuning"].contains("datasets")) {
@@ -260,6 +317,17 @@ void check_protocol(const Protocol& p, const Json& config) {
         protocol_fail(w + "/" + q.key,
                       "also swept by the variant (give each parameter one source)");
       }
+  }
+  if (!p.chains.empty()) {
+    std::vector<std::string> labels;
+    for (const auto& q : p.params)
+      if (std::find(labels.begin(), labels.end(), q.variant) == labels.end())
+        labels.push_back(q.variant);
+    std::vector<std::pair<std::string, std::string>> pairs;
+    for (std::size_t i = 0; i < labels.size(); ++i)
+      for (std::size_t k = i + 1; k < labels.size(); ++k)
+        pairs.emplace_back(labels[i], labels[k]);
+    check_fair_chains(config, p.chains, pairs, p.where + "/chains");
   }
   // Every value and range value must be accepted by the parameter's declaration: the config with
   // the values set and swept over the ranges must load.
@@ -377,6 +445,116 @@ Json choose_point(const std::vector<Json>& records, const std::vector<const Prot
     throw Error(fmt::format("tuning: no tuning record has a value of '{}'", objective.quantity));
   }
   return best;
+}
+
+Json ChainDeclaration::to_json() const {
+  Json j = Json::object();
+  for (const auto& [v, steps] : methods)
+    j["methods"][v] = steps;
+  for (const auto& [v, reason] : differs)
+    j["downstream_differs"][v] = {{"reason", reason}};
+  return j;
+}
+
+ChainDeclaration parse_chains(const Json& j, const std::string& where) {
+  harness::check_keys(j, where, {"methods", "downstream_differs"});
+  ChainDeclaration d;
+  if (j.contains("methods")) {
+    const std::string w = where + "/methods";
+    if (!j["methods"].is_object()) protocol_fail(w, "expected an object: variant -> its steps");
+    for (const auto& [label, steps] : j["methods"].items()) {
+      if (!steps.is_array() || steps.empty())
+        protocol_fail(w + "/" + label, "expected a non-empty list of step labels");
+      for (const auto& st : steps) {
+        if (!st.is_string() || st.get<std::string>().empty())
+          protocol_fail(w + "/" + label, "expected a non-empty list of step labels");
+        d.methods[label].push_back(st.get<std::string>());
+      }
+    }
+  }
+  if (j.contains("downstream_differs")) {
+    const std::string w = where + "/downstream_differs";
+    if (!j["downstream_differs"].is_object())
+      protocol_fail(w, "expected an object: variant -> {\"reason\": ...}");
+    for (const auto& [label, e] : j["downstream_differs"].items()) {
+      harness::check_keys(e, w + "/" + label, {"reason"});
+      d.differs[label] = protocol_text(e, "reason", w + "/" + label);
+    }
+  }
+  return d;
+}
+
+void check_fair_chains(const Json& config, const ChainDeclaration& d,
+                       const std::vector<std::pair<std::string, std::string>>& compared,
+                       const std::string& where) {
+  Json c = config;
+  for (const auto& [label, reason] : d.differs)
+    if (protocol_find_variant(c, label) == nullptr)
+      protocol_fail(where + "/downstream_differs/" + label, "no variant labelled '" + label + "'");
+  // Each variant: its steps split at its method (upstream, method, downstream).
+  struct Split {
+    std::vector<ChainStepView> up, down;
+  };
+  auto split = [&](const std::string& label) {
+    Json* v = protocol_find_variant(c, label);
+    if (v == nullptr) protocol_fail(where, "no variant labelled '" + label + "'");
+    const std::vector<ChainStepView> steps = chain_steps(config, *v, label);
+    const auto m = d.methods.find(label);
+    const std::string w = where + "/methods/" + label;
+    if (m == d.methods.end()) {
+      if (steps.size() == 1) return Split{};  // a one-step variant is its own method
+      protocol_fail(
+          w, "missing: variant '" + label + "' is a chain that is compared; name its method steps");
+    }
+    std::size_t first = steps.size();
+    for (std::size_t i = 0; i < steps.size() && first == steps.size(); ++i)
+      if (steps[i].label == m->second.front()) first = i;
+    for (std::size_t k = 0; k < m->second.size(); ++k)
+      if (first + k >= steps.size() || steps[first + k].label != m->second[k]) {
+        protocol_fail(w, fmt::format("'{}' is not the next step of variant '{}' (the method steps "
+                                     "must be consecutive steps of its chain)",
+                                     m->second[k], label));
+      }
+    Split s;
+    s.up.assign(steps.begin(), steps.begin() + static_cast<std::ptrdiff_t>(first));
+    s.down.assign(steps.begin() + static_cast<std::ptrdiff_t>(first + m->second.size()),
+                  steps.end());
+    return s;
+  };
+  for (const auto& [label, steps] : d.methods)
+    split(label);
+  for (const auto& [a, b] : compared) {
+    if (a.empty() || b.empty() || a == b) continue;
+    if (d.differs.count(a) || d.differs.count(b)) continue;
+    const Split sa = split(a), sb = split(b);
+    for (const auto& [part, la, lb] :
+         {std::tuple{"upstream", &sa.up, &sb.up}, std::tuple{"downstream", &sa.down, &sb.down}}) {
+      const std::size_t n = std::max(la->size(), lb->size());
+      for (std::size_t i = 0; i < n; ++i) {
+        std::string diff;
+        if (i >= la->size() || i >= lb->size()) {
+          diff = fmt::format("'{}' vs none", i < la->size() ? (*la)[i].label : (*lb)[i].label);
+          if (i >= la->size()) diff = fmt::format("none vs '{}'", (*lb)[i].label);
+        } else {
+          diff = chain_step_difference((*la)[i], (*lb)[i]);
+        }
+        if (diff.empty()) continue;
+        protocol_fail(where, fmt::format("variants '{}' and '{}' differ outside their methods: {} "
+                                         "step {} ({}); make the chains equal there or declare "
+                                         "the difference (downstream_differs with a reason)",
+                                         a, b, part, i + 1, diff));
+      }
+    }
+  }
+}
+
+std::string chains_summary(const Json& chains) {
+  std::string s;
+  const Json differs = chains.value("downstream_differs", Json::object());
+  for (const auto& [label, e] : differs.items())
+    s += fmt::format("{}{}: chain differs outside its method ({})", s.empty() ? "" : "; ", label,
+                     e.value("reason", std::string()));
+  return s;
 }
 
 RecordsRunner local_records_runner(int jobs, bool resume, bool quiet) {

@@ -19,6 +19,7 @@ Json claim_result_json(const Claim& claim, const ClaimOutcome& outcome) {
   Json j = {{"id", claim.id},       {"claim", claim.claim},       {"source", claim.source},
             {"paper", claim.paper}, {"verdict", outcome.verdict}, {"reason", outcome.reason}};
   if (!claim.notes.empty()) j["notes"] = claim.notes;
+  if (!claim.chains.empty()) j["chains"] = claim.chains.to_json();
   std::string measured;
   Json rules = Json::array();
   for (std::size_t i = 0; i < outcome.rules.size(); ++i) {
@@ -35,6 +36,14 @@ Json claim_result_json(const Claim& claim, const ClaimOutcome& outcome) {
 
 namespace {
 
+/// The parameters cell: the protocol's summary and any declared chain difference.
+std::string parameters_cell(const Json& c) {
+  std::string s = protocol_summary(c.value("protocol", Json::object()));
+  const std::string d = chains_summary(c.value("chains", Json::object()));
+  if (!d.empty()) s += (s.empty() ? "" : "; ") + std::string("declared: ") + d;
+  return s;
+}
+
 std::string md_cell(std::string s) {
   for (auto& c : s)
     if (c == '|' || c == '\n') c = c == '|' ? '/' : ' ';
@@ -50,9 +59,8 @@ std::string claims_markdown(const Json& summary) {
   for (const auto& c : summary.value("claims", Json::array())) {
     s += fmt::format("| {} | {} | {} | {} | {} | **{}**: {} | {} |\n", md_cell(c.value("id", "")),
                      md_cell(c.value("source", "")), md_cell(c.value("paper", "")),
-                     md_cell(protocol_summary(c.value("protocol", Json::object()))),
-                     md_cell(c.value("measured", "")), md_cell(c.value("verdict", "")),
-                     md_cell(c.value("reason", "")),
+                     md_cell(parameters_cell(c)), md_cell(c.value("measured", "")),
+                     md_cell(c.value("verdict", "")), md_cell(c.value("reason", "")),
                      md_cell(c.value("sensitivity", Json::object()).value("text", "")));
   }
   return s;
@@ -89,8 +97,7 @@ std::string claims_html_section(const Json& summary) {
         folder.empty() ? id
                        : fmt::format("<a href=\"{}/index.html\">{}</a>", html_escape(folder), id),
         html_escape(c.value("claim", "")), html_escape(c.value("source", "")),
-        html_escape(c.value("paper", "")),
-        html_escape(protocol_summary(c.value("protocol", Json::object()))),
+        html_escape(c.value("paper", "")), html_escape(parameters_cell(c)),
         html_escape(c.value("measured", "")), v == "failed" ? "fail" : (v == "held" ? "best" : ""),
         html_escape(v), html_escape(c.value("reason", "")),
         html_escape(c.value("sensitivity", Json::object()).value("text", "")));

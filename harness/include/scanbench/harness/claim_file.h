@@ -11,6 +11,9 @@
 //   "quick"       optional: a JSON merge patch (RFC 7386) applied to "experiment" by --quick
 //                 (smaller scans, fewer repeats; objects merge, arrays are replaced whole)
 //   "rules"       the verdict rules, all of which must hold (claims.h)
+//   "chains"      optional: the method steps of the compared variants and any declared
+//                 difference outside them (ChainDeclaration, protocol.h). The variants a rule
+//                 compares (its a and b) must differ only in their methods: checked at load.
 // The experiment may declare a parameter protocol ("protocol", protocol.h): the claim is then
 // judged at the protocol's values (tuned ones chosen on the tuning data first), and its
 // sensitivity (claim_sensitivity) over the protocol's ranges is reported beside the verdict.
@@ -21,6 +24,7 @@
 #include <vector>
 
 #include "scanbench/core/params.h"
+#include "scanbench/harness/protocol.h"
 
 namespace scanbench::harness {
 
@@ -65,6 +69,7 @@ struct Claim {
   Json experiment = Json::object();
   Json quick;  ///< null when absent
   std::vector<ClaimRule> rules;
+  ChainDeclaration chains;
   /// The experiment config to run (the quick patch applied when `quick`), named after the claim.
   Json experiment_config(bool quick) const;
 };

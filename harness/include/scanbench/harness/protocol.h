@@ -8,7 +8,9 @@
 //                 data, the data the results (a claim's verdict) are computed on,
 //    "objective": {"quantity": "<record quantity>", "direction": "min" | "max",
 //                  "stat": "median" (default) | "mean" | "min" | "max"}  the default objective,
-//    "variants":  {"<variant label>": {"<step>.<param>": entry, ...}, ...}}
+//    "variants":  {"<variant label>": {"<step>.<param>": entry, ...}, ...},
+//    "chains":    {...} optional: the variants' method steps (ChainDeclaration below); every pair
+//                 of the protocol's variants is then checked to differ only in its method}
 // with one entry per parameter:
 //   {"source": "paper", "value": v, "cite": "GPF 2017, sec. 4.4"}
 //   {"source": "rule",  "value": v, "rule": "h = 6 h0, h0 = d_bb / sqrt(N) (GPF sec. 5, principle
@@ -26,7 +28,9 @@
 // and the resolved protocol (protocol_json) is written beside the records.
 #include <filesystem>
 #include <functional>
+#include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "scanbench/core/params.h"
@@ -52,10 +56,31 @@ struct ProtocolParam {
   Json tuning_curve = Json::object();  ///< tuned: "<point>" -> objective statistic
 };
 
+/// Fair chains (issue 50): variants that are compared may differ only in their method. A chain
+/// variant is split into its upstream steps, its method steps (a contiguous run of step labels,
+/// declared), and its downstream steps; a one-step variant is its own method. The upstream and
+/// downstream steps of two compared variants must be the same step for step: the same label and
+/// algorithm, the same params, the same sweep values and the same protocol entries (source, value
+/// or range, rule; a tuned value is chosen per variant by the same declared range and objective).
+/// A difference is allowed only when declared for one of the two variants with its reason.
+/// So a method whose own normals go downstream (GPF's particles keep their source points'
+/// normals) differs from one whose output gets new normals, unless declared.
+///
+/// JSON (a claim file's "chains", claim_file.h, or a protocol's "chains"):
+///   {"methods": {"<variant>": ["<step label>", ...], ...},
+///    "downstream_differs": {"<variant>": {"reason": "why its chain differs outside its method"}}}
+struct ChainDeclaration {
+  std::map<std::string, std::vector<std::string>> methods;  ///< variant -> its method steps
+  std::map<std::string, std::string> differs;               ///< variant -> the declared reason
+  bool empty() const { return methods.empty() && differs.empty(); }
+  Json to_json() const;
+};
+
 struct Protocol {
   std::string where;             ///< "<file>: /protocol", for messages
   Json tuning = Json::object();  ///< the tuning data (datasets, scanners, seed/seeds)
   std::vector<ProtocolParam> params;
+  ChainDeclaration chains;  ///< "chains": every pair of the protocol's variants is compared
   bool empty() const { return params.empty(); }
   /// The params of one variant whose source is "tuned".
   std::vector<const ProtocolParam*> tuned(const std::string& variant) const;
@@ -67,7 +92,8 @@ Protocol parse_protocol(const Json& j, const std::string& where);
 
 /// Checks `p` against the experiment config holding it: variants and steps exist, no parameter set
 /// twice, every value accepted by the parameter's declaration, the tuning data disjoint from the
-/// experiment's. Throws ParamError.
+/// experiment's; with "chains", the protocol's variants differ only in their methods
+/// (check_fair_chains). Throws ParamError.
 void check_protocol(const Protocol& p, const Json& config);
 
 /// The experiment config that tunes `variant`: the tuning data, that variant alone, swept over the
@@ -80,6 +106,21 @@ Json tuning_config(const Json& config, const Protocol& p, const std::string& var
 Json choose_point(const std::vector<Json>& tuning_records,
                   const std::vector<const ProtocolParam*>& tuned,
                   const ProtocolObjective& objective, Json& curve);
+
+/// Reads a "chains" object; `where` is its JSON location ("file: /chains"). Throws ParamError.
+ChainDeclaration parse_chains(const Json& j, const std::string& where);
+
+/// Checks that every pair of `compared` variants of the experiment `config` (labels; pairs with an
+/// empty or equal label are skipped) differs only in its method steps, or declares the difference.
+/// Throws ParamError "<where>: variants 'a' and 'b' differ outside their methods: downstream step
+/// 2 ('peer.cgal_ear' vs 'normals.pca') ..." naming the file, the variants and the step; also for
+/// a method step that is not a step of the variant, or a chain variant with no declared method.
+void check_fair_chains(const Json& config, const ChainDeclaration& d,
+                       const std::vector<std::pair<std::string, std::string>>& compared,
+                       const std::string& where);
+
+/// One line for reports: "ear: downstream differs (its own upsampling)", or "" when none.
+std::string chains_summary(const Json& chains);
 
 /// Runs an experiment config into a folder and returns its records.
 using RecordsRunner =
