@@ -92,6 +92,16 @@ Json run(const GroundTruth& gt, const PointCloud& output, const PointCloud* scan
     }
   }
   if (!is_mesh) record["output_points"] = output.size();
+  // Everything random in the scoring, so that `scanbench eval --from-record` can score the same
+  // samples again: the ground truth's surface samples, and (evaluate_mesh) the output mesh's.
+  Json scoring = Json::object();
+  scoring["seed"] = ctx.seed();
+  scoring["metrics"] = metric_names;
+  scoring["ground_truth_samples_seed"] = gt.sample_seed();
+  scoring["field_voxel_rel"] = gt.options().field_voxel;
+  scoring["field_band_voxels"] = gt.options().band_voxels;
+  if (output_oracle) scoring["output_oracle_seed"] = output_oracle->sample_seed();
+  record["scoring"] = std::move(scoring);
   record["gt_diagonal"] = gt.diagonal();
   record["gt_closed"] = gt.closed();
   record["metric_params"] = std::move(effective);
@@ -110,6 +120,8 @@ Json run_mesh(const GroundTruth& gt, const TriangleMesh& output_mesh,
   Json r = run(gt, pts, scan, MeshOutput{&output_mesh, covariance_mesh}, metric_names,
                metric_params, ctx);
   r["output_mesh_samples"] = samples;
+  r["scoring"]["output_mesh_samples"] = samples;
+  r["scoring"]["output_mesh_samples_seed"] = output_surface_samples_seed(ctx);
   return r;
 }
 

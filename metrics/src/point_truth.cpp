@@ -189,6 +189,8 @@ Json evaluate_point_truth(const PointCloud& truth, const PointCloud& output,
   }
   record["output_points"] = output.size();
   record["gt_points"] = truth.size();
+  // Nothing here is random; the seed and the metric list let `eval --from-record` score again.
+  record["scoring"] = {{"seed", ctx.seed()}, {"metrics", metric_names}};
   record["gt_diagonal"] = in.diagonal;
   record["metric_params"] = std::move(effective);
   record["skipped"] = std::move(skipped);

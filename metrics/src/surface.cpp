@@ -10,9 +10,13 @@
 
 namespace scanbench::metrics {
 
+std::uint64_t output_surface_samples_seed(const RunContext& ctx) {
+  return ctx.stream_seed("eval.mesh_samples");
+}
+
 PointCloud output_surface_samples(const TriangleMesh& mesh, Eigen::Index count,
                                   const RunContext& ctx) {
-  PointCloud pts = sample_surface(mesh, count, ctx.stream_seed("eval.mesh_samples"));
+  PointCloud pts = sample_surface(mesh, count, output_surface_samples_seed(ctx));
   pts.properties.clear();
   return pts;
 }

@@ -313,3 +313,122 @@ TEST(HonestTablesMesh, MeshAndPointOutputsFlaggedOnChamferKeys) {
   EXPECT_NE(html.find("point outputs: points"), std::string::npos);
   fs::remove_all(dir);
 }
+
+namespace {
+
+/// Issue 49, reproducible scoring: a job's record carries the seeds of its scoring, and
+/// `eval --from-record` scores the job's saved output again to the same bits, for a points
+/// output (a scan subsampled) and a mesh output (the ground truth Loop-subdivided).
+class EvalFromRecord : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = make_temp_dir("fromrecord");
+    write(dir_ / "points.json", R"({
+      "scanbench_experiment": 1, "name": "p", "seeds": [3], "repeats": 1,
+      "datasets": [{"name": "sphere"}],
+      "scanners": [{"preset": "clean", "params": {"views": 2, "resolution": 120}}],
+      "variants": [{"label": "sub", "algorithm": "test.subsample", "params": {"stride": 2}}]})");
+    write(dir_ / "mesh.json", R"({
+      "scanbench_experiment": 1, "name": "m", "seeds": [5], "repeats": 1,
+      "datasets": [{"name": "sphere", "params": {"resolution": 12}}],
+      "scanners": ["ground_truth"],
+      "variants": [{"label": "loop", "algorithm": "subdivide.loop", "params": {"levels": 1}}]})");
+    for (const char* c : {"points", "mesh"}) {
+      const auto r = sh(sb() + " run " + (dir_ / (std::string(c) + ".json")).string() + " -o " +
+                        (dir_ / c).string() + " -q");
+      run_text_ += r.out;
+      run_ok_ = run_ok_ && r.code == 0;
+    }
+  }
+  static void TearDownTestSuite() { fs::remove_all(dir_); }
+  void SetUp() override { ASSERT_TRUE(run_ok_) << run_text_; }
+
+  static Json record(const char* name) { return read_jsonl(dir_ / name / "runs.jsonl").at(0); }
+  static fs::path job_file(const char* name) {
+    return dir_ / name / "jobs" / (record(name)["id"].get<std::string>() + ".json");
+  }
+
+  /// eval --from-record on `source` (extra args after), its exit code and output; the re-scored
+  /// record is written to DIR/<tag>.json.
+  static Result from_record(const fs::path& source, const std::string& tag,
+                            const std::string& extra = "") {
+    return sh(sb() + " eval --from-record " + source.string() + " " + extra + " -o " +
+              (dir_ / (tag + ".json")).string());
+  }
+
+  /// Every metric key of the record equals the re-scored one exactly (as JSON values: the
+  /// doubles round-trip bit for bit), and so do histograms, skipped and scoring.
+  static void expect_same(const Json& rec, const Json& again) {
+    for (const auto& [k, v] : rec["metrics"].items()) {
+      ASSERT_TRUE(again.contains(k)) << k;
+      EXPECT_EQ(again[k], v) << k;
+    }
+    for (const char* k : {"histograms", "skipped", "scoring", "metric_params"})
+      EXPECT_EQ(again[k], rec[k]) << k;
+  }
+
+  static fs::path dir_;
+  static bool run_ok_;
+  static std::string run_text_;
+};
+
+fs::path EvalFromRecord::dir_;
+bool EvalFromRecord::run_ok_ = true;
+std::string EvalFromRecord::run_text_;
+
+TEST_F(EvalFromRecord, RecordsCarryTheSeedsOfTheirScoring) {
+  const Json p = record("points"), m = record("mesh");
+  ASSERT_TRUE(p.contains("scoring")) << p.dump();
+  EXPECT_TRUE(p["scoring"]["ground_truth_samples_seed"].is_number_unsigned());
+  EXPECT_EQ(p["scoring"]["seed"], 3);
+  EXPECT_FALSE(p["scoring"].contains("output_mesh_samples_seed"));  // points: nothing sampled
+  EXPECT_TRUE(m["scoring"]["output_mesh_samples_seed"].is_number_unsigned());
+  EXPECT_EQ(m["scoring"]["output_mesh_samples"], 100000);
+  EXPECT_TRUE(m["scoring"]["output_oracle_seed"].is_number_unsigned());
+}
+
+TEST_F(EvalFromRecord, PointsOutputReproducedBitForBit) {
+  const auto r = from_record(job_file("points"), "points_again");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("equal bit for bit"), std::string::npos) << r.out;
+  expect_same(record("points"), Json::parse(slurp(dir_ / "points_again.json")));
+}
+
+TEST_F(EvalFromRecord, MeshOutputReproducedBitForBitFromRunsJsonl) {
+  const Json rec = record("mesh");
+  const auto r = from_record(dir_ / "mesh" / "runs.jsonl", "mesh_again",
+                             "--id " + rec["id"].get<std::string>());
+  ASSERT_EQ(r.code, 0) << r.out;
+  expect_same(rec, Json::parse(slurp(dir_ / "mesh_again.json")));
+}
+
+TEST_F(EvalFromRecord, ADifferenceExitsOneAndIsNamed) {
+  // A record whose ground-truth sample seed is not the one it was scored with: completeness and
+  // recall come out different (the seed is used, not re-derived), and eval says so.
+  const fs::path copy = dir_ / "tampered";
+  fs::remove_all(copy);
+  fs::copy(dir_ / "points", copy, fs::copy_options::recursive);
+  Json rec = record("points");
+  rec["scoring"]["ground_truth_samples_seed"] =
+      rec["scoring"]["ground_truth_samples_seed"].get<std::uint64_t>() + 1;
+  const fs::path job = copy / "jobs" / (rec["id"].get<std::string>() + ".json");
+  write(job, rec.dump());
+  const auto r = from_record(job, "tampered_again");
+  EXPECT_EQ(r.code, 1) << r.out;
+  for (const char* k : {"completeness ", "recall "}) {
+    const auto at = r.out.find(std::string("  ") + k);
+    ASSERT_NE(at, std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("DIFFERENT", at), std::string::npos) << r.out;
+    EXPECT_LT(r.out.find("DIFFERENT", at), r.out.find('\n', at)) << k << r.out;
+  }
+}
+
+TEST_F(EvalFromRecord, UnknownIdRefusedWithSuggestion) {
+  const std::string id = record("points")["id"].get<std::string>();
+  const auto r = sh(sb() + " eval --from-record " + (dir_ / "points" / "runs.jsonl").string() +
+                    " --id " + id.substr(0, id.size() - 1) + "x");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("did you mean '" + id + "'"), std::string::npos) << r.out;
+}
+
+}  // namespace

@@ -14,6 +14,7 @@
 #include "scanbench/core/run_context.h"
 #include "scanbench/metrics/closest_point.h"
 #include "scanbench/metrics/distance_field.h"
+#include "scanbench/metrics/ground_truth.h"
 #include "scanbench/metrics/heatmap.h"
 #include "scanbench/metrics/surface_sampling.h"
 
@@ -130,7 +131,7 @@ TEST_F(EvalCli, MetricsMatchBruteForceAndFilesOpen) {
 
   // Completeness: the same seeded samples against every output point.
   const RunContext ctx(4);
-  const PointCloud s = sample_surface(mesh, 20000, ctx.stream_seed("metrics.surface_samples"));
+  const PointCloud s = sample_surface(mesh, 20000, ctx.stream_seed(kGroundTruthSamplesStream));
   double comp = 0;
   std::int64_t rec = 0;
   for (Eigen::Index i = 0; i < s.size(); ++i) {

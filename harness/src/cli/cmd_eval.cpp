@@ -2,9 +2,12 @@
 //                --points OUT.ply | --output-mesh MESH
 //                [--scan SCAN.ply] [--metrics a,b] [--set metric.key=value ...]
 //                [--heatmap DIR] [--vdb DIR] [--seed N] [--threads N] -o metrics.json
+// scanbench eval --from-record DIR/jobs/ID.json | DIR/runs.jsonl --id ID [-o metrics.json]
 // Evaluates one output against a ground truth with the registered metrics (metrics/evaluate.h)
 // and writes one flat JSON object: every metric key, "histograms", "metric_params", "skipped",
-// and "inputs" (what was compared, the seed, the field voxel, written images and fields).
+// "scoring" (the seeds of the surface samples) and "inputs" (what was compared, the seed, the
+// field voxel, written images and fields). --from-record scores a job's output again with its
+// record's scoring and prints the comparison, key by key (exit 1 on any difference).
 #include <fmt/format.h>
 
 #include <chrono>
@@ -60,12 +63,35 @@ void print_eval(const EvalResult& res, double seconds, const std::string& output
     fmt::print("  skipped {}: {}\n", k, v.get<std::string>());
 }
 
+std::string cell(const Json& v) {
+  if (v.is_null()) return "(absent)";
+  if (v.is_number_float()) return fmt::format("{:.17g}", v.get<double>());
+  if (v.is_object() || v.is_array()) return fmt::format("{} entries", v.size());
+  return v.dump();
+}
+
+/// One line per compared key, then the verdict; returns the exit code (1 on any difference).
+int print_record_check(const RecordCheck& c) {
+  fmt::print("eval --from-record: job {} of {}, scored again (seed {})\n", c.id, c.folder,
+             c.request.seed);
+  fmt::print("  {:<28} {:>24} {:>24}\n", "key", "record", "eval");
+  for (const auto& r : c.rows)
+    fmt::print("  {:<28} {:>24} {:>24}  {}\n", r.key, cell(r.recorded), cell(r.rescored),
+               r.same ? "same" : "DIFFERENT");
+  if (c.differences == 0) {
+    fmt::print("all {} keys equal bit for bit\n", c.rows.size());
+    return 0;
+  }
+  fmt::print("{} of {} keys differ\n", c.differences, c.rows.size());
+  return 1;
+}
+
 }  // namespace
 
 void add_eval_command(Cli& cli) {
   struct Opts : EvalRequest {
     std::vector<std::string> sets, dataset_sets;
-    std::string output;
+    std::string output, from_record, record_id;
   };
   auto opts = std::make_shared<Opts>();
   CLI::App* sub = cli.app.add_subcommand(
@@ -121,9 +147,24 @@ void add_eval_command(Cli& cli) {
   sub->add_option("--mesh-samples", opts->mesh_samples,
                   "Points sampled from --output-mesh for the point metrics")
       ->check(CLI::Range(std::int64_t{10}, std::int64_t{100000000}));
-  sub->add_option("-o,--output", opts->output, "Metrics JSON file")->required();
+  auto* fr = sub->add_option(
+      "--from-record", opts->from_record,
+      "Score a job's output again as its record says (DIR/jobs/ID.json, or DIR/runs.jsonl with "
+      "--id): same seeds, metrics and parameters; prints record vs eval per key, exit 1 on any "
+      "difference");
+  sub->add_option("--id", opts->record_id, "The job id of the runs.jsonl line for --from-record")
+      ->needs(fr);
+  for (auto* o : {mf, ds, gp, pf, om})
+    fr->excludes(o);
+  sub->add_option("-o,--output", opts->output, "Metrics JSON file (required unless --from-record)");
   sub->callback([&cli, opts] {
     cli.action = [opts] {
+      if (!opts->from_record.empty()) {
+        const RecordCheck c = rescore_record(opts->from_record, opts->record_id, opts->threads);
+        if (!opts->output.empty()) write_json_file(opts->output, c.result.record, 2);
+        return print_record_check(c);
+      }
+      if (opts->output.empty()) throw ParamError("eval: -o FILE is required");
       const auto t0 = std::chrono::steady_clock::now();
       EvalRequest q = *opts;
       for (const auto& s : opts->dataset_sets)

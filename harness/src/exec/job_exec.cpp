@@ -354,7 +354,16 @@ Json metrics_pass(const Job& job, const metrics::GroundTruth* gt, const PointTru
   for (const auto& [k, v] : ctx.phase_seconds())
     metric_phases[k] = v;
   r.timing["metric_phases"] = metric_phases;
-  for (const char* k : {"histograms", "metric_params", "skipped"}) {
+  if (point_truth) {
+    // evaluate_on_point_truth names only the point-capable metrics; the record keeps the job's
+    // list, and the seed of a mesh output's samples.
+    m["scoring"]["metrics"] = job.metrics;
+    if (scored_mesh) {
+      m["scoring"]["output_mesh_samples"] = m.value("output_mesh_samples", Eigen::Index{100000});
+      m["scoring"]["output_mesh_samples_seed"] = metrics::output_surface_samples_seed(ctx);
+    }
+  }
+  for (const char* k : {"histograms", "metric_params", "skipped", "scoring"}) {
     if (m.contains(k)) {
       r.res[k] = m[k];
       m.erase(k);
@@ -478,7 +487,7 @@ Json execute_job(const Job& job, const fs::path& out) {
   ctx.clear_phases();
   const double t_metrics = wall_seconds();
   std::optional<metrics::GroundTruth> gt;
-  if (!point_truth) gt.emplace(mesh, ctx.stream_seed("ground_truth"));
+  if (!point_truth) gt.emplace(mesh, ctx.stream_seed(metrics::kGroundTruthSamplesStream));
   const PointCloud* scan = job.scanner_preset == kGroundTruthInput ? nullptr : &in.cloud;
   const metrics::GroundTruth* gt_mesh = gt ? &*gt : nullptr;
   const PointTruth* gt_points = point_truth ? &*point_truth : nullptr;

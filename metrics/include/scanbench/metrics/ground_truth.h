@@ -20,6 +20,7 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <memory>
+#include <string_view>
 #include <vector>
 
 #include "scanbench/core/bbox.h"
@@ -39,6 +40,10 @@ struct ClosestPoint {
 
 /// Which oracle answers distance queries.
 enum class DistancePath { Exact, Field };
+
+/// The RunContext stream of the ground truth's sample seed, in jobs and in `scanbench eval`
+/// (the seed is recorded as "scoring.ground_truth_samples_seed").
+inline constexpr std::string_view kGroundTruthSamplesStream = "ground_truth";
 
 struct GroundTruthOptions {
   double field_voxel = 1.0 / 512.0;  ///< voxel size of the field, fraction of the bbox diagonal

@@ -29,6 +29,8 @@ namespace scanbench::metrics {
 /// of ctx), so a heatmap drawn on them shows the samples the metrics scored. No properties.
 PointCloud output_surface_samples(const TriangleMesh& mesh, Eigen::Index count,
                                   const RunContext& ctx);
+/// The seed output_surface_samples draws with (recorded in a record's "scoring").
+std::uint64_t output_surface_samples_seed(const RunContext& ctx);
 
 struct InputDistanceParams {
   bool skip_outliers = true;
