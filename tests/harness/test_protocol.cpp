@@ -4,6 +4,7 @@
 // and `scanbench run` with a protocol end to end through the real binary.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdlib>
 
 #include <filesystem>
@@ -329,3 +330,33 @@ TEST(ProtocolE2E, ClaimsAndRunTuneOnTheTuningDataOnly) {
 }
 
 }  // namespace
+
+// "The same radius" (issue 50): each method's radius parameter for an equal data-term support, per
+// method against the kernel table of docs/claims.md, and the outlier claim at those values.
+TEST(ProtocolRadius, EqualSupportMapsToEachMethodsOwnParameter) {
+  // GPF's data term sees the points within h/4 (h_GPF = h/2, data within h_GPF/2): at h 0.3 its
+  // data ball is 0.075, WLOP's support at h 0.3 is 0.3 (the reading issue 50 corrected).
+  EXPECT_DOUBLE_EQ(radius_param("filter.gpf", 0.075, "support"), 0.3);
+  EXPECT_DOUBLE_EQ(radius_param("filter.gpf", 0.25, "support"), 1.0);
+  for (const char* lop :
+       {"resample.lop", "resample.wlop", "resample.clop", "normals.csw", "normals.bilateral"})
+    EXPECT_DOUBLE_EQ(radius_param(lop, 0.25, "support"), 0.25) << lop;
+  EXPECT_DOUBLE_EQ(radius_param("peer.cgal_wlop", 0.25, "support"), 0.5);  // neighbor_radius h/2
+  // Equal kernel std: one kernel convention, so one h for every method.
+  const double h = radius_param("resample.wlop", 0.01, "std");
+  EXPECT_NEAR(h, 0.01 * 4 * std::sqrt(2.0), 1e-12);
+  for (const auto& k : kernel_conventions())
+    EXPECT_DOUBLE_EQ(radius_param(k.algorithm, 0.01, "std"), h) << k.algorithm;
+  EXPECT_THROW(radius_param("normals.pca", 0.1, "support"), scanbench::ParamError);
+  EXPECT_THROW(radius_param("filter.gpf", 0.1, "mean"), scanbench::ParamError);
+  // The outlier claim says "the same radius": its h values are the mapping's at one support.
+  const fs::path file = fs::path(SCANBENCH_TEST_DATA) / ".." / ".." / "configs" / "claims" /
+                        "gpf-fig4-18-outliers.json";
+  const Claim c = load_claim(file);
+  const Json& v = c.experiment["protocol"]["variants"];
+  const double support = 0.25;
+  EXPECT_DOUBLE_EQ(v["gpf"]["filter.gpf.h"]["value"].get<double>(),
+                   radius_param("filter.gpf", support, "support"));
+  EXPECT_DOUBLE_EQ(v["wlop"]["resample.wlop.h"]["value"].get<double>(),
+                   radius_param("resample.wlop", support, "support"));
+}

@@ -557,6 +557,28 @@ std::string chains_summary(const Json& chains) {
   return s;
 }
 
+const std::vector<KernelConvention>& kernel_conventions() {
+  static const double kStd = 1.0 / (4.0 * std::sqrt(2.0));  // exp(-16 r^2/h^2) = N(0, h/4/sqrt 2)
+  static const std::vector<KernelConvention> table = {
+      {"resample.lop", "h", 1.0, kStd},      {"resample.wlop", "h", 1.0, kStd},
+      {"resample.clop", "h", 1.0, kStd},     {"normals.csw", "h", 1.0, kStd},
+      {"filter.gpf", "h", 0.25, kStd},       {"peer.cgal_wlop", "h", 0.5, kStd},
+      {"normals.bilateral", "h", 1.0, kStd},
+  };
+  return table;
+}
+
+double radius_param(const std::string& algorithm, double radius, const std::string& same) {
+  for (const auto& k : kernel_conventions()) {
+    if (k.algorithm != algorithm) continue;
+    if (same == "support") return radius / k.support;
+    if (same == "std") return radius / k.kernel_std;
+    throw ParamError(fmt::format("radius_param: expected \"support\" or \"std\", got '{}'", same));
+  }
+  throw ParamError(
+      fmt::format("radius_param: '{}' has no radius parameter in the kernel table", algorithm));
+}
+
 RecordsRunner local_records_runner(int jobs, bool resume, bool quiet) {
   return [=](const Json& config, const fs::path& out) {
     const Experiment e = parse_experiment(config, (out / "config.json").string());

@@ -122,6 +122,27 @@ void check_fair_chains(const Json& config, const ChainDeclaration& d,
 /// One line for reports: "ear: downstream differs (its own upsampling)", or "" when none.
 std::string chains_summary(const Json& chains);
 
+/// "The same radius" across methods (issue 50). Every scanbench radius parameter is a kernel
+/// width h in one convention, theta(r) = exp(-16 r^2/h^2) (kernel std h / (4 sqrt 2)), but the
+/// methods read their data differently within it: WLOP/LOP/CLOP attract to the points within h
+/// (Huang et al. 2009, eq. 1-3; Preiner et al. 2014, eq. 24), GPF's data term and E-step use
+/// the points within h/4 (its theta = exp(-4 r^2/h_GPF^2) with h_GPF = h/2, data term within
+/// h_GPF/2; Lu et al. 2017, sec. 4), CGAL's WLOP its neighbor_radius h/2. The table of
+/// docs/claims.md ("Radii in each method's convention") lists them.
+struct KernelConvention {
+  std::string algorithm;  ///< the step's algorithm
+  std::string param;      ///< its radius parameter
+  double support;         ///< data-term support radius per unit of the parameter
+  double kernel_std;      ///< kernel std per unit of the parameter
+};
+/// The methods with a radius parameter, in the docs table's order.
+const std::vector<KernelConvention>& kernel_conventions();
+/// The value of `algorithm`'s radius parameter that gives `radius` (a fraction of the bbox
+/// diagonal) as its data-term support (`same` = "support": equal support, the protocol's meaning
+/// of "the same radius") or as its kernel std (`same` = "std"). Throws ParamError for an
+/// algorithm with no radius parameter or another `same`.
+double radius_param(const std::string& algorithm, double radius, const std::string& same);
+
 /// Runs an experiment config into a folder and returns its records.
 using RecordsRunner =
     std::function<std::vector<Json>(const Json& config, const std::filesystem::path& out)>;
