@@ -12,6 +12,7 @@
 #include <set>
 
 #include "cli_test_util.h"
+#include "experiment_test_util.h"
 #include "scanbench/harness/compare.h"
 #include "scanbench/harness/stats.h"
 #include "scanbench/harness/table.h"
@@ -429,6 +430,95 @@ TEST_F(EvalFromRecord, UnknownIdRefusedWithSuggestion) {
                     " --id " + id.substr(0, id.size() - 1) + "x");
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_NE(r.out.find("did you mean '" + id + "'"), std::string::npos) << r.out;
+}
+
+}  // namespace
+
+namespace {
+
+/// Issue 49: every name a config's "report" and "compare" sections hold is checked when the
+/// config loads, with a suggestion, so a typo fails before any job runs.
+Json names_config() {
+  return Json::parse(R"({
+    "scanbench_experiment": 1, "name": "n", "seeds": [1],
+    "datasets": [{"name": "sphere"}],
+    "scanners": [{"preset": "clean", "params": {"views": 2, "resolution": 64}}],
+    "variants": [{"label": "sub", "algorithm": "test.subsample",
+                  "sweep": {"test.subsample.stride": [1, 2]}}],
+    "metrics": ["accuracy.p2plane"],
+    "report": {"metrics": ["p2plane_mean_rel", "time.total"], "x": "test.subsample.stride",
+               "cost": {"exclude_steps": ["test.subsample"]}},
+    "compare": {"metrics": {"p2plane_mean_rel": {"rel": 0.1}}, "ignore": ["nn_dist_cv"]}})");
+}
+
+std::string load_error_with(const std::string& pointer, const Json& value) {
+  Json cfg = names_config();
+  cfg[Json::json_pointer(pointer)] = value;
+  setenv("SCANBENCH_TEST_ALGORITHMS", "1", 1);
+  return experiment_load_error(cfg);
+}
+
+TEST(ConfigNames, ValidNamesLoad) {
+  EXPECT_EQ(load_error_with("/name", "n"), "");
+}
+
+TEST(ConfigNames, ReportMetricTypoRefusedWithSuggestion) {
+  const std::string e = load_error_with("/report/metrics/0", "p2plane_mean_rl");
+  EXPECT_NE(e.find("cfg.json: /report/metrics/0: unknown metric key 'p2plane_mean_rl' (did you "
+                   "mean 'p2plane_mean_rel'?)"),
+            std::string::npos)
+      << e;
+}
+
+TEST(ConfigNames, ReportXNotSweptRefusedWithSuggestion) {
+  const std::string e = load_error_with("/report/x", "test.subsample.strid");
+  EXPECT_NE(e.find("/report/x: 'test.subsample.strid' is no swept key of this config (did you "
+                   "mean 'test.subsample.stride'?)"),
+            std::string::npos)
+      << e;
+}
+
+TEST(ConfigNames, ReportUnknownKeyAndCostStepRefused) {
+  EXPECT_NE(load_error_with("/report/metric", Json::array()).find("/report"), std::string::npos);
+  const std::string e = load_error_with("/report/cost/exclude_steps/0", "test.subsampl");
+  EXPECT_NE(e.find("/report/cost/exclude_steps/0: 'test.subsampl' is no step of the variants "
+                   "(did you mean 'test.subsample'?)"),
+            std::string::npos)
+      << e;
+}
+
+TEST(ConfigNames, CompareMetricsAndIgnoreTyposRefused) {
+  const std::string m = load_error_with("/compare/metrics", Json{{"chamfer_rell", Json::object()}});
+  EXPECT_NE(m.find("/compare/metrics/chamfer_rell: unknown metric key 'chamfer_rell' (did you "
+                   "mean 'chamfer_rel'?)"),
+            std::string::npos)
+      << m;
+  const std::string i = load_error_with("/compare/ignore/0", "fscor");
+  EXPECT_NE(i.find("/compare/ignore/0: unknown metric key 'fscor' (did you mean 'fscore'?)"),
+            std::string::npos)
+      << i;
+  EXPECT_NE(load_error_with("/compare/alpah", 0.1).find("alpah"), std::string::npos);
+}
+
+TEST(ConfigNames, ATypoFailsTheRunBeforeAnyJob) {
+  const fs::path dir = make_temp_dir("names");
+  Json cfg = names_config();
+  cfg["report"]["metrics"][0] = "p2plane_mean_rl";
+  write(dir / "cfg.json", cfg.dump());
+  const auto r =
+      sh(sb() + " run " + (dir / "cfg.json").string() + " -o " + (dir / "out").string() + " -q");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("did you mean 'p2plane_mean_rel'"), std::string::npos) << r.out;
+  EXPECT_FALSE(fs::exists(dir / "out" / "jobs")) << r.out;  // no job ran
+  fs::remove_all(dir);
+}
+
+TEST(ConfigNames, ShippedConfigsLoad) {
+  for (const auto& f :
+       fs::directory_iterator(fs::path(SCANBENCH_TEST_DATA) / ".." / ".." / "configs")) {
+    if (f.path().extension() != ".json") continue;
+    EXPECT_NO_THROW(scanbench::harness::load_experiment(f.path())) << f.path();
+  }
 }
 
 }  // namespace

@@ -10,8 +10,10 @@
 #include "scanbench/core/datasets.h"
 #include "scanbench/core/json_text.h"
 #include "scanbench/core/rng.h"
+#include "scanbench/harness/compare.h"
 #include "scanbench/harness/plugins.h"
 #include "scanbench/harness/protocol.h"
+#include "scanbench/harness/table.h"
 #include "scanbench/harness/test_algorithms.h"
 #include "scanbench/metrics/point_truth.h"
 #include "scanbench/metrics/registry.h"
@@ -554,6 +556,90 @@ void check_job_count(const Experiment& e, const Where& w) {
                    count, kMaxJobs));
 }
 
+/// Every record quantity this build can produce, for suggestions: the keys the registered
+/// metrics declare (plugins' included), the record keys, time.total, time.cpu, peak_rss_mb.
+std::vector<std::string> known_quantities() {
+  std::set<std::string> names = {"time.total", "time.cpu", "peak_rss_mb"};
+  for (const auto& entry : metrics::registry().entries())
+    for (const auto& k : entry.fn.keys)
+      names.insert(k.key);
+  for (const auto& k : metrics::record_keys())
+    names.insert(k.key);
+  return {names.begin(), names.end()};
+}
+
+/// A quantity a record of this build can hold (records.h record_value): a declared metric key,
+/// time.<phase>, sizes.<key> or peak_rss_mb. Phases and sizes depend on the chain, so any name
+/// under those prefixes passes here and is checked against the records where it is used.
+bool is_quantity(const std::string& q) {
+  return metrics::key_direction(q).has_value() || q.rfind("time.", 0) == 0 ||
+         q.rfind("sizes.", 0) == 0 || q == "peak_rss_mb";
+}
+
+void check_quantity_name(const Json& v, const Where& w) {
+  const std::string q = get_string(v, w);
+  if (!is_quantity(q))
+    fail(w, fmt::format("unknown metric key '{}'{}", q, did_you_mean(q, known_quantities())));
+}
+
+/// The names the "report" and "compare" sections hold, checked when the config loads (so a
+/// typo fails before any job runs): report.metrics and compare's metrics and ignore are record
+/// quantities, report.x a swept key, report.cost.exclude_steps step labels or algorithms of the
+/// variants; compare's structure as `compare` reads it (CompareOptions::from_json).
+void check_section_names(const Experiment& e, const Where& w) {
+  if (!e.report.is_null()) {
+    const Where r = w / "report";
+    check_keys_at(e.report, r, {"metrics", "x", "cost"});
+    if (e.report.contains("metrics")) {
+      const Json& m = e.report["metrics"];
+      if (!m.is_array()) fail(r / "metrics", "expected a list of metric keys, got " + describe(m));
+      for (std::size_t i = 0; i < m.size(); ++i)
+        check_quantity_name(m[i], r / "metrics" / i);
+    }
+    if (e.report.contains("x")) {
+      const std::string x = get_string(e.report["x"], r / "x");
+      std::set<std::string> swept;
+      for (const Sweep& s : e.sweeps)
+        for (const auto& [k, vals] : s)
+          swept.insert(k);
+      for (const auto& v : e.variants)
+        for (const Sweep& s : v.sweeps)
+          for (const auto& [k, vals] : s)
+            swept.insert(k);
+      if (!swept.count(x))
+        fail(r / "x", fmt::format("'{}' is no swept key of this config{}", x,
+                                  did_you_mean(x, {swept.begin(), swept.end()})));
+    }
+    if (e.report.contains("cost")) {
+      const Where c = r / "cost";
+      check_keys_at(e.report["cost"], c, {"exclude_steps"});
+      std::set<std::string> steps;
+      for (const auto& v : e.variants)
+        for (const auto& st : v.chain) {
+          steps.insert(st.label);
+          steps.insert(st.algorithm);
+        }
+      const Json& ex = e.report["cost"].value("exclude_steps", Json::array());
+      if (!ex.is_array()) fail(c / "exclude_steps", "expected a list of step labels");
+      for (std::size_t i = 0; i < ex.size(); ++i) {
+        const std::string step = get_string(ex[i], c / "exclude_steps" / i);
+        if (!steps.count(step))
+          fail(c / "exclude_steps" / i,
+               fmt::format("'{}' is no step of the variants{}", step,
+                           did_you_mean(step, {steps.begin(), steps.end()})));
+      }
+    }
+  }
+  if (!e.compare.is_null()) {
+    const Where c = w / "compare";
+    const CompareOptions o = CompareOptions::from_json(e.compare, c.str());
+    for (const auto& [k, t] : o.metric_tolerances)
+      check_quantity_name(Json(k), c / "metrics" / k);
+    for (std::size_t i = 0; i < o.ignore.size(); ++i)
+      check_quantity_name(Json(o.ignore[i]), c / "ignore" / i);
+  }
+}
+
 }  // namespace
 
 Experiment parse_experiment(const Json& j, const std::string& where) {
@@ -672,6 +758,7 @@ Experiment parse_experiment(const Json& j, const std::string& where) {
     expect_object(j["report"], w / "report");
     e.report = j["report"];
   }
+  check_section_names(e, w);
   // The declared parameter protocol (protocol.h): validated here, resolved by the caller that
   // runs the experiment (resolve_protocol, protocol_config).
   if (j.contains("protocol")) {
