@@ -329,17 +329,12 @@ std::string resume_command(const fs::path& dir) {
                      shell_quote(dir.string()), slurm ? " --executor slurm" : "");
 }
 
-void refuse_if_submission_queued(const fs::path& dir_in) {
-  const fs::path dir = fs::absolute(dir_in).lexically_normal();
-  if (!fs::is_directory(dir / "slurm")) return;
-  const std::string squeue = find_on_path("squeue");
-  if (squeue.empty()) return;  // no Slurm here: no task of this machine can be writing
-  std::vector<QueueEntry> queued;
-  try {
-    queued = query_queue(squeue, folder_tag(dir));
-  } catch (const SchedulerError&) {
-    return;  // a controller that does not answer runs no task either
-  }
+namespace {
+
+/// Throws SchedulerError ending with `consequence` when Slurm jobs of `dir` are in the queue.
+void refuse_if_queued(const std::string& squeue, const fs::path& dir,
+                      std::string_view consequence) {
+  const std::vector<QueueEntry> queued = query_queue(squeue, folder_tag(dir));
   if (queued.empty()) return;
   std::set<std::string> ids;
   for (const auto& q : queued)
@@ -347,10 +342,25 @@ void refuse_if_submission_queued(const fs::path& dir_in) {
   std::string list;
   for (const auto& id : ids)
     list += (list.empty() ? "" : " ") + id;
-  throw SchedulerError(
-      fmt::format("{}: a Slurm submission is still writing this folder (jobs {} are in the "
-                  "queue); wait for them (scanbench status {}) or cancel them (scancel {})",
-                  dir.string(), list, dir.string(), list));
+  throw SchedulerError(fmt::format(
+      "{}: an earlier submission is still writing this folder (Slurm jobs {} are in the "
+      "queue); wait for them (scanbench status {}) or cancel them (scancel {}){}",
+      dir.string(), list, dir.string(), list, consequence));
+}
+
+}  // namespace
+
+void refuse_if_submission_queued(const fs::path& dir_in) {
+  const fs::path dir = fs::absolute(dir_in).lexically_normal();
+  if (!fs::is_directory(dir / "slurm")) return;
+  const std::string squeue = find_on_path("squeue");
+  if (squeue.empty()) return;  // no Slurm here: no task of this machine can be writing
+  try {
+    refuse_if_queued(squeue, dir, "");
+  } catch (const SchedulerError& e) {
+    // A controller that does not answer runs no task either; a queue that holds ours does.
+    if (std::string_view(e.what()).find("still writing") != std::string_view::npos) throw;
+  }
 }
 
 SlurmSubmission submit_slurm(const Experiment& e, const RunOptions& opts, const SlurmOptions& so) {
@@ -365,20 +375,7 @@ SlurmSubmission submit_slurm(const Experiment& e, const RunOptions& opts, const 
   // write only their own jobs' files, and the merge job takes the lock again.
   const FolderLock lock = FolderLock::acquire(dir, "scanbench run --executor slurm", 0, true);
   const std::string tag = folder_tag(dir);
-  const std::vector<QueueEntry> queued = query_queue(tools.squeue, tag);
-  if (!queued.empty()) {
-    std::set<std::string> ids;
-    for (const auto& q : queued)
-      ids.insert(q.array_job);
-    std::string list;
-    for (const auto& id : ids)
-      list += (list.empty() ? "" : " ") + id;
-    throw SchedulerError(fmt::format(
-        "{}: an earlier submission is still writing this folder (Slurm jobs {} are in the "
-        "queue); wait for them (scanbench status {}) or cancel them (scancel {}); nothing "
-        "submitted",
-        dir.string(), list, dir.string(), list));
-  }
+  refuse_if_queued(tools.squeue, dir, "; nothing submitted");
 
   RunOptions o = opts;
   o.out = dir;
