@@ -177,16 +177,18 @@ const MetricRegistry& registry() {
         point_truth_chamfer));
     // The mean spacing depends on the point count: informational. Its spread (variance, and the
     // scale-free CV) measures regularity: lower is better.
-    reg.add(make_metric<RegularityParams>(
-        "regularity.nn_dist",
-        "nearest-neighbour distance of each output point to another: nn_dist_mean, nn_dist_var "
-        "(population), nn_dist_cv = std/mean (scale free)",
-        Scores::Points,
-        Keys{}
-            .length("nn_dist_mean", kNone)
-            .length("nn_dist_var", kLower)
-            .plain("nn_dist_cv", kLower),
-        Needs{}, regularity_metric));
+    reg.add(point_capable(
+        make_metric<RegularityParams>(
+            "regularity.nn_dist",
+            "nearest-neighbour distance of each output point to another: nn_dist_mean, "
+            "nn_dist_var (population), nn_dist_cv = std/mean (scale free)",
+            Scores::Points,
+            Keys{}
+                .length("nn_dist_mean", kNone)
+                .length("nn_dist_var", kLower)
+                .plain("nn_dist_cv", kLower),
+            Needs{}, regularity_metric),
+        point_truth_regularity));
     reg.add(make_metric<NormalAngleParams>(
         "normals.angle",
         "unoriented normal angle arccos|n . n_gt| to the closest GT face normal, degrees: "

@@ -6,6 +6,7 @@
 
 #include "scanbench/core/kdtree.h"
 #include "scanbench/metrics/ground_truth.h"
+#include "scanbench/metrics/point_truth.h"
 #include "stats.h"
 
 namespace scanbench::metrics {
@@ -28,9 +29,10 @@ Eigen::VectorXf nearest_neighbour_distances(const Eigen::Matrix3Xf& points) {
   return d;
 }
 
-Json regularity_metric(const MetricInput& in, const RegularityParams& p) {
-  const Eigen::VectorXf d = nearest_neighbour_distances(in.output.positions);
-  const double diag = in.truth.diagonal();
+namespace {
+
+Json regularity_scores(const Eigen::Matrix3Xf& points, double diag, const RegularityParams& p) {
+  const Eigen::VectorXf d = nearest_neighbour_distances(points);
   const double n = static_cast<double>(d.size());
   const double mean = detail::ordered_sum(d) / n;
   double var = 0.0;
@@ -45,6 +47,17 @@ Json regularity_metric(const MetricInput& in, const RegularityParams& p) {
   j["histograms"]["nn_dist"] =
       detail::histogram(d / static_cast<float>(diag), 0.0, p.hist_max, p.bins, "diag");
   return j;
+}
+
+}  // namespace
+
+Json regularity_metric(const MetricInput& in, const RegularityParams& p) {
+  return regularity_scores(in.output.positions, in.truth.diagonal(), p);
+}
+
+Json point_truth_regularity(const PointTruthInput& in, const Json& params, RunContext&) {
+  return regularity_scores(in.output.positions, in.diagonal,
+                           params_from_json<RegularityParams>(params, "metric regularity.nn_dist"));
 }
 
 }  // namespace scanbench::metrics

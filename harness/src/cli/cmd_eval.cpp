@@ -104,8 +104,8 @@ void add_eval_command(Cli& cli) {
   auto* gp = sub->add_option(
       "--gt-points", opts->gt_points,
       "Ground-truth point cloud (.ply, .xyz, .pwn; normals used when present) instead of a mesh: "
-      "only accuracy.chamfer (precision/recall/F-score at tau, Tanks and Temples) and "
-      "accuracy.p2plane run, the others are reported not applicable");
+      "only accuracy.chamfer (precision/recall/F-score at tau, Tanks and Temples), "
+      "accuracy.p2plane and regularity.nn_dist run, the others are reported not applicable");
   sub->add_option("--gt-transform", opts->gt_transform,
                   "4x4 alignment of the ground-truth points: a file of 16 numbers (row-major, "
                   "e.g. Tanks and Temples' _trans.txt) or the numbers themselves")

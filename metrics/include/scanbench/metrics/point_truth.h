@@ -13,6 +13,8 @@
 //                     chamfer_samples = the GT point count; `samples` and `path` do not apply).
 //   accuracy.p2plane  when the GT points have normals: |<o - g, n_g>| with g the nearest GT point
 //                     of o and n_g its normal (else not applicable).
+//   regularity.nn_dist the output's nearest-neighbour spacing (regularity.h): no ground truth
+//                     needed, the diagonal below only for `_rel`.
 // The unit of every `_rel` value is the diagonal of the (cropped) GT points' bounding box.
 #include <filesystem>
 #include <string>

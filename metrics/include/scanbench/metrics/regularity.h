@@ -4,6 +4,7 @@
 // 0). Reported: nn_dist_mean (length), nn_dist_var (population variance, 1/n; `_rel` divides by
 // diagonal^2) and nn_dist_cv = std / mean (scale free; null when the mean is 0). Needs at least 2
 // points.
+#include "scanbench/core/run_context.h"
 #include "scanbench/metrics/metric_input.h"
 
 namespace scanbench::metrics {
@@ -23,5 +24,10 @@ Eigen::VectorXf nearest_neighbour_distances(const Eigen::Matrix3Xf& points);
 
 /// Metric "regularity.nn_dist".
 Json regularity_metric(const MetricInput& in, const RegularityParams& p);
+
+/// The same on a point-cloud ground truth (point_truth.h): it needs no mesh, only the output
+/// points and the ground truth's diagonal (of the cropped ground-truth points) for `_rel`.
+struct PointTruthInput;
+Json point_truth_regularity(const PointTruthInput& in, const Json& params, RunContext& ctx);
 
 }  // namespace scanbench::metrics
