@@ -307,6 +307,10 @@ TEST(RunExit, FailedJobsExitFourWithTheirReasonsLast) {
   EXPECT_NE(r.out.find("signal", at), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("--resume --retry-failed", at), std::string::npos) << r.out;
   EXPECT_EQ(r.out.find("--executor slurm"), std::string::npos) << r.out;
+  // `status` suggests the executor the folder used: a local one here.
+  r = sh(sb() + " status " + (dir / "out").string());
+  EXPECT_NE(r.out.find("--resume"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("--executor slurm"), std::string::npos) << r.out;
   r = sh(run_cmd(dir / "a.json", dir / "out", "--resume --allow-failures"), false);
   EXPECT_EQ(r.code, 0) << r.out;
 }
