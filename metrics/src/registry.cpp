@@ -211,12 +211,16 @@ const MetricRegistry& registry() {
         "edges.p2plane",
         "point-to-plane error near the ground truth's sharp edges (GPF paper Fig. 7-9, 17): "
         "edge_p2plane_mean (+ _rel) over the output points whose closest GT point is within band "
-        "of an edge sharper than angle_deg; edge_points, edge_share",
+        "of an edge sharper than angle_deg; edge_points, edge_share, edge_band_area (share of "
+        "the GT area in the band), edge_sharp_length (share of the GT edge length that is "
+        "sharp); not applicable on a faceted GT (either share above its max_)",
         Scores::Points,
         Keys{}
             .length("edge_p2plane_mean", kLower)
             .plain("edge_points", kNone)
-            .plain("edge_share", kNone),
+            .plain("edge_share", kNone)
+            .plain("edge_band_area", kNone)
+            .plain("edge_sharp_length", kNone),
         closest, sharp_edge_p2plane_metric));
     reg.add(make_metric<SharpEdgeParams>(
         "edges.normals",

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <optional>
 #include <utility>
 
 #include "scanbench/core/kdtree.h"
@@ -25,54 +26,128 @@ float distance_to_piece(const Eigen::Vector3f& q, const Piece& s) {
   return (q - (s.a + t * d)).norm();
 }
 
+/// The sharp edges of a ground truth cut into pieces no longer than the band, and a kd-tree of
+/// the pieces' midpoints.
+class SharpEdges {
+ public:
+  SharpEdges(const GroundTruth& truth, const SharpEdgeParams& p)
+      : band_(static_cast<float>(p.band) * truth.diagonal()) {
+    const TriangleMesh& mesh = truth.mesh();
+    std::map<std::pair<int, int>, std::vector<Eigen::Index>> faces_of;
+    for (Eigen::Index f = 0; f < mesh.num_faces(); ++f)
+      for (int k = 0; k < 3; ++k) {
+        const int a = mesh.faces(k, f), b = mesh.faces((k + 1) % 3, f);
+        faces_of[std::minmax(a, b)].push_back(f);
+      }
+    const float cos_max = static_cast<float>(std::cos(p.angle_deg * M_PI / 180.0));
+    for (const auto& [e, fs] : faces_of) {
+      const float len = (mesh.vertices.col(e.first) - mesh.vertices.col(e.second)).norm();
+      total_length_ += len;
+      if (fs.size() != 2) continue;
+      if (mesh.face_normal(fs[0]).dot(mesh.face_normal(fs[1])) >= cos_max) continue;
+      sharp_length_ += len;
+      const Eigen::Vector3f a = mesh.vertices.col(e.first), b = mesh.vertices.col(e.second);
+      const int n = std::max(1, static_cast<int>(std::ceil((b - a).norm() / band_)));
+      for (int i = 0; i < n; ++i)
+        pieces_.push_back({a + (b - a) * (float(i) / n), a + (b - a) * (float(i + 1) / n)});
+    }
+    if (pieces_.empty()) {
+      throw NotApplicable(fmt::format("no ground-truth edge sharper than {} degrees", p.angle_deg));
+    }
+    mids_.resize(3, static_cast<Eigen::Index>(pieces_.size()));
+    for (std::size_t i = 0; i < pieces_.size(); ++i)
+      mids_.col(static_cast<Eigen::Index>(i)) = 0.5f * (pieces_[i].a + pieces_[i].b);
+    tree_.emplace(mids_);  // views mids_, which lives as long
+  }
+
+  /// The share of the mesh's edge length on sharp edges.
+  double sharp_length_share() const { return sharp_length_ / total_length_; }
+
+  /// Whether q (on the ground truth) lies within the band of a sharp edge.
+  bool near(const Eigen::Vector3f& q, std::vector<std::pair<Eigen::Index, float>>& found) const {
+    // A piece is at most `band` long: a point within band of it is within 1.5 band of its middle.
+    tree_->radius(q, 1.5f * band_, found);
+    for (const auto& [k, d2] : found)
+      if (distance_to_piece(q, pieces_[static_cast<std::size_t>(k)]) <= band_) return true;
+    return false;
+  }
+
+ private:
+  float band_;
+  double total_length_ = 0.0, sharp_length_ = 0.0;
+  std::vector<Piece> pieces_;
+  Eigen::Matrix3Xf mids_;
+  std::optional<KdTree> tree_;
+};
+
+/// The share of the ground truth's area within the band of a sharp edge, estimated on the
+/// ground truth's fixed seeded surface samples (its sample seed is recorded in "scoring"); an
+/// exact clipped-area integral over every face would be far more code for a threshold test.
+double band_area_share(const GroundTruth& truth, const SharpEdges& edges) {
+  const PointCloud& s = truth.surface_samples(kEdgeBandAreaSamples);
+  std::vector<std::pair<Eigen::Index, float>> found;
+  Eigen::Index in = 0;
+  for (Eigen::Index i = 0; i < s.size(); ++i)
+    in += edges.near(s.positions.col(i), found) ? 1 : 0;
+  return static_cast<double>(in) / static_cast<double>(s.size());
+}
+
+/// What the features test measured: edge_band_area and edge_sharp_length.
+struct FeatureFacts {
+  double band_area = 0.0, sharp_length = 0.0;
+};
+
+/// The facts when the sharp edges of `truth` are features (see the header); NotApplicable with
+/// the stated rule and the measured value otherwise.
+FeatureFacts check_features(const GroundTruth& truth, const SharpEdges& edges,
+                            const SharpEdgeParams& p, const char* metric) {
+  FeatureFacts f;
+  f.sharp_length = edges.sharp_length_share();
+  if (f.sharp_length > p.max_sharp_length) {
+    throw NotApplicable(fmt::format(
+        "{}: the ground truth is faceted: {:.0f}% of its edge length bends by more than {} "
+        "degrees (max_sharp_length {:.0f}%), so its sharp edges are facets, not features",
+        metric, 100.0 * f.sharp_length, p.angle_deg, 100.0 * p.max_sharp_length));
+  }
+  f.band_area = band_area_share(truth, edges);
+  if (f.band_area > p.max_band_area) {
+    throw NotApplicable(fmt::format(
+        "{}: {:.0f}% of the ground truth's area lies within the band ({} diag) of an edge sharper "
+        "than {} degrees (max_band_area {:.0f}%): near an edge would mean nearly everywhere",
+        metric, 100.0 * f.band_area, p.band, p.angle_deg, 100.0 * p.max_band_area));
+  }
+  return f;
+}
+
+std::vector<bool> near_of(const SharpEdges& edges, const std::vector<ClosestPoint>& cps) {
+  std::vector<bool> near(cps.size(), false);
+  std::vector<std::pair<Eigen::Index, float>> found;
+  for (std::size_t i = 0; i < cps.size(); ++i)
+    near[i] = edges.near(cps[i].point, found);
+  return near;
+}
+
 }  // namespace
 
 std::vector<bool> near_sharp_edges(const GroundTruth& truth, const std::vector<ClosestPoint>& cps,
                                    const SharpEdgeParams& p) {
-  const TriangleMesh& mesh = truth.mesh();
-  std::map<std::pair<int, int>, std::vector<Eigen::Index>> faces_of;
-  for (Eigen::Index f = 0; f < mesh.num_faces(); ++f)
-    for (int k = 0; k < 3; ++k) {
-      const int a = mesh.faces(k, f), b = mesh.faces((k + 1) % 3, f);
-      faces_of[std::minmax(a, b)].push_back(f);
-    }
-  const float band = static_cast<float>(p.band) * truth.diagonal();
-  const float cos_max = static_cast<float>(std::cos(p.angle_deg * M_PI / 180.0));
-  std::vector<Piece> pieces;
-  for (const auto& [e, fs] : faces_of) {
-    if (fs.size() != 2) continue;
-    if (mesh.face_normal(fs[0]).dot(mesh.face_normal(fs[1])) >= cos_max) continue;
-    const Eigen::Vector3f a = mesh.vertices.col(e.first), b = mesh.vertices.col(e.second);
-    const int n = std::max(1, static_cast<int>(std::ceil((b - a).norm() / band)));
-    for (int i = 0; i < n; ++i)
-      pieces.push_back({a + (b - a) * (float(i) / n), a + (b - a) * (float(i + 1) / n)});
-  }
-  if (pieces.empty()) {
-    throw NotApplicable(fmt::format("no ground-truth edge sharper than {} degrees", p.angle_deg));
-  }
-  Eigen::Matrix3Xf mids(3, static_cast<Eigen::Index>(pieces.size()));
-  for (std::size_t i = 0; i < pieces.size(); ++i)
-    mids.col(static_cast<Eigen::Index>(i)) = 0.5f * (pieces[i].a + pieces[i].b);
-  const KdTree tree(mids);
-  std::vector<bool> near(cps.size(), false);
-  std::vector<std::pair<Eigen::Index, float>> found;
-  for (std::size_t i = 0; i < cps.size(); ++i) {
-    // A piece is at most `band` long: a point within band of it is within 1.5 band of its middle.
-    tree.radius(cps[i].point, 1.5f * band, found);
-    for (const auto& [k, d2] : found) {
-      if (distance_to_piece(cps[i].point, pieces[static_cast<std::size_t>(k)]) <= band) {
-        near[i] = true;
-        break;
-      }
-    }
-  }
-  return near;
+  return near_of(SharpEdges(truth, p), cps);
+}
+
+double sharp_edge_band_area(const GroundTruth& truth, const SharpEdgeParams& p) {
+  return band_area_share(truth, SharpEdges(truth, p));
+}
+
+double sharp_edge_length_share(const GroundTruth& truth, const SharpEdgeParams& p) {
+  return SharpEdges(truth, p).sharp_length_share();
 }
 
 Json sharp_edge_p2plane_metric(const MetricInput& in, const SharpEdgeParams& p) {
   if (in.output.empty()) throw InputError("edges.p2plane: output has no points");
+  const SharpEdges edges(in.truth, p);
+  const FeatureFacts facts = check_features(in.truth, edges, p, "edges.p2plane");
   const auto cps = closest_points_of(in);
-  const std::vector<bool> near = near_sharp_edges(in.truth, cps, p);
+  const std::vector<bool> near = near_of(edges, cps);
   double sum = 0.0;
   long count = 0;
   for (Eigen::Index i = 0; i < in.output.size(); ++i) {
@@ -88,14 +163,18 @@ Json sharp_edge_p2plane_metric(const MetricInput& in, const SharpEdgeParams& p) 
   j["edge_p2plane_mean_rel"] = mean / in.truth.diagonal();
   j["edge_points"] = count;
   j["edge_share"] = static_cast<double>(count) / static_cast<double>(in.output.size());
+  j["edge_band_area"] = facts.band_area;
+  j["edge_sharp_length"] = facts.sharp_length;
   return j;
 }
 
 Json sharp_edge_normals_metric(const MetricInput& in, const SharpEdgeParams& p) {
   if (!in.output.has_normals()) throw NotApplicable("edges.normals: output has no normals");
   if (in.output.empty()) throw InputError("edges.normals: output has no points");
+  const SharpEdges edges(in.truth, p);
+  check_features(in.truth, edges, p, "edges.normals");
   const auto cps = closest_points_of(in);
-  const std::vector<bool> near = near_sharp_edges(in.truth, cps, p);
+  const std::vector<bool> near = near_of(edges, cps);
   double sum = 0.0;
   long count = 0, under10 = 0;
   for (Eigen::Index i = 0; i < in.output.size(); ++i) {

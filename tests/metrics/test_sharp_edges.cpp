@@ -9,6 +9,8 @@
 #include "scanbench/metrics/evaluate.h"
 #include "scanbench/metrics/ground_truth.h"
 #include "scanbench/metrics/registry.h"
+#include "scanbench/metrics/sharp_edges.h"
+#include "scanbench/metrics/surface_sampling.h"
 #include "test_meshes.h"
 
 namespace scanbench::metrics {
@@ -60,6 +62,57 @@ TEST(SharpEdgeMetrics, SmoothTruthHasNothingToScore) {
   EXPECT_THROW(evaluate(gt, out, nullptr, {"edges.p2plane"}, Json::object(), ctx), NotApplicable);
   const Json r = evaluate(gt, out, nullptr, {}, Json::object(), ctx);
   EXPECT_TRUE(r["skipped"].contains("edges.p2plane")) << r.dump();
+}
+
+// Issue 49: edges.* only where sharp edges are features. The cube's 12 edges are: both metrics
+// run, with their measured shares. A low-poly sphere (resolution 2: 48 triangles, every edge a
+// fold of more than 30 degrees) is faceted: skipped with the stated rule when all metrics run,
+// NotApplicable when named. A band so wide that it covers most of the cube: skipped by the area
+// rule.
+TEST(SharpEdgeMetrics, OnlyWhereSharpEdgesAreFeatures) {
+  RunContext ctx(1);
+  const TriangleMesh cube = make_cube({});
+  const GroundTruth cube_gt(cube, 1);
+  PointCloud out = sample_surface(cube, 4000, 2);
+  const Json kept = evaluate(cube_gt, out, nullptr, {}, Json::object(), ctx);
+  EXPECT_FALSE(kept["skipped"].contains("edges.p2plane")) << kept["skipped"].dump();
+  EXPECT_FALSE(kept["skipped"].contains("edges.normals")) << kept["skipped"].dump();
+  // The band of 0.02 diag around the 12 edges: 1 - (1 - 2 x 0.02 sqrt 3)^2 of each face.
+  const double strip = 2.0 * 0.02 * std::sqrt(3.0);
+  EXPECT_NEAR(kept["edge_band_area"].get<double>(), 1.0 - (1.0 - strip) * (1.0 - strip), 0.01);
+  EXPECT_LT(kept["edge_sharp_length"].get<double>(), 0.1);
+  EXPECT_GT(kept["edge_points"].get<int>(), 0);
+
+  SphereParams low;
+  low.resolution = 2;
+  const TriangleMesh sphere = make_sphere(low);
+  const GroundTruth sphere_gt(sphere, 1);
+  out = sample_surface(sphere, 4000, 2);
+  const Json faceted = evaluate(sphere_gt, out, nullptr, {}, Json::object(), ctx);
+  ASSERT_TRUE(faceted["skipped"].contains("edges.p2plane")) << faceted.dump();
+  const std::string why = faceted["skipped"]["edges.p2plane"].get<std::string>();
+  EXPECT_NE(why.find("faceted"), std::string::npos) << why;
+  EXPECT_NE(why.find("max_sharp_length 50%"), std::string::npos) << why;
+  EXPECT_TRUE(faceted["skipped"].contains("edges.normals"));
+  EXPECT_FALSE(faceted.contains("edge_p2plane_mean"));
+  EXPECT_GT(sharp_edge_length_share(sphere_gt, {}), 0.5);
+  EXPECT_THROW(evaluate(sphere_gt, out, nullptr, {"edges.p2plane"}, Json::object(), ctx),
+               NotApplicable);
+  // The same sphere scored when the rule is relaxed: the rule, not the geometry, skips it.
+  const Json relaxed = evaluate(sphere_gt, out, nullptr, {"edges.p2plane"},
+                                Json{{"edges.p2plane", {{"max_sharp_length", 1.0}}}}, ctx);
+  EXPECT_TRUE(relaxed.contains("edge_p2plane_mean")) << relaxed.dump();
+
+  out = sample_surface(cube, 4000, 2);
+  const Json wide = evaluate(cube_gt, out, nullptr, {"edges.p2plane"}, Json::object(), ctx);
+  EXPECT_TRUE(wide.contains("edge_p2plane_mean"));
+  try {
+    evaluate(cube_gt, out, nullptr, {"edges.p2plane"}, Json{{"edges.p2plane", {{"band", 0.2}}}},
+             ctx);
+    ADD_FAILURE() << "a band covering most of the cube was scored";
+  } catch (const NotApplicable& e) {
+    EXPECT_NE(std::string(e.what()).find("max_band_area 50%"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace
