@@ -99,7 +99,7 @@ TEST(Protocol, BadProtocolIsOneLineNamingTheField) {
   EXPECT_EQ(broken([](Json& p) { p["variants"]["sub"]["test.subsample.stride"]["source"] = "x"; }),
             pv + "/source: expected one of paper, rule, tuned, got 'x'");
   EXPECT_EQ(broken([](Json& p) { p["variants"]["sub"]["test.subsample.stride"].erase("range"); }),
-            pv + "/range: missing (the values to tune over)");
+            pv + "/range: missing (the values to tune over, or a \"rule\")");
   EXPECT_EQ(broken([](Json& p) { p["variants"]["sub"]["test.subsample.stride"]["value"] = 2; }),
             pv + "/value: not used with source \"tuned\"");
   EXPECT_EQ(broken([](Json& p) {
@@ -189,6 +189,12 @@ TEST(Protocol, TuningSeesOnlyTheTuningDataAndItsChoiceIsUsedOnTheExperimentsData
   }
   ASSERT_EQ(p.params.size(), 1u);
   EXPECT_EQ(p.params[0].value, 2);  // the torus's best
+  // 2 is the lowest of the fixed range and 4 is worse: reported, and a fixed range is not extended.
+  EXPECT_EQ(p.params[0].boundary["status"], "boundary");
+  EXPECT_EQ(
+      p.params[0].boundary["text"],
+      "test.subsample.stride optimum on the lower boundary 2 of a fixed range, still falling");
+  EXPECT_EQ(p.inconclusive(), "");
   // On the experiment's own data the best would have been 8: the data disagree, and the choice
   // did not look at them.
   const Json swept = protocol_config(config, p, true);
@@ -359,4 +365,132 @@ TEST(ProtocolRadius, EqualSupportMapsToEachMethodsOwnParameter) {
                    radius_param("filter.gpf", support, "support"));
   EXPECT_DOUBLE_EQ(v["wlop"]["resample.wlop.h"]["value"].get<double>(),
                    radius_param("resample.wlop", support, "support"));
+}
+
+// Tuning ranges of the verdict's own size (issue 50): an h0_multiples rule resolves from the
+// tuning scans' point count, a boundary optimum with the curve still falling extends the range by
+// the rule, and past the rule's limit the claim is judged inconclusive.
+namespace {
+
+/// "sub" with test.subsample.work_ms (a real parameter standing in for an h) as multiples of h0.
+Json experiment_with_h0_rule(const Json& multiples) {
+  Json c = experiment_with_protocol();
+  c["protocol"]["variants"]["sub"] = {
+      {"test.subsample.work_ms",
+       {{"source", "tuned"}, {"rule", "h0_multiples"}, {"multiples", multiples}}}};
+  return c;
+}
+
+/// A runner on synthetic records: the probe (variant "scan-size") sees scans of `n` points, the
+/// tuning's err is |work_ms - target|. Keeps the folders it was asked to run into.
+RecordsRunner h0_runner(double n, double target, std::vector<std::string>& folders) {
+  return [n, target, &folders](const Json& c, const fs::path& out) {
+    folders.push_back(out.filename().string());
+    std::vector<Json> recs;
+    for (const auto& job : expand(parse_experiment(c, "synthetic")).jobs) {
+      const double w = job.chain[0]["params"].value("work_ms", 0.0);
+      Json r = tuning_record(job.dataset_label, job.variant, job.point, std::abs(w - target));
+      r["sizes"] = {{"scan_points", n}};
+      recs.push_back(r);
+    }
+    return recs;
+  };
+}
+
+}  // namespace
+
+TEST(ProtocolRange, H0MultiplesResolveFromTheTuningScansSize) {
+  const Json config = experiment_with_h0_rule({3, 6, 12});
+  EXPECT_EQ(param_error(config), "");
+  const Protocol declared = parse_protocol(config["protocol"], "p");
+  std::vector<std::string> folders;
+  // Quick scans (10,000 points): h0 = 0.01; full scans (40,000): h0 = 0.005, their own range.
+  const Protocol quick = resolve_protocol(config, declared, "out", h0_runner(1e4, 0.06, folders));
+  EXPECT_EQ(quick.params[0].range, std::vector<Json>({0.03, 0.06, 0.12}));
+  EXPECT_DOUBLE_EQ(quick.params[0].value.get<double>(), 0.06);
+  EXPECT_EQ(folders, std::vector<std::string>({"scan-sizes", "tuning-sub"}));
+  const Protocol full = resolve_protocol(config, declared, "out", h0_runner(4e4, 0.03, folders));
+  EXPECT_EQ(full.params[0].range, std::vector<Json>({0.015, 0.03, 0.06}));
+  EXPECT_EQ(full.params[0].boundary["status"], "interior");
+  const Json j = protocol_json(full)["sub"]["test.subsample.work_ms"];
+  EXPECT_EQ(j["rule"], "h0_multiples");
+  EXPECT_DOUBLE_EQ(j["scan_points"].get<double>(), 4e4);
+  EXPECT_DOUBLE_EQ(j["h0"].get<double>(), 0.005);
+  // Bad rules: one line naming the field.
+  auto broken = [](auto edit) {
+    Json c = experiment_with_h0_rule({3, 6, 12});
+    edit(c["protocol"]["variants"]["sub"]["test.subsample.work_ms"]);
+    return param_error(c);
+  };
+  const std::string w = "exp.json: /protocol/variants/sub/test.subsample.work_ms";
+  EXPECT_EQ(broken([](Json& e) {
+              e["multiples"] = {3, 3};
+            }),
+            w + "/multiples/1: expected positive multiples in ascending order");
+  EXPECT_EQ(broken([](Json& e) {
+              e["range"] = {1, 2};
+            }),
+            w + "/range: not used with \"rule\" (the rule gives the range)");
+  EXPECT_EQ(broken([](Json& e) { e["rule"] = "h1"; }),
+            w + "/rule: expected one of h0_multiples, got 'h1'");
+  EXPECT_EQ(broken([](Json& e) { e["extend_limit"] = 0.5; }),
+            w + "/extend_limit: expected a number >= 1");
+  // No point count in the probe's records: an error, not a guess.
+  const RecordsRunner none = [](const Json&, const fs::path&) { return std::vector<Json>{}; };
+  EXPECT_THROW(resolve_protocol(config, declared, "out", none), scanbench::Error);
+}
+
+TEST(ProtocolRange, BoundaryOptimumExtendsTheRangeOrMakesTheVerdictInconclusive) {
+  const Json config = experiment_with_h0_rule({3, 4.5, 6, 9, 12});
+  const Protocol declared = parse_protocol(config["protocol"], "p");
+  // h0 0.01: declared range 0.03 .. 0.12. The best is at 0.17: the curve still falls at 0.12, so
+  // the range grows by the next multiples of ratio 12/9 within 2x (16, 21.33: 0.16, 0.2133).
+  std::vector<std::string> folders;
+  const Protocol ext = resolve_protocol(config, declared, "out", h0_runner(1e4, 0.17, folders));
+  const ProtocolParam& q = ext.params[0];
+  EXPECT_EQ(folders, std::vector<std::string>({"scan-sizes", "tuning-sub", "tuning-sub.ext1"}));
+  EXPECT_EQ(q.declared_range, std::vector<Json>({0.03, 0.045, 0.06, 0.09, 0.12}));
+  EXPECT_EQ(q.range, std::vector<Json>({0.03, 0.045, 0.06, 0.09, 0.12, 0.16, 0.2133}));
+  EXPECT_DOUBLE_EQ(q.value.get<double>(), 0.16);
+  EXPECT_EQ(q.boundary["status"], "extended");
+  EXPECT_EQ(q.boundary["text"],
+            "test.subsample.work_ms tuned at the upper boundary 0.12, "
+            "extended to 0.2133: optimum 0.16");
+  EXPECT_EQ(ext.inconclusive(), "");
+  // The lower side: the best near 0.026 (ratio 3/4.5: 2 h0 = 0.02; 1.33 h0 is past 3/2 h0), the
+  // curve falling at 0.03 (0.045 is worse), so 0.02 is tried and 0.03 stays the optimum.
+  const Protocol low = resolve_protocol(config, declared, "out", h0_runner(1e4, 0.026, folders));
+  EXPECT_EQ(low.params[0].range.front(), 0.02);
+  EXPECT_EQ(low.params[0].boundary["status"], "extended");
+  EXPECT_DOUBLE_EQ(low.params[0].value.get<double>(), 0.03);
+  // Past the limit (the best at 0.5): still falling at 0.2133, the protocol is inconclusive and
+  // so is a claim that held by its rules.
+  const Protocol far = resolve_protocol(config, declared, "out", h0_runner(1e4, 0.5, folders));
+  EXPECT_EQ(far.params[0].boundary["status"], "inconclusive");
+  EXPECT_EQ(far.inconclusive(),
+            "sub test.subsample.work_ms optimum on the upper boundary 0.2133 "
+            "(the range extended up to 2x), still falling: inconclusive");
+  Claim c;
+  c.id = "c";
+  ClaimRule r;
+  r.what = "sub below 5";
+  r.quantity = "err";
+  r.a.variant = "sub";
+  r.op = "<";
+  r.value = 5.0;
+  c.rules = {r};
+  const std::vector<Json> recs = {
+      tuning_record("sphere", "sub", {{"test.subsample.work_ms", 0.2133}}, 1.0)};
+  EXPECT_EQ(judge_claim(c, records_at_protocol(recs, far)).verdict, "held");
+  const ClaimOutcome o = judge_claim_at_protocol(c, records_at_protocol(recs, far), far);
+  EXPECT_EQ(o.verdict, "inconclusive");
+  EXPECT_NE(o.reason.find("tuning range not shown wide enough"), std::string::npos) << o.reason;
+  const std::vector<Json> at_ext = {
+      tuning_record("sphere", "sub", {{"test.subsample.work_ms", 0.16}}, 1.0)};
+  EXPECT_EQ(judge_claim_at_protocol(c, records_at_protocol(at_ext, ext), ext).verdict, "held");
+  // The sensitivity line says which.
+  const std::string s = claim_sensitivity(c, far, recs)["text"].get<std::string>();
+  EXPECT_NE(s.find("[test.subsample.work_ms optimum on the upper boundary 0.2133"),
+            std::string::npos)
+      << s;
 }

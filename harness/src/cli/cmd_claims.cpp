@@ -105,7 +105,7 @@ Json run_claims(const ClaimsOptions& o) {
     const RunSummary rs = run_experiment(e, ro);
     const std::vector<Json> all_records = load_records(ro.out);
     const std::vector<Json> records = records_at_protocol(all_records, protocol);
-    const ClaimOutcome outcome = judge_claim(c, records);
+    const ClaimOutcome outcome = judge_claim_at_protocol(c, records, protocol);
     Json j = claim_result_json(c, outcome);
     j["protocol"] = protocol_json(protocol);
     j["sensitivity"] = claim_sensitivity(c, protocol, all_records);

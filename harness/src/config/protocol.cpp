@@ -70,7 +70,8 @@ ProtocolParam parse_protocol_param(const Json& j, const std::string& variant,
                                    const Protocol& p, bool has_objective,
                                    const ProtocolObjective& objective) {
   harness::check_keys(j, where,
-                      {"source", "value", "cite", "rule", "range", "sensitivity", "objective"});
+                      {"source", "value", "cite", "rule", "range", "sensitivity", "objective",
+                       "multiples", "extend_limit"});
   ProtocolParam q;
   q.variant = variant;
   q.key = key;
@@ -88,16 +89,46 @@ ProtocolParam parse_protocol_param(const Json& j, const std::string& variant,
     }
   };
   only("cite", q.source == "paper");
-  only("rule", q.source == "rule");
+  only("rule", q.source != "paper");
   only("value", q.source != "tuned");
   only("sensitivity", q.source != "tuned");
   only("range", q.source == "tuned");
   only("objective", q.source == "tuned");
   if (q.source == "tuned") {
-    if (!j.contains("range")) protocol_fail(where + "/range", "missing (the values to tune over)");
-    q.range = protocol_values(j["range"], where + "/range");
-    if (q.range.size() < 2)
-      protocol_fail(where + "/range", "expected at least two values to tune over");
+    if (j.contains("rule")) {
+      q.range_rule = protocol_choice(j, "rule", where, {"h0_multiples"}, "");
+      if (j.contains("range"))
+        protocol_fail(where + "/range", "not used with \"rule\" (the rule gives the range)");
+      if (!j.contains("multiples"))
+        protocol_fail(where + "/multiples", "missing (the multiples of h0 to tune over)");
+      const Json& m = j["multiples"];
+      if (!m.is_array() || m.size() < 2)
+        protocol_fail(where + "/multiples", "expected at least two multiples of h0");
+      for (std::size_t i = 0; i < m.size(); ++i) {
+        if (!m[i].is_number() || !(m[i].get<double>() > 0) || !std::isfinite(m[i].get<double>()) ||
+            (i > 0 && !(m[i].get<double>() > m[i - 1].get<double>()))) {
+          protocol_fail(fmt::format("{}/multiples/{}", where, i),
+                        "expected positive multiples in ascending order");
+        }
+        q.multiples.push_back(m[i].get<double>());
+      }
+      if (j.contains("extend_limit")) {
+        const Json& l = j["extend_limit"];
+        if (!l.is_number() || !(l.get<double>() >= 1.0) || !std::isfinite(l.get<double>()))
+          protocol_fail(where + "/extend_limit", "expected a number >= 1");
+        q.extend_limit = l.get<double>();
+      }
+    } else {
+      for (const char* f : {"multiples", "extend_limit"})
+        if (j.contains(f))
+          protocol_fail(where + "/" + f, "used only with \"rule\": \"h0_multiples\"");
+      if (!j.contains("range")) {
+        protocol_fail(where + "/range", "missing (the values to tune over, or a \"rule\")");
+      }
+      q.range = protocol_values(j["range"], where + "/range");
+      if (q.range.size() < 2)
+        protocol_fail(where + "/range", "expected at least two values to tune over");
+    }
     if (j.contains("objective")) {
       q.objective = parse_protocol_objective(j["objective"], where + "/objective");
     } else if (has_objective) {
@@ -110,6 +141,8 @@ ProtocolParam parse_protocol_param(const Json& j, const std::string& variant,
       protocol_fail(p.where + "/tuning", "missing (the data tuned parameters use)");
     return q;
   }
+  for (const char* f : {"multiples", "extend_limit"})
+    if (j.contains(f)) protocol_fail(where + "/" + f, "not used with source \"" + q.source + "\"");
   q.cite = protocol_text(j, q.source == "paper" ? "cite" : "rule", where);
   if (!j.contains("value")) protocol_fail(where + "/value", "missing");
   q.value = j["value"];
@@ -174,6 +207,8 @@ Json protocol_with_values(const Json& config, const Protocol& p) {
     Json* v = protocol_find_variant(c, q.variant);
     Json* params = v ? protocol_step_params(*v, q.step) : nullptr;
     if (params == nullptr) continue;  // check_protocol reports it
+    // An h0_multiples range is known only when the tuning runs: the step's default stands in.
+    if (q.value.is_null() && q.range.empty()) continue;
     (*params)[q.param] = q.value.is_null() && !q.range.empty() ? q.range.front() : q.value;
   }
   return c;
@@ -365,7 +400,7 @@ Json tuning_config(const Json& config, const Protocol& p, const std::string& var
   tv.erase("sweep");  // the variant's own swept parameters stay at their base values
   Json sweep = Json::object();
   for (const ProtocolParam* q : p.tuned(variant))
-    sweep[q->key] = q->range;
+    if (!q->range.empty()) sweep[q->key] = q->range;  // empty: an h0 rule not yet resolved
   if (!sweep.empty()) tv["sweep"] = sweep;
   c["variants"] = Json::array({tv});
   c["datasets"] = p.tuning["datasets"];
@@ -382,8 +417,26 @@ Json tuning_config(const Json& config, const Protocol& p, const std::string& var
   return c;
 }
 
-Json choose_point(const std::vector<Json>& records, const std::vector<const ProtocolParam*>& tuned,
-                  const ProtocolObjective& objective, Json& curve) {
+namespace {
+
+/// One point of a tuning curve: the tuned keys' values and the objective statistic.
+struct TuningPoint {
+  Json key;
+  double stat = 0;
+};
+
+bool protocol_same_point(const Json& a, const Json& b) {
+  if (a.size() != b.size()) return false;
+  for (const auto& [k, v] : b.items())
+    if (!a.contains(k) || !protocol_same_value(a.at(k), v)) return false;
+  return true;
+}
+
+/// The tuning curve: every point with a value, sorted by range order (ties: the first in range
+/// order wins, so the order matters).
+std::vector<TuningPoint> tuning_points(const std::vector<Json>& records,
+                                       const std::vector<const ProtocolParam*>& tuned,
+                                       const ProtocolObjective& objective) {
   std::vector<std::pair<Json, std::vector<double>>> points;  // in order of first appearance
   for (const auto& r : records) {
     if (r.value("status", std::string()) != "ok") continue;
@@ -393,12 +446,8 @@ Json choose_point(const std::vector<Json>& records, const std::vector<const Prot
     Json key = Json::object();
     for (const ProtocolParam* q : tuned)
       if (pt.contains(q->key)) key[q->key] = pt[q->key];
-    auto it = std::find_if(points.begin(), points.end(), [&](const auto& e) {
-      if (e.first.size() != key.size()) return false;
-      for (const auto& [k, v] : key.items())
-        if (!e.first.contains(k) || !protocol_same_value(e.first.at(k), v)) return false;
-      return true;
-    });
+    auto it = std::find_if(points.begin(), points.end(),
+                           [&](const auto& e) { return protocol_same_point(e.first, key); });
     if (it == points.end()) {
       points.emplace_back(key, std::vector<double>{});
       it = points.end() - 1;
@@ -419,9 +468,7 @@ Json choose_point(const std::vector<Json>& records, const std::vector<const Prot
   };
   std::stable_sort(points.begin(), points.end(),
                    [&](const auto& a, const auto& b) { return rank(a.first) < rank(b.first); });
-  curve = Json::object();
-  Json best;
-  double best_v = std::numeric_limits<double>::quiet_NaN();
+  std::vector<TuningPoint> out;
   for (const auto& [key, vals] : points) {
     std::vector<double> v = vals;
     double s = median(v);
@@ -434,6 +481,102 @@ Json choose_point(const std::vector<Json>& records, const std::vector<const Prot
     } else if (objective.stat == "max") {
       s = *std::max_element(vals.begin(), vals.end());
     }
+    out.push_back({key, s});
+  }
+  return out;
+}
+
+/// A tuned parameter's chosen value against its range: on which boundary ("" inside, or a range
+/// that is not all numbers), and whether the curve still falls there (the neighbour inside the
+/// range is strictly worse, or has no value: a boundary is never taken as flat unseen).
+struct BoundaryCheck {
+  std::string side;
+  bool falling = false;
+  Json at;  ///< the boundary value
+};
+
+BoundaryCheck boundary_check(const ProtocolParam& q, const Json& best,
+                             const std::vector<TuningPoint>& points,
+                             const ProtocolObjective& objective) {
+  BoundaryCheck c;
+  if (!best.contains(q.key) || q.range.size() < 2) return c;
+  std::vector<double> xs;
+  for (const Json& x : q.range) {
+    if (!x.is_number()) return c;
+    xs.push_back(x.get<double>());
+  }
+  std::sort(xs.begin(), xs.end());
+  const Json& v = best[q.key];
+  double inner = 0;
+  if (protocol_same_value(v, Json(xs.back()))) {
+    c.side = "upper";
+    inner = xs[xs.size() - 2];
+  } else if (protocol_same_value(v, Json(xs.front()))) {
+    c.side = "lower";
+    inner = xs[1];
+  } else {
+    return c;
+  }
+  c.at = v;
+  Json nb = best;
+  nb[q.key] = inner;
+  double best_v = 0;
+  const TuningPoint* n = nullptr;
+  for (const auto& pt : points) {
+    if (protocol_same_point(pt.key, best)) best_v = pt.stat;
+    if (protocol_same_point(pt.key, nb)) n = &pt;
+  }
+  c.falling = n == nullptr || (objective.direction == "min" ? n->stat > best_v : n->stat < best_v);
+  return c;
+}
+
+/// 4 significant digits: h0 multiples as readable sweep values.
+double protocol_round(double x) {
+  return std::stod(fmt::format("{:.4g}", x));
+}
+
+/// The next multiples of an h0_multiples rule beyond `side`, within its limit.
+std::vector<double> next_multiples(const ProtocolParam& q, const std::string& side,
+                                   double declared_lo, double declared_hi) {
+  std::vector<double> out;
+  const std::vector<double>& m = q.multiples;
+  const std::size_t n = m.size();
+  if (side == "upper") {
+    const double ratio = m[n - 1] / m[n - 2], limit = declared_hi * q.extend_limit * (1 + 1e-9);
+    for (double x = m[n - 1] * ratio; x <= limit; x *= ratio)
+      out.push_back(x);
+  } else {
+    const double ratio = m[0] / m[1], limit = declared_lo / q.extend_limit * (1 - 1e-9);
+    for (double x = m[0] * ratio; x >= limit; x *= ratio)
+      out.push_back(x);
+  }
+  return out;
+}
+
+/// The median point count of the tuning scans (sizes.scan_points of the probe's records).
+double tuning_scan_points(const std::vector<Json>& records) {
+  std::vector<double> n;
+  for (const auto& r : records) {
+    const Json sizes = r.value("sizes", Json::object());
+    if (sizes.contains("scan_points") && sizes["scan_points"].is_number())
+      n.push_back(sizes["scan_points"].get<double>());
+  }
+  if (n.empty()) {
+    throw Error(
+        "tuning: the h0_multiples rule needs the tuning scans' point counts, and no tuning scan "
+        "has one (sizes.scan_points; the tuning data must be point scans)");
+  }
+  return median(n);
+}
+
+}  // namespace
+
+Json choose_point(const std::vector<Json>& records, const std::vector<const ProtocolParam*>& tuned,
+                  const ProtocolObjective& objective, Json& curve) {
+  curve = Json::object();
+  Json best;
+  double best_v = std::numeric_limits<double>::quiet_NaN();
+  for (const auto& [key, s] : tuning_points(records, tuned, objective)) {
     curve[protocol_point_text(key)] = s;
     const bool better = objective.direction == "min" ? s < best_v : s > best_v;
     if (std::isnan(best_v) || better) {
@@ -594,23 +737,128 @@ RecordsRunner local_records_runner(int jobs, bool resume, bool quiet) {
 
 Protocol resolve_protocol(const Json& config, Protocol p, const fs::path& out,
                           const RecordsRunner& run) {
+  // h0_multiples: the ranges of the tuning data's own size, from one probe of the tuning scans.
+  const bool any_rule = std::any_of(p.params.begin(), p.params.end(),
+                                    [](const ProtocolParam& q) { return !q.range_rule.empty(); });
+  if (any_rule) {
+    const ProtocolParam& first =
+        *std::find_if(p.params.begin(), p.params.end(),
+                      [](const ProtocolParam& q) { return !q.range_rule.empty(); });
+    Json probe = tuning_config(config, p, first.variant);
+    probe["variants"] = Json::array(
+        {{{"label", "scan-size"}, {"algorithm", "normals.pca"}, {"params", {{"k", 3}}}}});
+    probe["metrics"] = Json::array();
+    probe.erase("report");
+    probe["name"] = config.value("name", std::string("experiment")) + "-scan-sizes";
+    const double n = tuning_scan_points(run(probe, out / "scan-sizes"));
+    for (auto& q : p.params) {
+      if (q.range_rule.empty()) continue;
+      q.scan_points = n;
+      q.h0 = 1.0 / std::sqrt(n);
+      q.range.clear();
+      for (double m : q.multiples)
+        q.range.emplace_back(protocol_round(m * q.h0));
+    }
+  }
   std::set<std::string> done;
-  for (auto& q : p.params) {
-    if (q.source != "tuned" || !done.insert(q.variant).second) continue;
-    const std::vector<const ProtocolParam*> tuned = p.tuned(q.variant);
+  for (std::size_t qi = 0; qi < p.params.size(); ++qi) {
+    const std::string variant = p.params[qi].variant;
+    if (p.params[qi].source != "tuned" || !done.insert(variant).second) continue;
+    std::vector<ProtocolParam*> mine;
+    for (auto& r : p.params)
+      if (r.variant == variant && r.source == "tuned") {
+        r.declared_range = r.range;
+        mine.push_back(&r);
+      }
+    const std::vector<const ProtocolParam*> tuned(mine.begin(), mine.end());
     // The objective of the variant's first tuned parameter decides the joint choice.
     const ProtocolObjective objective = tuned.front()->objective;
-    const Json tc = tuning_config(config, p, q.variant);
-    const std::vector<Json> records = run(tc, out / ("tuning-" + q.variant));
-    Json curve;
-    const Json best = choose_point(records, tuned, objective, curve);
-    for (auto& r : p.params) {
-      if (r.variant != q.variant || r.source != "tuned") continue;
-      r.value = best.value(r.key, Json());
-      r.tuning_curve = curve;
+    std::vector<Json> records = run(tuning_config(config, p, variant), out / ("tuning-" + variant));
+    // Boundary optima: extend an h0_multiples range on its falling side, once per side (all the
+    // next multiples within the limit at once), and choose again over all records.
+    std::map<std::string, Json> extended;  // key -> {"side", "from"}
+    int round = 0;
+    Json best, curve;
+    for (;;) {
+      best = choose_point(records, tuned, objective, curve);
+      const std::vector<TuningPoint> points = tuning_points(records, tuned, objective);
+      bool more = false;
+      for (ProtocolParam* q : mine) {
+        if (q->range_rule.empty() ||
+            extended.count(q->key + "/lower") + extended.count(q->key + "/upper") > 0) {
+          continue;
+        }
+        const BoundaryCheck b = boundary_check(*q, best, points, objective);
+        if (b.side.empty() || !b.falling) continue;
+        const double lo = q->multiples.front(), hi = q->multiples.back();
+        const std::vector<double> add = next_multiples(*q, b.side, lo, hi);
+        extended[q->key + "/" + b.side] = {{"side", b.side}, {"from", b.at}};
+        if (add.empty()) continue;
+        std::vector<Json> values;
+        for (double m : add)
+          values.emplace_back(protocol_round(m * q->h0));
+        for (std::size_t i = 0; i < add.size(); ++i) {
+          if (b.side == "upper") {
+            q->multiples.push_back(add[i]);
+            q->range.push_back(values[i]);
+          } else {
+            q->multiples.insert(q->multiples.begin(), add[i]);
+            q->range.insert(q->range.begin(), values[i]);
+          }
+        }
+        // The new values against the current ranges of the others.
+        Json tc = tuning_config(config, p, variant);
+        tc["variants"][0]["sweep"][q->key] = values;
+        const std::vector<Json> more_records =
+            run(tc, out / fmt::format("tuning-{}.ext{}", variant, ++round));
+        records.insert(records.end(), more_records.begin(), more_records.end());
+        more = true;
+      }
+      if (!more) break;
+    }
+    const std::vector<TuningPoint> points = tuning_points(records, tuned, objective);
+    for (ProtocolParam* q : mine) {
+      q->value = best.value(q->key, Json());
+      q->tuning_curve = curve;
+      const BoundaryCheck b = boundary_check(*q, best, points, objective);
+      const Json* ext = nullptr;
+      for (const char* side : {"lower", "upper"})
+        if (extended.count(q->key + "/" + side)) ext = &extended.at(q->key + "/" + side);
+      const bool grown = q->range.size() > q->declared_range.size();
+      std::string status = "interior", text;
+      if (!b.side.empty() && b.falling) {
+        status = q->range_rule.empty() ? "boundary" : "inconclusive";
+        text = q->range_rule.empty()
+                   ? fmt::format("{} optimum on the {} boundary {} of a fixed range, still falling",
+                                 q->key, b.side, b.at.dump())
+                   : fmt::format(
+                         "{} optimum on the {} boundary {} (the range extended up to {}x), "
+                         "still falling: inconclusive",
+                         q->key, b.side, b.at.dump(), q->extend_limit);
+      } else if (ext != nullptr && grown) {
+        status = "extended";
+        text = fmt::format("{} tuned at the {} boundary {}, extended to {}: optimum {}", q->key,
+                           (*ext)["side"].get<std::string>(), (*ext)["from"].dump(),
+                           ((*ext)["side"] == "upper" ? q->range.back() : q->range.front()).dump(),
+                           q->value.dump());
+      } else if (!b.side.empty()) {
+        status = "flat";
+        text = fmt::format("{} optimum on the {} boundary {}, the curve flat there", q->key, b.side,
+                           b.at.dump());
+      }
+      q->boundary = {{"status", status}, {"text", text}};
+      if (!b.side.empty()) q->boundary["side"] = b.side;
     }
   }
   return p;
+}
+
+std::string Protocol::inconclusive() const {
+  std::string s;
+  for (const auto& q : params)
+    if (q.boundary.value("status", std::string()) == "inconclusive")
+      s += (s.empty() ? "" : "; ") + q.variant + " " + q.boundary.value("text", std::string());
+  return s;
 }
 
 Json protocol_config(const Json& config, const Protocol& p, bool sweep_ranges) {
@@ -679,6 +927,15 @@ Json protocol_json(const Protocol& p) {
       e["tuning_data"] = p.tuning;
       e["objective"] = q.objective.to_json();
       e["tuning_curve"] = q.tuning_curve;
+      if (!q.range_rule.empty()) {
+        e["rule"] = q.range_rule;
+        e["multiples"] = q.multiples;
+        e["extend_limit"] = q.extend_limit;
+        e["scan_points"] = q.scan_points;
+        e["h0"] = q.h0;
+      }
+      if (!q.declared_range.empty()) e["declared_range"] = q.declared_range;
+      if (!q.boundary.empty()) e["boundary"] = q.boundary;
     } else if (!q.range.empty()) {
       e["sensitivity"] = q.range;
     }

@@ -297,6 +297,19 @@ ClaimOutcome judge_claim(const Claim& claim, const std::vector<Json>& records) {
   return out;
 }
 
+ClaimOutcome judge_claim_at_protocol(const Claim& claim, const std::vector<Json>& records,
+                                     const Protocol& protocol) {
+  ClaimOutcome out = judge_claim(claim, records);
+  const std::string why = protocol.inconclusive();
+  if (why.empty()) return out;
+  // A tuned optimum on a falling boundary past its rule's limit: whatever the rules say, the
+  // verdict is not the paper's (it might move with the range), so it is inconclusive.
+  out.reason = fmt::format("tuning range not shown wide enough ({}); the rules alone: {} ({})", why,
+                           out.verdict, out.reason);
+  out.verdict = "inconclusive";
+  return out;
+}
+
 Json claim_sensitivity(const Claim& claim, const Protocol& protocol,
                        const std::vector<Json>& records) {
   Json params = Json::array();
@@ -334,12 +347,15 @@ Json claim_sensitivity(const Claim& claim, const Protocol& protocol,
     std::string line;
     for (const auto& [v, xs] : runs)
       line += fmt::format("{}{} at {}", line.empty() ? "" : "; ", v, xs);
-    text += fmt::format("{}{} {} ({}): {}", text.empty() ? "" : " | ", q.variant, q.key, q.source,
-                        line);
+    // How the tuning range ended (protocol.h, boundary optima): extended, flat, or inconclusive.
+    const std::string bound = q.boundary.value("text", std::string());
+    text += fmt::format("{}{} {} ({}): {}{}", text.empty() ? "" : " | ", q.variant, q.key, q.source,
+                        line, bound.empty() ? "" : " [" + bound + "]");
     params.push_back({{"variant", q.variant},
                       {"key", q.key},
                       {"source", q.source},
                       {"value", q.value},
+                      {"boundary", q.boundary},
                       {"verdicts", verdicts},
                       {"rule_verdicts", rule_verdicts}});
   }

@@ -69,11 +69,18 @@ struct ClaimOutcome {
 
 RuleOutcome judge_rule(const ClaimRule& rule, const std::vector<Json>& records);
 ClaimOutcome judge_claim(const Claim& claim, const std::vector<Json>& records);
+/// judge_claim on the records at the protocol's values, made inconclusive when a tuned parameter's
+/// optimum sits on a boundary of its range with the curve still falling past its rule's limit
+/// (Protocol::inconclusive; protocol.h, "Boundary optima"); the reason names it and keeps the rules'
+/// own verdict.
+ClaimOutcome judge_claim_at_protocol(const Claim& claim, const std::vector<Json>& records,
+                                     const Protocol& protocol);
 
 /// How the verdict moves over the protocol's ranges (protocol.h): for each parameter with a range
 /// (tuned, or a paper/rule value with "sensitivity"), the claim judged on the records with that
 /// parameter at each value of its range and every other at its protocol value. Returns
-/// {"text": one line, "params": [{"variant", "key", "source", "value", "verdicts": {v: verdict},
+/// {"text": one line (each tuned parameter's boundary text in brackets), "params": [{"variant",
+/// "key", "source", "value", "boundary", "verdicts": {v: verdict},
 /// "rule_verdicts": {v: [verdict per rule]}}]};
 /// `records` are those of the run swept over the ranges (protocol_config with sweep_ranges).
 Json claim_sensitivity(const Claim& claim, const Protocol& protocol,

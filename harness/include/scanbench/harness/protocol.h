@@ -16,6 +16,13 @@
 //   {"source": "rule",  "value": v, "rule": "h = 6 h0, h0 = d_bb / sqrt(N) (GPF sec. 5, principle
 //   1)"}
 //   {"source": "tuned", "range": [v1, v2, ...], "objective": {...} (default: the protocol's)}
+//   {"source": "tuned", "rule": "h0_multiples", "multiples": [3, 4.5, 6, 9, 12],
+//    "extend_limit": 2 (default), "objective": {...}}
+//     an h-like parameter (a fraction of the bbox diagonal) as multiples of
+//     h0 = d_bb / sqrt(N) (GPF 2017, sec. 4.3), N the median point count of the tuning scans:
+//     h0 = 1 / sqrt(N) in the parameter's unit (d_bb is the diagonal h is a fraction of), so a
+//     quick and a full scan each get their own range. Resolved when the tuning runs: a probe
+//     (normals.pca on the tuning data, OUT/scan-sizes/) counts the points (sizes.scan_points).
 // and, for paper and rule, an optional "sensitivity": [v1, ...] of values to re-judge at.
 // <step> is a chain step's label (its algorithm name by default), as in sweep keys; the
 // parameter must not also be set in the step's params or swept by the variant.
@@ -26,6 +33,16 @@
 // experiment's own data. The experiment's data never enter the tuning, and no value is chosen per
 // dataset or case. The chosen values are set in the steps' params, so every record carries them,
 // and the resolved protocol (protocol_json) is written beside the records.
+//
+// Boundary optima (issue 50): a tuned numeric parameter whose chosen value is the lowest or highest
+// of its range while the curve still falls there (its neighbour in the range is strictly worse, or
+// has no value) is never silently accepted. With "h0_multiples" the range is extended on that side
+// by the next multiples of the same ratio (upper: m_k * m_k / m_(k-1); lower: m_1 * m_1 / m_2),
+// up to extend_limit times the declared top multiple (down to the declared bottom one divided by
+// it), tuned again (OUT/tuning-<variant>.ext<k>/) and chosen over all records; an optimum still
+// on a falling boundary past the limit makes the protocol inconclusive (`inconclusive`), and a
+// claim on it is judged inconclusive (judge_claim_at_protocol). A fixed "range" cannot be
+// extended: its falling boundary is reported (status "boundary"), the verdict unchanged.
 #include <filesystem>
 #include <functional>
 #include <map>
@@ -54,6 +71,16 @@ struct ProtocolParam {
   std::vector<Json> range;  ///< tuned: the candidates; paper/rule: sensitivity values (optional)
   ProtocolObjective objective;         ///< tuned
   Json tuning_curve = Json::object();  ///< tuned: "<point>" -> objective statistic
+  std::string range_rule;              ///< tuned: "" (the fixed `range`) or "h0_multiples"
+  std::vector<double> multiples;       ///< h0_multiples: ascending, extended ones included
+  double extend_limit = 2.0;           ///< h0_multiples: how far the range may be extended
+  std::vector<Json> declared_range;    ///< tuned: the range before any extension (resolved)
+  double scan_points = 0;              ///< h0_multiples: N, the tuning scans' median point count
+  double h0 = 0;                       ///< h0_multiples: 1 / sqrt(N), fraction of the diagonal
+  /// tuned, after resolve_protocol: {"status": "interior" | "flat" (on the boundary, the curve
+  /// flat there) | "extended" | "boundary" (a fixed range, still falling) | "inconclusive",
+  /// "side": "lower" | "upper", "text": one line for the sensitivity line ("" when interior)}.
+  Json boundary = Json::object();
 };
 
 /// Fair chains (issue 50): variants that are compared may differ only in their method. A chain
@@ -82,6 +109,8 @@ struct Protocol {
   std::vector<ProtocolParam> params;
   ChainDeclaration chains;  ///< "chains": every pair of the protocol's variants is compared
   bool empty() const { return params.empty(); }
+  /// The boundary texts of tuned parameters whose status is "inconclusive" ("" when none).
+  std::string inconclusive() const;
   /// The params of one variant whose source is "tuned".
   std::vector<const ProtocolParam*> tuned(const std::string& variant) const;
 };
@@ -150,7 +179,10 @@ using RecordsRunner =
 RecordsRunner local_records_runner(int jobs, bool resume, bool quiet);
 
 /// Tunes every variant with tuned parameters (tuning_config, run into out/tuning-<variant>) and
-/// returns the protocol with each tuned value chosen.
+/// returns the protocol with each tuned value chosen: h0_multiples ranges resolved first from
+/// the tuning scans' size (one probe run into out/scan-sizes), boundary optima extended or marked
+/// (see "Boundary optima" above; extension rounds in out/tuning-<variant>.ext<k>). Throws Error
+/// when the probe finds no point count.
 Protocol resolve_protocol(const Json& config, Protocol p, const std::filesystem::path& out,
                           const RecordsRunner& run);
 
