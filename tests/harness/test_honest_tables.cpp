@@ -522,3 +522,44 @@ TEST(ConfigNames, ShippedConfigsLoad) {
 }
 
 }  // namespace
+
+namespace {
+
+/// Issue 49: progress of a long single step. The test plugin's algorithm reports three phases
+/// through the plugin API (report_progress); `algo --progress` prints them, and without it (stderr
+/// not a terminal) nothing is printed. --progress-interval 0 prints one line per reported phase
+/// and no timed lines, so the output does not depend on the machine's speed.
+struct AlgoProgress : ::testing::Test {
+  void SetUp() override {
+    dir_ = make_temp_dir("progress");
+    plugin_ = fs::path(sb()).parent_path().parent_path() / "tests" / "libtest_plugin_progress.so";
+    ASSERT_TRUE(fs::exists(plugin_)) << plugin_;
+    write(dir_ / "in.xyz", "0 0 0\n1 0 0\n0 1 0\n");
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  Result algo(const std::string& extra) {
+    return sh(sb() + " --plugin " + plugin_.string() + " algo test_plugin.progress -i " +
+              (dir_ / "in.xyz").string() + " -o " + (dir_ / "out.ply").string() + " " + extra);
+  }
+  fs::path dir_, plugin_;
+};
+
+TEST_F(AlgoProgress, ReportedPhasesPrintedWhenAsked) {
+  const auto r = algo("--progress --progress-interval 0");
+  ASSERT_EQ(r.code, 0) << r.out;
+  std::size_t at = 0;
+  for (const char* line : {"stage 1/3 (33%)", "stage 2/3 (67%)", "stage 3/3 (100%)"}) {
+    const auto pos = r.out.find(line, at);
+    ASSERT_NE(pos, std::string::npos) << line << " in order in\n" << r.out;
+    EXPECT_EQ(r.out.rfind("algo test_plugin.progress: ", pos) != std::string::npos, true);
+    at = pos;
+  }
+}
+
+TEST_F(AlgoProgress, SilentWithoutProgressOffATerminal) {
+  const auto r = algo("");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(r.out.find("stage"), std::string::npos) << r.out;
+}
+
+}  // namespace

@@ -29,9 +29,16 @@
 // (scanbench/core/abi.h) or for another Eigen alignment (instruction set), or one without the
 // symbols SCANBENCH_PLUGIN defines.
 //
+// Progress: a long step calls scanbench::report_progress(ctx, "what", fraction) now and then
+// (where it is, and the fraction done when known); `scanbench algo` shows it (--progress, or on
+// a terminal). The host hands its handler to the plugin through the optional symbol
+// scanbench_plugin_set_progress (SCANBENCH_PLUGIN defines it): a plugin built before it existed
+// loads as before, and a plugin's calls are no-ops where no handler is set (jobs, tests).
+//
 // Jobs run in child processes (the runner's isolation): a plugin that crashes or hangs inside a
 // job fails that job only, with status "crash" or "timeout" in its record. Every record names each
 // loaded plugin with its path and the SHA-256 of the file (context.plugins).
+#include <functional>
 #include <string>
 #include <type_traits>
 #include <utility>
@@ -96,25 +103,66 @@ class PluginRegistrar {
   }
 };
 
-/// The symbols a plugin exports (SCANBENCH_PLUGIN defines both).
+/// Where a long step is: `what` (its phase, e.g. "iteration 3/10") and `fraction` done in [0, 1]
+/// (negative: not known). Called from any thread of the step; the handler copies what it needs.
+using ProgressFn = void (*)(const RunContext& ctx, const char* what, double fraction);
+
+namespace detail {
+/// This library's progress handler (one per plugin and one in the host; null: no handler).
+inline ProgressFn& progress_fn() {
+  static ProgressFn f = nullptr;
+  return f;
+}
+}  // namespace detail
+
+/// Reports the progress of the step running with `ctx` (see ProgressFn). Cheap when nobody
+/// listens; call it at natural boundaries (an iteration, a batch), not per point.
+inline void report_progress(const RunContext& ctx, const std::string& what,
+                            double fraction = -1.0) {
+  if (const ProgressFn f = detail::progress_fn()) f(ctx, what.c_str(), fraction);
+}
+
+/// Host side (harness, exec/plugins.cpp): while a ProgressListener for `ctx` lives, every
+/// report_progress(ctx, ...) of the host and of every loaded plugin calls `on` (under a mutex,
+/// from the reporting thread). One listener per context.
+class ProgressListener {
+ public:
+  ProgressListener(const RunContext& ctx,
+                   std::function<void(const std::string& what, double fraction)> on);
+  ~ProgressListener();
+  ProgressListener(const ProgressListener&) = delete;
+  ProgressListener& operator=(const ProgressListener&) = delete;
+
+ private:
+  const RunContext* ctx_;
+};
+
+/// The symbols a plugin exports (SCANBENCH_PLUGIN defines them; the progress one is optional
+/// for the loader, so plugins built before it load unchanged).
 inline constexpr const char* kPluginAbiSymbol = "scanbench_plugin_abi_version";
 inline constexpr const char* kPluginRegisterSymbol = "scanbench_plugin_register";
 inline constexpr const char* kPluginAlignSymbol = "scanbench_plugin_eigen_max_align_bytes";
+inline constexpr const char* kPluginProgressSymbol = "scanbench_plugin_set_progress";
 using PluginAbiFn = int (*)();
+using PluginSetProgressFn = void (*)(ProgressFn);
 using PluginRegisterFn = void (*)(PluginRegistrar&);
 
 }  // namespace scanbench
 
 /// Defines a plugin's exported functions: the ABI version it was compiled against, its Eigen
 /// alignment (EIGEN_MAX_ALIGN_BYTES, set by the instruction set, -march, which scanbench::core's
-/// usage requirements give a plugin: memory allocated on one side is freed on the other) and its
-/// registration function, whose body follows the macro: SCANBENCH_PLUGIN(r) { r.algorithm...; }
+/// usage requirements give a plugin: memory allocated on one side is freed on the other), the
+/// setter of its progress handler and its registration function, whose body follows the macro: SCANBENCH_PLUGIN(r) { r.algorithm...; }
 #define SCANBENCH_PLUGIN(registrar)                                                                \
   extern "C" __attribute__((visibility("default"))) int scanbench_plugin_abi_version() {           \
     return SCANBENCH_ABI_VERSION;                                                                  \
   }                                                                                                \
   extern "C" __attribute__((visibility("default"))) int scanbench_plugin_eigen_max_align_bytes() { \
     return EIGEN_MAX_ALIGN_BYTES;                                                                  \
+  }                                                                                                \
+  extern "C" __attribute__((visibility("default"))) void scanbench_plugin_set_progress(            \
+      ::scanbench::ProgressFn f) {                                                                 \
+    ::scanbench::detail::progress_fn() = f;                                                        \
   }                                                                                                \
   extern "C" __attribute__((visibility("default"))) void scanbench_plugin_register(                \
       ::scanbench::PluginRegistrar& registrar)

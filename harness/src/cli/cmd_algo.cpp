@@ -1,14 +1,23 @@
 // scanbench algo NAME -i in.ply -o out.ply [--set key=value ...] [--seed N] [--threads N]
-//                [--timings t.json] [--mixture m.ply] [--mesh m.ply]
+//                [--timings t.json] [--mixture m.ply] [--mesh m.ply] [--progress]
+//                [--progress-interval S]
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include <unistd.h>
+
+#include <algorithm>
 #include <chrono>
+#include <condition_variable>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <map>
 #include <memory>
+#include <mutex>
+#include <optional>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "cli/commands.h"
@@ -18,6 +27,7 @@
 #include "scanbench/core/run_context.h"
 #include "scanbench/harness/chain.h"
 #include "scanbench/harness/records.h"
+#include "scanbench/plugin.h"
 
 namespace scanbench::harness {
 
@@ -30,6 +40,73 @@ std::filesystem::path sibling(const std::filesystem::path& out, const std::strin
   p += "." + suffix + ".ply";
   return p;
 }
+
+/// Progress lines on stderr while one step runs: "algo NAME: 12.0 s, <what> (42%)". A line when
+/// the step reports a new phase (report_progress, plugin.h) at most every `interval` seconds,
+/// and one every `interval` seconds while it reports nothing new, so a long step is never
+/// silent; nothing for a step shorter than `interval` that reports nothing.
+class ProgressPrinter {
+ public:
+  ProgressPrinter(const RunContext& ctx, std::string name, double interval)
+      : name_(std::move(name)),
+        interval_(interval),
+        t0_(std::chrono::steady_clock::now()),
+        listener_(ctx, [this](const std::string& what, double fraction) { on(what, fraction); }),
+        ticker_([this] { tick(); }) {}
+  ~ProgressPrinter() {
+    {
+      const std::lock_guard<std::mutex> lock(mutex_);
+      done_ = true;
+    }
+    wake_.notify_all();
+    ticker_.join();
+  }
+  ProgressPrinter(const ProgressPrinter&) = delete;
+  ProgressPrinter& operator=(const ProgressPrinter&) = delete;
+
+ private:
+  double elapsed() const {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count();
+  }
+  /// Under mutex_.
+  void print_line() {
+    std::string line = fmt::format("algo {}: {:.1f} s", name_, elapsed());
+    if (!what_.empty()) line += ", " + what_;
+    if (fraction_ >= 0.0) line += fmt::format(" ({:.0f}%)", 100.0 * std::min(1.0, fraction_));
+    std::fprintf(stderr, "%s\n", line.c_str());
+    std::fflush(stderr);
+    last_line_ = elapsed();
+  }
+  void on(const std::string& what, double fraction) {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    const bool news = what != what_;
+    what_ = what;
+    fraction_ = fraction;
+    if (news && elapsed() - last_line_ >= interval_) print_line();
+  }
+  void tick() {
+    std::unique_lock<std::mutex> lock(mutex_);
+    if (!(interval_ > 0.0)) return;  // 0: only the phases the step reports
+    while (!done_) {
+      const auto due = t0_ + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                 std::chrono::duration<double>(last_line_ + interval_));
+      if (wake_.wait_until(lock, due, [this] { return done_; })) break;
+      if (elapsed() - last_line_ >= interval_) print_line();
+    }
+  }
+
+  std::string name_;
+  double interval_;
+  std::chrono::steady_clock::time_point t0_;
+  std::mutex mutex_;
+  std::condition_variable wake_;
+  bool done_ = false;
+  std::string what_;
+  double fraction_ = -1.0;
+  double last_line_ = 0.0;  ///< seconds since t0_ of the last line (0: none yet)
+  ProgressListener listener_;
+  std::thread ticker_;
+};
 
 }  // namespace
 
@@ -45,6 +122,8 @@ void add_algo_command(Cli& cli) {
     std::string mixture;
     std::string mesh;
     std::string covariance_mesh;
+    bool progress = false;
+    double progress_interval = 5.0;
   };
   auto opts = std::make_shared<Opts>();
   CLI::App* sub = cli.app.add_subcommand(
@@ -79,6 +158,15 @@ void add_algo_command(Cli& cli) {
   sub->add_option("--covariance-mesh", opts->covariance_mesh,
                   "Where a covariance mesh that is not the primary output goes (default "
                   "<output>.covmesh.ply)");
+  sub->add_flag("--progress", opts->progress,
+                "Print the step's progress on stderr (on by default when stderr is a terminal): "
+                "its elapsed time every --progress-interval seconds, and the phase and fraction "
+                "the algorithm reports (plugins: scanbench::report_progress)");
+  sub->add_option(
+         "--progress-interval", opts->progress_interval,
+         "Seconds between progress lines (default 5; 0: a line per phase the step reports, "
+         "no timed lines)")
+      ->check(CLI::Range(0.0, 3600.0));
   sub->callback([&cli, opts] {
     cli.action = [opts] {
       const auto& entry = algorithms::registry().at(opts->name);
@@ -114,6 +202,9 @@ void add_algo_command(Cli& cli) {
       const auto t0 = std::chrono::steady_clock::now();
       StageData out;
       try {
+        std::optional<ProgressPrinter> progress;
+        if (opts->progress || isatty(STDERR_FILENO) == 1)
+          progress.emplace(ctx, entry.name, opts->progress_interval);
         out = entry.fn(input, params, ctx);
       } catch (const InputError& e) {
         // The algorithm rejected the data (a non-manifold mesh, too few points...): name the files

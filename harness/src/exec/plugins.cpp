@@ -12,8 +12,11 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <functional>
 #include <limits>
+#include <map>
 #include <memory>
+#include <mutex>
 #include <set>
 
 #include "scanbench/core/errors.h"
@@ -165,6 +168,23 @@ void check_elf_file(const fs::path& file) {
   }
 }
 
+/// The listeners of ProgressListener, by context; the host's handler dispatches to them.
+struct Listeners {
+  std::mutex mutex;
+  std::map<const RunContext*, std::function<void(const std::string&, double)>> by_ctx;
+};
+Listeners& listeners() {
+  static Listeners l;
+  return l;
+}
+
+void dispatch_progress(const RunContext& ctx, const char* what, double fraction) {
+  Listeners& l = listeners();
+  const std::lock_guard<std::mutex> lock(l.mutex);
+  const auto it = l.by_ctx.find(&ctx);
+  if (it != l.by_ctx.end()) it->second(what ? what : "", fraction);
+}
+
 void* symbol(void* handle, const fs::path& file, const char* name) {
   dlerror();
   void* s = dlsym(handle, name);
@@ -247,6 +267,11 @@ const LoadedPlugin& load_plugin(const fs::path& file, const std::string& origin)
         "for the same instruction set; scanbench::core's usage requirements give the flags)",
         path.string(), a, EIGEN_MAX_ALIGN_BYTES));
   }
+  // Optional (plugins built before it lack it): the plugin's report_progress calls reach the
+  // host's listeners.
+  dlerror();
+  if (void* sp = dlsym(handle.get(), kPluginProgressSymbol))
+    reinterpret_cast<PluginSetProgressFn>(sp)(&dispatch_progress);
   // From here the plugin's code may be referenced (its entries' functions, its statics): the
   // library stays loaded for the life of the process, also when it is refused.
   void* h = handle.release();
@@ -361,3 +386,22 @@ void mark_source(Json& entry, std::string_view kind) {
 }
 
 }  // namespace scanbench::harness
+
+namespace scanbench {
+
+ProgressListener::ProgressListener(const RunContext& ctx,
+                                   std::function<void(const std::string&, double)> on)
+    : ctx_(&ctx) {
+  harness::Listeners& l = harness::listeners();
+  const std::lock_guard<std::mutex> lock(l.mutex);
+  l.by_ctx[ctx_] = std::move(on);
+  detail::progress_fn() = &harness::dispatch_progress;  // the host's own steps
+}
+
+ProgressListener::~ProgressListener() {
+  harness::Listeners& l = harness::listeners();
+  const std::lock_guard<std::mutex> lock(l.mutex);
+  l.by_ctx.erase(ctx_);
+}
+
+}  // namespace scanbench
