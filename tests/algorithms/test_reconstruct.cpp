@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
@@ -228,13 +229,23 @@ TEST(Poisson, FandiskBlockModerateSeed9GivesAMeshAndANote) {
   ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
   std::ifstream err(dir / "err.txt");
   const std::string note((std::istreambuf_iterator<char>(err)), std::istreambuf_iterator<char>());
+  const TriangleMesh m = read_mesh(dir / "m.ply");  // read_mesh refuses non-finite vertices
+  EXPECT_GT(m.num_faces(), 317000);
+  // Any build: a note's counts agree with the mesh written.
+  int nan = 0, total = 0;
+  if (const auto at = note.find("placed "); at != std::string::npos) {
+    ASSERT_EQ(std::sscanf(note.c_str() + at, "placed %d of %d", &nan, &total), 2) << note;
+    EXPECT_EQ(m.num_vertices(), total - nan) << note;
+  }
+#ifndef SCANBENCH_SANITIZE
+  // The case, in the Release tree (GCC) where it was found. The sanitizer tree's clang
+  // build scans and estimates normals to other bits, on which COLMAP's defect need not fire.
   EXPECT_NE(note.find("reconstruct.poisson: note: colmap poisson_mesher (PoissonRecon 8.0) "
                       "placed 3 of 158841 vertices at NaN; dropped them and the "),
             std::string::npos)
       << note;
-  const TriangleMesh m = read_mesh(dir / "m.ply");
   EXPECT_EQ(m.num_vertices(), 158841 - 3);
-  EXPECT_GT(m.num_faces(), 317000);
+#endif
   fs::remove_all(dir);
 }
 

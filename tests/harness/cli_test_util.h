@@ -61,6 +61,18 @@ inline Result sh(const std::string& cmd, bool merge_stderr = true) {
   return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
 }
 
+/// A shell prefix that bounds the memory of the command written after it: an address-space limit
+/// (`ulimit -v`); in the sanitizer tree, where AddressSanitizer reserves terabytes of address
+/// space and cannot start under such a limit, AddressSanitizer's own limit on the resident set.
+inline std::string memory_limit(int mb) {
+#ifdef SCANBENCH_SANITIZE
+  return "ASAN_OPTIONS=\"${ASAN_OPTIONS:+$ASAN_OPTIONS:}hard_rss_limit_mb=" + std::to_string(mb) +
+         "\" ";
+#else
+  return "ulimit -v " + std::to_string(mb * 1024) + " && ";
+#endif
+}
+
 /// The scanbench binary under test (SCANBENCH_BINARY is set by tests/CMakeLists.txt).
 inline std::string sb() {
   return std::string(SCANBENCH_BINARY);

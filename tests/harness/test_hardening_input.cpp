@@ -110,7 +110,7 @@ TEST(InputJsonText, ParseJsonFileNamesTheFileAndTheReason) {
 /// `scanbench ARGS` run in `dir` under a 2 GiB address-space limit (a recursive copy of a deep
 /// value or a 1e12-job expansion would crash or exhaust it), stderr merged.
 Result sb_limited(const fs::path& dir, const std::string& args) {
-  return sh("cd '" + dir.string() + "' && ulimit -v 2097152 && SCANBENCH_TEST_ALGORITHMS=1 " +
+  return sh("cd '" + dir.string() + "' && " + memory_limit(2048) + "SCANBENCH_TEST_ALGORITHMS=1 " +
             sb() + " " + args);
 }
 
