@@ -17,6 +17,7 @@
 #include "scanbench/core/errors.h"
 #include "scanbench/core/files.h"
 #include "scanbench/core/io.h"
+#include "scanbench/core/json_text.h"
 #include "scanbench/core/stage_data.h"
 #include "scanbench/core/timing.h"
 #include "scanbench/harness/chain.h"
@@ -100,7 +101,7 @@ std::string cache_problem(const CacheEntry& e) try {
   if (!fs::is_regular_file(fs::symlink_status(e.seal, ec))) return "no seal";
   // A seal is a few hundred bytes; a larger one is damaged (and is not parsed).
   if (fs::file_size(e.seal, ec) > 16384 || ec) return "unreadable seal";
-  const Json seal = Json::parse(read_file(e.seal), nullptr, /*allow_exceptions=*/false);
+  const Json seal = parse_json_text(read_file(e.seal), e.seal.string());
   if (!seal.is_object() || !seal.contains("files") || !seal["files"].is_object()) {
     return "unreadable seal";
   }
