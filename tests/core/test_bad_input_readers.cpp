@@ -13,6 +13,7 @@
 
 #include "scanbench/core/errors.h"
 #include "scanbench/core/io.h"
+#include "temp_dir.h"
 
 namespace scanbench {
 namespace {
@@ -65,8 +66,8 @@ TEST(BadInputReaders, EveryFileReadsOrThrowsIoErrorNamingIt) {
 // with a local origin (core stage_data.h), not quantised quietly. The same shape near the origin
 // reads with origin zero and the same local coordinates to float32 rounding.
 TEST(BadInputReaders, FarCoordinatesInTextGetALocalOriginNotAQuietQuantisation) {
-  const fs::path dir = fs::temp_directory_path() / "scanbench_far_coordinates";
-  fs::create_directories(dir);
+  const test::TempDir tmp("far-coordinates");
+  const fs::path dir = tmp.path;
   std::ostringstream far, near;
   far << std::fixed << std::setprecision(3);
   near << std::fixed << std::setprecision(3);
@@ -94,7 +95,6 @@ TEST(BadInputReaders, FarCoordinatesInTextGetALocalOriginNotAQuietQuantisation) 
   c.positions << 691234.5f, 691234.5f, 9876543.0f, 9876544.0f, 120.5f, 121.5f;
   write_point_cloud(c, dir / "far.ply");
   EXPECT_EQ(read_point_cloud(dir / "far.ply").positions, c.positions);
-  fs::remove_all(dir);
 }
 
 }  // namespace

@@ -17,19 +17,20 @@
 #include "scanbench/core/simd.h"
 #include "scanbench/metrics/distance_field.h"
 #include "test_meshes.h"
+#include "temp_dir.h"
 
 namespace scanbench::metrics {
 namespace {
 
 openvdb::FloatGrid::Ptr exported_grid(const DistanceField& f) {
   openvdb::initialize();
-  const auto path = std::filesystem::temp_directory_path() / "scanbench_test_sampler.vdb";
+  const test::TempDir dir("sampler");
+  const auto path = dir / "field.vdb";
   f.write_vdb(path, "field");
   openvdb::io::File file(path.string());
   file.open();
   auto grid = openvdb::gridPtrCast<openvdb::FloatGrid>(file.readGrid("field"));
   file.close();
-  std::filesystem::remove(path);
   return grid;
 }
 

@@ -7,6 +7,7 @@
 
 #include "scanbench/core/errors.h"
 #include "scanbench/metrics/heatmap.h"
+#include "temp_dir.h"
 
 namespace scanbench::metrics {
 namespace {
@@ -44,7 +45,8 @@ TEST(Heatmap, SizeColoursAndDepthTest) {
   pts.positions.col(n * n + 1) = Eigen::Vector3f(0.5f, 0.9f, -0.3f);
   err[n * n + 1] = 0.0f;
 
-  const fs::path png = fs::temp_directory_path() / "scanbench_test_heatmap.png";
+  const test::TempDir dir("heatmap");
+  const fs::path png = dir / "heatmap.png";
   write_heatmap(pts, err, frame, diag, p, png, "test heatmap");
   ASSERT_TRUE(fs::exists(png));
   OIIO::ImageBuf img(png.string());
@@ -86,7 +88,8 @@ TEST(Heatmap, SizeColoursAndDepthTest) {
 TEST(Heatmap, HistogramImage) {
   Json h = {{"unit", "diag"},         {"min", 0.0},    {"max", 0.01}, {"bins", 4},
             {"counts", {1, 5, 2, 0}}, {"overflow", 3}, {"count", 11}};
-  const fs::path png = fs::temp_directory_path() / "scanbench_test_hist.png";
+  const test::TempDir dir("hist");
+  const fs::path png = dir / "hist.png";
   write_histogram_image(h, png, "p2plane |E|", 500, 300);
   OIIO::ImageBuf img(png.string());
   ASSERT_TRUE(img.read(0, 0, true, OIIO::TypeDesc::FLOAT));

@@ -13,6 +13,7 @@
 #include "scanbench/metrics/ground_truth.h"
 #include "scanbench/metrics/surface_sampling.h"
 #include "test_meshes.h"
+#include "temp_dir.h"
 
 namespace scanbench::metrics {
 namespace {
@@ -415,7 +416,8 @@ TEST(DistanceField, CompareAndVdbRoundTrip) {
       InputError);
   EXPECT_THROW(DistanceField(a, 0.0f, 3.0f, DistanceField::Kind::Signed), ParamError);
 
-  const auto path = std::filesystem::temp_directory_path() / "scanbench_test_field.vdb";
+  const test::TempDir dir("field");
+  const auto path = dir / "field.vdb";
   fa.write_vdb(path, "ground_truth");
   const VdbInfo info = read_vdb_info(path);
   EXPECT_EQ(info.name, "ground_truth");

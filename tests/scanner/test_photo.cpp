@@ -18,6 +18,7 @@
 #include "scanbench/core/procedural.h"
 #include "scanbench/scanner/registry.h"
 #include "scanbench/scanner/scanner.h"
+#include "temp_dir.h"
 
 namespace scanbench::scanner {
 namespace {
@@ -79,9 +80,8 @@ TEST(PhotoScanner, TexturedSphereFrom12ViewsGivesAThousandPointsOnTheSphere) {
 TEST(PhotoScanner, WorkspaceReadsBackInBothFormatsAsTheScan) {
   ASSERT_TRUE(have_colmap()) << "colmap not installed (scripts/setup.sh installs it)";
   const Scan& s = sphere_scan();
-  const fs::path d = fs::temp_directory_path() / "scanbench_photo_readback";
-  fs::remove_all(d);
-  fs::create_directories(d);
+  const test::TempDir tmp("photo-readback");
+  const fs::path d = tmp.path;
   write_scan(s, d / "p.ply");
   const fs::path ws = d / "p.ply.colmap";
   ASSERT_TRUE(fs::exists(ws / "sparse" / "points3D.bin"));
@@ -106,7 +106,6 @@ TEST(PhotoScanner, WorkspaceReadsBackInBothFormatsAsTheScan) {
   ASSERT_EQ(std::system(imp.c_str()), 0);
   const PointCloud back = read_point_cloud(d / "i.ply");
   EXPECT_EQ(back.size(), s.cloud.size());
-  fs::remove_all(d);
 }
 
 std::string bytes(const fs::path& p) {
@@ -138,15 +137,13 @@ TEST(PhotoScanner, WholeScanRepeatsAtOneAndTwoThreads) {
   ASSERT_FALSE(list.empty());
   EXPECT_TRUE(list == bytes(wb / "match_list.txt"));
   EXPECT_EQ(a.record.at("matching"), b.record.at("matching"));
-  const fs::path d = fs::temp_directory_path() / "scanbench_photo_repeat";
-  fs::remove_all(d);
-  fs::create_directories(d);
+  const test::TempDir tmp("photo-repeat");
+  const fs::path d = tmp.path;
   write_point_cloud(a.cloud, d / "a.ply", PlyFormat::BinaryLittleEndian);
   write_point_cloud(b.cloud, d / "b.ply", PlyFormat::BinaryLittleEndian);
   ASSERT_EQ(a.cloud.size(), b.cloud.size());
   EXPECT_TRUE(a.cloud.positions == b.cloud.positions);
   EXPECT_TRUE(bytes(d / "a.ply") == bytes(d / "b.ply"));
-  fs::remove_all(d);
 }
 
 // registration "mapper" (docs/scanner.md): COLMAP's mapper registers all 12 views, and after

@@ -17,6 +17,7 @@
 #include "scanbench/scanner/registry.h"
 #include "scanbench/scanner/scanner.h"
 #include "scanbench/scanner/throughput.h"
+#include "temp_dir.h"
 
 namespace scanbench::scanner {
 namespace {
@@ -473,8 +474,8 @@ TEST(Scanner, BitIdenticalFilesForOneAndTwoThreads) {
   const TriangleMesh m = icosphere(3);
   ScannerParams p = all_artifacts_params();
   p.resolution = 64;
-  const auto dir = std::filesystem::temp_directory_path() / "scanbench_test_scanner";
-  std::filesystem::create_directories(dir);
+  const test::TempDir tmp("scanner");
+  const auto dir = tmp.path;
   std::string ply[2], json[2];
   for (int threads = 1; threads <= 2; ++threads) {
     RunContext ctx(42, threads);
@@ -506,7 +507,6 @@ TEST(Scanner, BitIdenticalFilesForOneAndTwoThreads) {
       EXPECT_TRUE(sc.contains(key)) << key;
     EXPECT_EQ(sc["misaligned"].get<bool>(), !sc["misalignment"].is_null());
   }
-  std::filesystem::remove_all(dir);
 }
 
 TEST(Scanner, BadInputGivesClearErrors) {
@@ -585,8 +585,8 @@ TEST(ScannerPresets, EveryPresetCreatesByName) {
 }
 
 TEST(ScannerPresets, PresetFilesAreValidatedWithFileAndKey) {
-  const auto dir = std::filesystem::temp_directory_path() / "scanbench_test_presets";
-  std::filesystem::create_directories(dir);
+  const test::TempDir tmp("presets");
+  const auto dir = tmp.path;
   auto write = [&](const std::string& name, const std::string& text) {
     std::ofstream(dir / name) << text;
     return dir / name;
@@ -608,7 +608,6 @@ TEST(ScannerPresets, PresetFilesAreValidatedWithFileAndKey) {
   const auto broken = write("broken.json", R"({"params": )");
   EXPECT_THROW(load_preset_file(broken), IoError);
   EXPECT_THROW(load_preset_file(dir / "missing.json"), IoError);
-  std::filesystem::remove_all(dir);
 }
 
 TEST(ScannerThroughput, BareAndScannerCastTheSameRays) {

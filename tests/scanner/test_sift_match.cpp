@@ -16,6 +16,7 @@
 #include "scanbench/core/errors.h"
 #include "scanbench/core/rng.h"
 #include "sift_match.h"
+#include "temp_dir.h"
 
 namespace scanbench::scanner::detail {
 namespace {
@@ -167,9 +168,7 @@ TEST(SiftMatch, RatioTestDistanceBoundAndCrossCheckByHand) {
 }
 
 // A database with COLMAP's two tables (the columns scanbench reads).
-fs::path make_db(const std::string& name, const std::string& inserts) {
-  const fs::path p = fs::temp_directory_path() / name;
-  fs::remove(p);
+fs::path make_db(const fs::path& p, const std::string& inserts) {
   sqlite3* db = nullptr;
   EXPECT_EQ(sqlite3_open(p.string().c_str(), &db), SQLITE_OK);
   const std::string sql =
@@ -188,7 +187,8 @@ TEST(SiftMatch, DatabaseReaderReadsRowsAndNamesTheBadImage) {
   std::string hex;
   for (int i = 0; i < 256; ++i)
     hex += fmt::format("{:02X}", i);
-  const fs::path good = make_db("scanbench_sift_good.db",
+  const test::TempDir tmp("sift");
+  const fs::path good = make_db(tmp / "good.db",
                                 "INSERT INTO images VALUES (2, 'b.png', 1), (1, 'a.png', 1);"
                                 "INSERT INTO descriptors VALUES (2, 2, 128, X'" +
                                     hex + "');");
@@ -204,7 +204,7 @@ TEST(SiftMatch, DatabaseReaderReadsRowsAndNamesTheBadImage) {
   EXPECT_EQ(im[1].descriptors(1, 127), 255);
   fs::remove(good);
 
-  const fs::path bad = make_db("scanbench_sift_bad.db",
+  const fs::path bad = make_db(tmp / "bad.db",
                                "INSERT INTO images VALUES (1, 'a.png', 1), (2, 'b.png', 1);"
                                "INSERT INTO descriptors VALUES (2, 3, 128, zeroblob(100));");
   try {
