@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "fixtures.h"
+#include "input_checks.h"
 #include "lop/projection_kernels.h"
 #include "scanbench/algorithms/lop.h"
 #include "scanbench/core/errors.h"
@@ -698,6 +699,49 @@ TEST_F(NoisySphere, LopAndWlopMovePointsTowardTheSurface) {
     EXPECT_TRUE(ctx.phase_seconds().count("repulsion"));
     EXPECT_EQ(ctx.phase_seconds().count("density"), weighted ? 1u : 0u);
   }
+}
+
+// Interleaved repulsion (CLOP paper sec. 8, run for WLOP too in sec. 10.2): the kernels by hand,
+// F2 computed in the first and last of three update steps and reused in the second, give WLOP's
+// interleaved output bit for bit; with two update steps both compute it, so interleaving changes
+// nothing.
+TEST_F(NoisySphere, WlopInterleavedRepulsionReusesF2EverySecondStep) {
+  LopParams p = params_;
+  p.iterations = 4;
+  p.interleave = true;
+  const float diag = detail::checked_diagonal(cloud_, "t");
+  const float h = static_cast<float>(p.h) * diag;
+  const Eigen::Matrix3Xf& pts = cloud_.positions;
+  detail::NeighborGrid grid = kernels::query_grid(pts, h);
+  const Eigen::Index m = kernels::particle_count(p.particles, cloud_.size(), "t");
+  Eigen::Matrix3Xf q = kernels::initial_particles(pts, m, derive_seed(3, "particles"), 0.01f * h);
+  q = kernels::l2_means(q, grid, h);
+  grid.set_weights(kernels::density_weights(grid, pts, h, h).cwiseInverse());
+  const float mu = static_cast<float>(p.mu);
+  Eigen::Matrix3Xf rep;
+  for (int t = 0; t < 3; ++t) {
+    Eigen::Matrix3Xf next = kernels::attractions(q, grid, h);
+    if (t != 1) {
+      detail::NeighborGrid pg = kernels::query_grid(q, h);
+      pg.set_weights(kernels::density_weights(pg, q, h, h));
+      rep = kernels::repulsions(q, pg, h, h);
+    }
+    next += mu * rep;
+    q.swap(next);
+  }
+  RunContext ctx(3, 2);
+  const PointCloud got = wlop(cloud_, p, ctx);
+  EXPECT_TRUE(got.positions == q);
+  p.interleave = false;
+  RunContext ctx2(3, 2);
+  EXPECT_FALSE(wlop(cloud_, p, ctx2).positions == q);
+
+  // Two update steps: the first and the last recompute F2 either way.
+  p.iterations = 3;
+  RunContext c1(3, 1), c2(3, 1);
+  const PointCloud plain = wlop(cloud_, p, c1);
+  p.interleave = true;
+  EXPECT_TRUE(wlop(cloud_, p, c2).positions == plain.positions);
 }
 
 TEST_F(NoisySphere, WlopLowersRegularityCv) {

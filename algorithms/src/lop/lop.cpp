@@ -35,18 +35,24 @@ PointCloud project(const PointCloud& input, const LopParams& p, RunContext& ctx,
     point_grid->set_weights(kernels::density_weights(*point_grid, pts, h, h).cwiseInverse());
   }
   const float mu = static_cast<float>(p.mu);
-  for (int it = 1; it < p.iterations; ++it) {
+  Eigen::Matrix3Xf rep;
+  const int steps = p.iterations - 1;
+  for (int t = 0; t < steps; ++t) {
     ctx.check_cancelled(stage);
     {
       auto timer = ctx.phase("attraction");
       next = kernels::attractions(q, *point_grid, h);
     }
-    {
+    // Interleaved repulsion (CLOP paper sec. 8): F2 of the previous computation is reused in
+    // every other iteration; the first and the last always compute it.
+    const bool recompute = !p.interleave || t % 2 == 0 || t == steps - 1;
+    if (recompute) {
       auto timer = ctx.phase("repulsion");
       detail::NeighborGrid particle_grid = kernels::query_grid(q, h);
       if (weighted) particle_grid.set_weights(kernels::density_weights(particle_grid, q, h, h));
-      next += mu * kernels::repulsions(q, particle_grid, h, h);
+      rep = kernels::repulsions(q, particle_grid, h, h);
     }
+    next += mu * rep;
     q.swap(next);
   }
   PointCloud out;

@@ -18,7 +18,9 @@
 // h counts, so a particle with no other particle within h feels no repulsion). Neighbours come
 // from the project's uniform neighbour grid (algorithms/src/spatial/neighbor_grid.h, cells of side h/2),
 // streamed per particle and summed with vectorised float kernels; distances are clamped below at
-// 0.01 h inside alpha and beta. All particles move simultaneously (Jacobi update) and each
+// 0.01 h inside alpha and beta. With `interleave` (off by default) the repulsion vector F2 is
+// recomputed only in the first, every second and the last iteration and reused in between, as
+// resample.clop does (CLOP paper sec. 8). All particles move simultaneously (Jacobi update) and each
 // particle's sums run in a fixed order, so the output is bit-identical for any thread count.
 #include "scanbench/core/params.h"
 #include "scanbench/core/point_cloud.h"
@@ -35,6 +37,8 @@ struct LopParams {
   int iterations = 10;
   /// Share of the input in (0, 1], or a count > 1 (integer; may exceed the input: upsampling).
   double particles = 0.5;
+  /// Recompute F2 only every second iteration and in the last (CLOP paper sec. 8).
+  bool interleave = false;
 
   static void declare(ParamDeclarer<LopParams>& d) {
     d.real("h", &LopParams::h, Range::open_min(0.0, 1.0), "diag",
@@ -47,6 +51,10 @@ struct LopParams {
     d.real("particles", &LopParams::particles, Range::above(0.0), "",
            "particles: a share of the input in (0, 1] or an integral count > 1 (a seeded subset; "
            "counts above the input size add jittered copies)");
+    d.flag("interleave", &LopParams::interleave,
+           "interleaved repulsion (CLOP paper sec. 8, which ran it for CLOP and WLOP alike, sec. "
+           "10.2): recompute F2 only in every second iteration and in the last, reusing the "
+           "previous F2 vector in between (resample.clop's interleave)");
   }
 };
 
