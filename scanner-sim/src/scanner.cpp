@@ -54,6 +54,10 @@ void ScannerParams::declare(ParamDeclarer<ScannerParams>& d) {
          "noise growth with range: sigma += slope * range (diag per diag)");
   d.real("noise_incidence_slope", &P::noise_incidence_slope, Range::closed(0, 1), "diag",
          "noise growth with incidence: sigma += slope * (1/max(cos(incidence), 0.01) - 1)");
+  d.choice("noise_model", &P::noise_model, {"ray_gauss", "normal_gauss", "ray_uniform"},
+           "what the noise sigma is: ray_gauss N(0, sigma) along the ray; normal_gauss N(0, sigma) "
+           "along the surface normal; ray_uniform an amplitude, U[-sigma, sigma] along the ray "
+           "(std sigma/sqrt 3)");
   d.real("max_incidence_deg", &P::max_incidence_deg, Range::open_min(0, 90), "deg",
          "grazing-angle drop-out: hits whose incidence angle exceeds this are lost (90 = off)");
   d.real("beam_divergence_deg", &P::beam_divergence_deg, Range::closed(0, 10), "deg",
@@ -569,6 +573,7 @@ class ScannerEngine::Run {
   std::vector<char> misaligned_;
   // Noise sigma = a + b r + c (1 / max(cos, 0.01) - 1), in the mesh's units.
   double noise_a_ = 0, noise_b_ = 0, noise_c_ = 0;
+  enum class NoiseModel { RayGauss, NormalGauss, RayUniform } noise_model_ = NoiseModel::RayGauss;
 
   // Views are processed in groups that share one fork-join per pass (few synchronisation points,
   // bounded memory).
@@ -655,6 +660,9 @@ ScannerEngine::Run::Run(const ScannerEngine& engine, RunContext& ctx)
   noise_a_ = diag * p.noise_sigma;
   noise_b_ = p.noise_range_slope;
   noise_c_ = diag * p.noise_incidence_slope;
+  noise_model_ = p.noise_model == "normal_gauss"  ? NoiseModel::NormalGauss
+                 : p.noise_model == "ray_uniform" ? NoiseModel::RayUniform
+                                                  : NoiseModel::RayGauss;
   s_.cloud.resize(0);
 }
 
@@ -767,10 +775,24 @@ void ScannerEngine::Run::cast_tiles(int g0, const tbb::blocked_range<int>& r,
         const double sigma = noise_a + noise_b * static_cast<double>(raw) +
                              noise_c * (static_cast<double>(inv_cos) - 1.0);
         float noisy = raw;
-        if (sigma > 0.0) noisy += static_cast<float>(sigma * normal(rng()));
+        Eigen::Vector3f off_surface = Eigen::Vector3f::Zero();
+        if (sigma > 0.0) {
+          switch (noise_model_) {
+            case NoiseModel::RayGauss:
+              noisy += static_cast<float>(sigma * normal(rng()));
+              break;
+            case NoiseModel::RayUniform:
+              noisy += static_cast<float>(sigma * rng().uniform(-1.0, 1.0));
+              break;
+            case NoiseModel::NormalGauss:
+              if (len > 0.0f) off_surface = static_cast<float>(sigma * normal(rng())) * (ng / len);
+              break;
+          }
+        }
         // Along the beam axis: sub-ray 0.
         const Eigen::Vector3f axis(rh[0].ray.dir_x, rh[0].ray.dir_y, rh[0].ray.dir_z);
         position[i] = cam.origin + noisy * axis;
+        if (noise_model_ == NoiseModel::NormalGauss) position[i] += off_surface;
         std::int32_t n_out = 0;
         if (f_out > 0.0) {
           while ((rng().next() >> 11) < out_threshold)  // rng.uniform() < f_out

@@ -4,11 +4,13 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <map>
+#include <string>
 
 #include "scanbench/core/errors.h"
 #include "scanbench/core/io.h"
@@ -201,6 +203,57 @@ TEST(Scanner, RangeNoiseAlongTheRayHasTheSetSigma) {
   const double sigma = p.noise_sigma * diag;
   EXPECT_NEAR(sd, sigma, 0.05 * sigma);
   EXPECT_NEAR(mean, 0.0, 4 * sigma / std::sqrt(n));
+}
+
+// The other two noise definitions on the same plane (z = 0, face normal +-z): normal_gauss moves
+// each point along the face normal by N(0, sigma) (nothing along the plane); ray_uniform moves it
+// along its ray by U[-sigma, sigma]: |e| never exceeds sigma, std sigma / sqrt 3.
+TEST(Scanner, NoiseModelsAlongTheNormalAndUniformAlongTheRay) {
+  const TriangleMesh m = squares({{0.0f, 1.0f}});
+  const double diag = m.bbox().diagonal();
+  ScannerParams p = small(1, 128);
+  p.poses = "0 0 0.6";
+  p.fov_deg = 50;
+  p.noise_sigma = 0.004;
+  const double sigma = p.noise_sigma * diag;
+  for (const char* model : {"normal_gauss", "ray_uniform"}) {
+    SCOPED_TRACE(model);
+    p.noise_model = model;
+    RunContext ctx(7);
+    const PointCloud c = scan(m, p, ctx).cloud;
+    ASSERT_GT(c.size(), 10000);
+    const Eigen::Vector3d o = c.sensor_origins.col(0).cast<double>();
+    double sum = 0, sum2 = 0, max_abs = 0;
+    for (Eigen::Index i = 0; i < c.size(); ++i) {
+      const Eigen::Vector3d q = clean_of(c, i);
+      const Eigen::Vector3d e = c.positions.col(i).cast<double>() - q;
+      double x = 0;
+      if (std::string(model) == "normal_gauss") {
+        ASSERT_LT(e.head<2>().norm(), 1e-5 * diag);  // along the normal only
+        x = e.z();
+      } else {
+        const Eigen::Vector3d d = (q - o).normalized();
+        ASSERT_LT((e - e.dot(d) * d).norm(), 1e-5 * diag);  // along the ray only
+        x = e.dot(d);
+      }
+      sum += x;
+      sum2 += x * x;
+      max_abs = std::max(max_abs, std::abs(x));
+    }
+    const double n = static_cast<double>(c.size());
+    const double mean = sum / n;
+    const double sd = std::sqrt((sum2 - n * mean * mean) / (n - 1));
+    const double expected_sd =
+        std::string(model) == "normal_gauss" ? sigma : sigma / std::sqrt(3.0);
+    EXPECT_NEAR(sd, expected_sd, 0.05 * expected_sd);
+    EXPECT_NEAR(mean, 0.0, 4 * expected_sd / std::sqrt(n));
+    if (std::string(model) == "ray_uniform") {
+      EXPECT_LE(max_abs, sigma * (1 + 1e-5));
+      EXPECT_GT(max_abs, 0.99 * sigma);
+    } else {
+      EXPECT_GT(max_abs, 3 * sigma);  // Gaussian tails
+    }
+  }
 }
 
 TEST(Scanner, NoiseGrowsWithRangeAndIncidenceAsDeclared) {

@@ -34,6 +34,10 @@
 //        sigma = diag * (noise_sigma + noise_range_slope * r / diag
 //                        + noise_incidence_slope * (1 / max(cos(incidence), 0.01) - 1)),
 //     i.e. constant accuracy (HELIOS++) growing linearly with range and with 1/cos(incidence).
+//     `noise_model` says what sigma is (papers say "x% noise" without saying which): ray_gauss
+//     (default) N(0, sigma) along the ray; normal_gauss N(0, sigma) along the unit face normal at
+//     the clean point (the surface-normal displacement of point-set denoising benchmarks); and
+//     ray_uniform, sigma an amplitude: U[-sigma, sigma] along the ray (std sigma / sqrt 3).
 //  6. Uniform outliers: after each returned point, further points uniform in the bbox grown by
 //     `outlier_box_scale` about its centre (Berger et al.: 1.1), each side then widened about the
 //     centre to at least `outlier_box_min` * diag (room off a flat model's plane), follow with
@@ -108,6 +112,7 @@ struct ScannerParams {
   double noise_sigma = 0.0;
   double noise_range_slope = 0.0;
   double noise_incidence_slope = 0.0;
+  std::string noise_model = "ray_gauss";
   double max_incidence_deg = 90.0;
   double beam_divergence_deg = 0.0;
   int sub_rays = 1;
