@@ -12,6 +12,7 @@ namespace {
 struct MeshOutput {
   const TriangleMesh* mesh = nullptr;
   const CovarianceMesh* covariance_mesh = nullptr;
+  const PointCloud* step_input = nullptr;  ///< MetricInput::step_input
 };
 
 Json run(const GroundTruth& gt, const PointCloud& output, const PointCloud* scan, MeshOutput mesh,
@@ -19,6 +20,7 @@ Json run(const GroundTruth& gt, const PointCloud& output, const PointCloud* scan
   output.validate("evaluate: output");
   if (output.empty()) throw InputError("evaluate: output has no points");
   if (scan) scan->validate("evaluate: scan");
+  if (mesh.step_input) mesh.step_input->validate("evaluate: the chain's points");
   if (!metric_params.is_object())
     throw ParamError("metric_params: expected an object of metric name -> params");
   const MetricRegistry& reg = registry();
@@ -47,7 +49,7 @@ Json run(const GroundTruth& gt, const PointCloud& output, const PointCloud* scan
   bool have_closest = false;
   // The exact oracle of the output mesh (Embree BVH on it), built when a metric needs it.
   std::optional<GroundTruth> output_oracle;
-  MetricInput in{gt, output, scan, mesh.mesh, mesh.covariance_mesh, nullptr, nullptr};
+  MetricInput in{gt, output, scan, mesh.step_input, mesh.mesh, mesh.covariance_mesh};
   for (const auto* e : selected) {
     const Json params =
         metric_params.contains(e->name) ? metric_params.at(e->name) : Json::object();
@@ -112,17 +114,26 @@ Json run(const GroundTruth& gt, const PointCloud& output, const PointCloud* scan
 
 Json run_mesh(const GroundTruth& gt, const TriangleMesh& output_mesh,
               const CovarianceMesh* covariance_mesh, const PointCloud* scan,
-              const std::vector<std::string>& metric_names, const Json& metric_params,
-              RunContext& ctx, Eigen::Index samples) {
+              const PointCloud* step_input, const std::vector<std::string>& metric_names,
+              const Json& metric_params, RunContext& ctx, Eigen::Index samples) {
   output_mesh.validate("evaluate: output mesh");
   if (!(output_mesh.area() > 0.0)) throw InputError("evaluate: output mesh has zero area");
   const PointCloud pts = output_surface_samples(output_mesh, samples, ctx);
-  Json r = run(gt, pts, scan, MeshOutput{&output_mesh, covariance_mesh}, metric_names,
+  Json r = run(gt, pts, scan, MeshOutput{&output_mesh, covariance_mesh, step_input}, metric_names,
                metric_params, ctx);
   r["output_mesh_samples"] = samples;
   r["scoring"]["output_mesh_samples"] = samples;
   r["scoring"]["output_mesh_samples_seed"] = output_surface_samples_seed(ctx);
   return r;
+}
+
+Json score_covariance_mesh(const GroundTruth& gt, const CovarianceMesh& output,
+                           const PointCloud* scan, const PointCloud* step_input,
+                           const std::vector<std::string>& metric_names, const Json& metric_params,
+                           RunContext& ctx, Eigen::Index samples) {
+  output.validate("evaluate: output covariance mesh");
+  const TriangleMesh mean = output.mean_mesh();
+  return run_mesh(gt, mean, &output, scan, step_input, metric_names, metric_params, ctx, samples);
 }
 
 }  // namespace
@@ -136,27 +147,30 @@ Json evaluate(const GroundTruth& gt, const PointCloud& output, const PointCloud*
 Json evaluate_mesh(const GroundTruth& gt, const TriangleMesh& output_mesh, const PointCloud* scan,
                    const std::vector<std::string>& metric_names, const Json& metric_params,
                    RunContext& ctx, Eigen::Index samples) {
-  return run_mesh(gt, output_mesh, nullptr, scan, metric_names, metric_params, ctx, samples);
+  return run_mesh(gt, output_mesh, nullptr, scan, nullptr, metric_names, metric_params, ctx,
+                  samples);
 }
 
 Json evaluate_covariance_mesh(const GroundTruth& gt, const CovarianceMesh& output,
                               const PointCloud* scan, const std::vector<std::string>& metric_names,
                               const Json& metric_params, RunContext& ctx, Eigen::Index samples) {
-  output.validate("evaluate: output covariance mesh");
-  const TriangleMesh mean = output.mean_mesh();
-  return run_mesh(gt, mean, &output, scan, metric_names, metric_params, ctx, samples);
+  return score_covariance_mesh(gt, output, scan, nullptr, metric_names, metric_params, ctx,
+                               samples);
 }
 
 Json evaluate(const GroundTruth& gt, const StageData& output, DataKind primary,
               const PointCloud* scan, const std::vector<std::string>& metric_names,
               const Json& metric_params, RunContext& ctx, Eigen::Index samples) {
+  // A mesh output's points are those the chain carried to its reconstruction (StageData::carry):
+  // the step input of surface.input_distance.
+  const PointCloud* step_input = output.points.empty() ? nullptr : &output.points;
   switch (primary) {
     case DataKind::CovarianceMesh:
-      return evaluate_covariance_mesh(gt, output.require_covariance_mesh("evaluate"), scan,
-                                      metric_names, metric_params, ctx, samples);
+      return score_covariance_mesh(gt, output.require_covariance_mesh("evaluate"), scan, step_input,
+                                   metric_names, metric_params, ctx, samples);
     case DataKind::Mesh:
-      return evaluate_mesh(gt, output.require_mesh("evaluate"), scan, metric_names, metric_params,
-                           ctx, samples);
+      return run_mesh(gt, output.require_mesh("evaluate"), nullptr, scan, step_input, metric_names,
+                      metric_params, ctx, samples);
     case DataKind::Mixture:
       return evaluate(gt, output.require_mixture("evaluate").component_points(), scan, metric_names,
                       metric_params, ctx);

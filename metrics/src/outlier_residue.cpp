@@ -7,10 +7,7 @@
 
 namespace scanbench::metrics {
 
-namespace {
-
-// RMS |p - clean| over the scan's inliers, or NaN when the scan lacks the properties.
-double estimate_noise(const PointCloud& scan) {
+double scan_noise_rms(const PointCloud& scan) {
   if (!scan.has_property("clean_x") || !scan.has_property("clean_y") ||
       !scan.has_property("clean_z"))
     return std::nan("");
@@ -31,8 +28,6 @@ double estimate_noise(const PointCloud& scan) {
   return count > 0 ? std::sqrt(sum / count) : std::nan("");
 }
 
-}  // namespace
-
 Json outlier_residue_metric(const MetricInput& in, const OutlierResidueParams& p) {
   if (in.output.empty()) throw InputError("outliers.residue: output has no points");
   const double diag = in.truth.diagonal();
@@ -40,7 +35,7 @@ Json outlier_residue_metric(const MetricInput& in, const OutlierResidueParams& p
   std::string source = "declared";
   if (p.noise == 0.0) {
     if (!in.scan) throw NotApplicable("outliers.residue: noise = 0 needs the scan to estimate it");
-    sigma = estimate_noise(*in.scan);
+    sigma = scan_noise_rms(*in.scan);
     source = "scan clean positions";
     if (!std::isfinite(sigma))
       throw NotApplicable(

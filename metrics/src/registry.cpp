@@ -209,14 +209,19 @@ const MetricRegistry& registry() {
         closest, outlier_residue_metric));
     reg.add(make_metric<SharpEdgeParams>(
         "edges.p2plane",
-        "point-to-plane error near the ground truth's sharp edges (GPF paper Fig. 7-9, 17): "
-        "edge_p2plane_mean (+ _rel) over the output points whose closest GT point is within band "
-        "of an edge sharper than angle_deg; edge_points, edge_share, edge_band_area (share of "
-        "the GT area in the band), edge_sharp_length (share of the GT edge length that is "
-        "sharp); not applicable on a faceted GT (either share above its max_)",
+        "errors near the ground truth's sharp edges (GPF paper Fig. 7-9, 17) over the output "
+        "points whose closest GT point is within the band (edge_band: max(band, "
+        "band_noise_multiple x scan noise)) of an edge sharper than angle_deg: "
+        "edge_p2plane_mean (point-to-plane, closest face's normal) and edge_p2s_mean (exact "
+        "point-to-surface, to the edge itself outside a convex edge) (+ _rel); edge_points, "
+        "edge_share, edge_band_area (share of the GT area in the band), edge_sharp_length "
+        "(share of the GT edge length that is sharp); not applicable on a faceted GT (either "
+        "share above its max_)",
         Scores::Points,
         Keys{}
             .length("edge_p2plane_mean", kLower)
+            .length("edge_p2s_mean", kLower)
+            .length("edge_band", kNone)
             .plain("edge_points", kNone)
             .plain("edge_share", kNone)
             .plain("edge_band_area", kNone)
@@ -226,11 +231,12 @@ const MetricRegistry& registry() {
         "edges.normals",
         "normal error near the ground truth's sharp edges (CLOP paper Fig. 16): "
         "edge_normal_angle_mean_deg, edge_normal_pgp10 (share under 10 degrees) over the output "
-        "points near an edge (as edges.p2plane); needs output normals",
+        "points near an edge (as edges.p2plane, edge_band); needs output normals",
         Scores::Normals,
         Keys{}
             .plain("edge_normal_angle_mean_deg", kLower)
             .plain("edge_normal_pgp10", kHigher)
+            .length("edge_band", kNone)
             .plain("edge_points", kNone),
         closest, sharp_edge_normals_metric));
     reg.add(make_metric<ChamferParams>(
@@ -246,8 +252,9 @@ const MetricRegistry& registry() {
         Scores::Mesh, normal_keys(), closest, surface_normals_metric));
     reg.add(make_metric<InputDistanceParams>(
         "surface.input_distance",
-        "GPS paper sec. 7.2 (Fig. 13): distance of each input scan point (inliers by default) to "
-        "the output surface: input_distance_mean/rms/max (+ _rel), histogram",
+        "GPS paper sec. 7.2 (Fig. 13): distance of each input point to the output surface, of "
+        "the chain's scan (of=scan) or of the points the reconstruction consumed "
+        "(of=step_input); inliers by default: input_distance_mean/rms/max (+ _rel), histogram",
         Scores::Mesh,
         Keys{}
             .length("input_distance_mean", kLower)

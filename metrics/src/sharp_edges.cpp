@@ -10,6 +10,7 @@
 
 #include "scanbench/core/kdtree.h"
 #include "scanbench/metrics/ground_truth.h"
+#include "scanbench/metrics/outlier_residue.h"
 
 namespace scanbench::metrics {
 
@@ -26,12 +27,12 @@ float distance_to_piece(const Eigen::Vector3f& q, const Piece& s) {
   return (q - (s.a + t * d)).norm();
 }
 
-/// The sharp edges of a ground truth cut into pieces no longer than the band, and a kd-tree of
-/// the pieces' midpoints.
+/// The sharp edges of a ground truth cut into pieces no longer than the band (`band_rel`, a
+/// fraction of the diagonal), and a kd-tree of the pieces' midpoints.
 class SharpEdges {
  public:
-  SharpEdges(const GroundTruth& truth, const SharpEdgeParams& p)
-      : band_(static_cast<float>(p.band) * truth.diagonal()) {
+  SharpEdges(const GroundTruth& truth, const SharpEdgeParams& p, double band_rel)
+      : band_(static_cast<float>(band_rel) * truth.diagonal()) {
     const TriangleMesh& mesh = truth.mesh();
     std::map<std::pair<int, int>, std::vector<Eigen::Index>> faces_of;
     for (Eigen::Index f = 0; f < mesh.num_faces(); ++f)
@@ -100,7 +101,7 @@ struct FeatureFacts {
 /// The facts when the sharp edges of `truth` are features (see the header); NotApplicable with
 /// the stated rule and the measured value otherwise.
 FeatureFacts check_features(const GroundTruth& truth, const SharpEdges& edges,
-                            const SharpEdgeParams& p, const char* metric) {
+                            const SharpEdgeParams& p, double band_rel, const char* metric) {
   FeatureFacts f;
   f.sharp_length = edges.sharp_length_share();
   if (f.sharp_length > p.max_sharp_length) {
@@ -114,7 +115,7 @@ FeatureFacts check_features(const GroundTruth& truth, const SharpEdges& edges,
     throw NotApplicable(fmt::format(
         "{}: {:.0f}% of the ground truth's area lies within the band ({} diag) of an edge sharper "
         "than {} degrees (max_band_area {:.0f}%): near an edge would mean nearly everywhere",
-        metric, 100.0 * f.band_area, p.band, p.angle_deg, 100.0 * p.max_band_area));
+        metric, 100.0 * f.band_area, band_rel, p.angle_deg, 100.0 * p.max_band_area));
   }
   return f;
 }
@@ -131,36 +132,59 @@ std::vector<bool> near_of(const SharpEdges& edges, const std::vector<ClosestPoin
 
 std::vector<bool> near_sharp_edges(const GroundTruth& truth, const std::vector<ClosestPoint>& cps,
                                    const SharpEdgeParams& p) {
-  return near_of(SharpEdges(truth, p), cps);
+  return near_of(SharpEdges(truth, p, p.band), cps);
 }
 
 double sharp_edge_band_area(const GroundTruth& truth, const SharpEdgeParams& p) {
-  return band_area_share(truth, SharpEdges(truth, p));
+  return band_area_share(truth, SharpEdges(truth, p, p.band));
 }
 
 double sharp_edge_length_share(const GroundTruth& truth, const SharpEdgeParams& p) {
-  return SharpEdges(truth, p).sharp_length_share();
+  return SharpEdges(truth, p, p.band).sharp_length_share();
+}
+
+double sharp_edge_band(const MetricInput& in, const SharpEdgeParams& p) {
+  if (p.band_noise_multiple == 0.0) return p.band;
+  double sigma = p.noise;
+  if (sigma == 0.0) {
+    const double measured = in.scan ? scan_noise_rms(*in.scan) : std::nan("");
+    if (!std::isfinite(measured)) {
+      throw NotApplicable(
+          "the sharp-edge band: band_noise_multiple needs the scan noise: declare noise, or "
+          "score with a scan that has clean_x/y/z properties");
+    }
+    sigma = measured / in.truth.diagonal();
+  }
+  return std::max(p.band, p.band_noise_multiple * sigma);
 }
 
 Json sharp_edge_p2plane_metric(const MetricInput& in, const SharpEdgeParams& p) {
   if (in.output.empty()) throw InputError("edges.p2plane: output has no points");
-  const SharpEdges edges(in.truth, p);
-  const FeatureFacts facts = check_features(in.truth, edges, p, "edges.p2plane");
+  const double band = sharp_edge_band(in, p);
+  const SharpEdges edges(in.truth, p, band);
+  const FeatureFacts facts = check_features(in.truth, edges, p, band, "edges.p2plane");
   const auto cps = closest_points_of(in);
   const std::vector<bool> near = near_of(edges, cps);
-  double sum = 0.0;
+  double plane_sum = 0.0, surface_sum = 0.0;
   long count = 0;
   for (Eigen::Index i = 0; i < in.output.size(); ++i) {
     const auto& cp = cps[static_cast<std::size_t>(i)];
     if (!near[static_cast<std::size_t>(i)]) continue;
-    sum += std::abs(double((in.output.positions.col(i) - cp.point).dot(cp.normal)));
+    plane_sum += std::abs(double((in.output.positions.col(i) - cp.point).dot(cp.normal)));
+    surface_sum += double(cp.distance);
     ++count;
   }
   if (count == 0) throw NotApplicable("edges.p2plane: no output point near a sharp edge");
-  const double mean = sum / static_cast<double>(count);
+  const double diag = in.truth.diagonal();
+  const double plane = plane_sum / static_cast<double>(count);
+  const double surface = surface_sum / static_cast<double>(count);
   Json j = Json::object();
-  j["edge_p2plane_mean"] = mean;
-  j["edge_p2plane_mean_rel"] = mean / in.truth.diagonal();
+  j["edge_p2plane_mean"] = plane;
+  j["edge_p2plane_mean_rel"] = plane / diag;
+  j["edge_p2s_mean"] = surface;
+  j["edge_p2s_mean_rel"] = surface / diag;
+  j["edge_band"] = band * diag;
+  j["edge_band_rel"] = band;
   j["edge_points"] = count;
   j["edge_share"] = static_cast<double>(count) / static_cast<double>(in.output.size());
   j["edge_band_area"] = facts.band_area;
@@ -171,8 +195,9 @@ Json sharp_edge_p2plane_metric(const MetricInput& in, const SharpEdgeParams& p) 
 Json sharp_edge_normals_metric(const MetricInput& in, const SharpEdgeParams& p) {
   if (!in.output.has_normals()) throw NotApplicable("edges.normals: output has no normals");
   if (in.output.empty()) throw InputError("edges.normals: output has no points");
-  const SharpEdges edges(in.truth, p);
-  check_features(in.truth, edges, p, "edges.normals");
+  const double band = sharp_edge_band(in, p);
+  const SharpEdges edges(in.truth, p, band);
+  check_features(in.truth, edges, p, band, "edges.normals");
   const auto cps = closest_points_of(in);
   const std::vector<bool> near = near_of(edges, cps);
   double sum = 0.0;
@@ -193,6 +218,8 @@ Json sharp_edge_normals_metric(const MetricInput& in, const SharpEdgeParams& p) 
   Json j = Json::object();
   j["edge_normal_angle_mean_deg"] = sum / static_cast<double>(count);
   j["edge_normal_pgp10"] = static_cast<double>(under10) / static_cast<double>(count);
+  j["edge_band"] = band * in.truth.diagonal();
+  j["edge_band_rel"] = band;
   j["edge_points"] = count;
   return j;
 }

@@ -52,19 +52,28 @@ Json surface_normals_metric(const MetricInput& in, const NormalAngleParams& p) {
 
 Json input_distance_metric(const MetricInput& in, const InputDistanceParams& p) {
   const GroundTruth& out = oracle(in, "surface.input_distance");
-  if (!in.scan) throw NotApplicable("surface.input_distance: no input scan");
-  const PointCloud& scan = *in.scan;
+  const bool of_scan = p.of == "scan";
+  if (of_scan && !in.scan) throw NotApplicable("surface.input_distance: no input scan");
+  if (!of_scan && !in.step_input) {
+    throw NotApplicable(
+        "surface.input_distance: of=step_input, but the chain holds no points that its "
+        "reconstruction consumed");
+  }
+  const PointCloud& cloud = of_scan ? *in.scan : *in.step_input;
   Eigen::Matrix3Xf q;
-  if (p.skip_outliers && scan.has_property("outlier")) {
-    const Eigen::VectorXf& o = scan.properties.at("outlier");
+  if (p.skip_outliers && cloud.has_property("outlier")) {
+    const Eigen::VectorXf& o = cloud.properties.at("outlier");
     q.resize(3, (o.array() == 0.0f).count());
     Eigen::Index k = 0;
-    for (Eigen::Index i = 0; i < scan.size(); ++i)
-      if (o[i] == 0.0f) q.col(k++) = scan.positions.col(i);
+    for (Eigen::Index i = 0; i < cloud.size(); ++i)
+      if (o[i] == 0.0f) q.col(k++) = cloud.positions.col(i);
   } else {
-    q = scan.positions;
+    q = cloud.positions;
   }
-  if (q.cols() == 0) throw InputError("surface.input_distance: the scan has no (inlier) points");
+  if (q.cols() == 0) {
+    throw InputError(std::string("surface.input_distance: the ") +
+                     (of_scan ? "scan" : "step input") + " has no (inlier) points");
+  }
   const Eigen::VectorXf d = out.distances(q, DistancePath::Exact);
   const double diag = in.truth.diagonal();
   const auto n = static_cast<double>(d.size());

@@ -1,6 +1,7 @@
 // scanbench eval --mesh GT | --dataset NAME | --gt-points FILE [--gt-transform M] [--gt-crop C]
 //                --points OUT.ply | --output-mesh MESH
-//                [--scan SCAN.ply] [--metrics a,b] [--set metric.key=value ...]
+//                [--scan SCAN.ply] [--step-input PTS.ply] [--metrics a,b]
+//                [--set metric.key=value ...]
 //                [--heatmap DIR] [--vdb DIR] [--seed N] [--threads N] -o metrics.json
 // scanbench eval --from-record DIR/jobs/ID.json | DIR/runs.jsonl --id ID [-o metrics.json]
 // Evaluates one output against a ground truth with the registered metrics (metrics/evaluate.h)
@@ -128,6 +129,9 @@ void add_eval_command(Cli& cli) {
   sub->add_option("--scan", opts->scan,
                   "The algorithm's input scan (.ply with clean_x/y/z, outlier): for "
                   "outliers.residue");
+  sub->add_option("--step-input", opts->step_input,
+                  "With --output-mesh: the points the reconstruction consumed (.ply), for "
+                  "surface.input_distance.of=step_input");
   sub->add_option("--metrics", opts->metrics, "Only these metrics (comma separated)")
       ->delimiter(',');
   sub->add_option("--set", opts->sets,

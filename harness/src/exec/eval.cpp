@@ -167,6 +167,13 @@ EvalResult eval_mesh_truth(const EvalRequest& q) {
     kind = DataKind::CovarianceMesh;
     scored_mesh = output.covariance_mesh->mean_mesh();
   }
+  // A mesh output's step input travels as a chain's does: as the points beside the mesh.
+  if (!q.step_input.empty()) {
+    if (kind == DataKind::Points)
+      throw ParamError("eval: --step-input goes with --output-mesh (the points it was built from)");
+    output.points = read_point_cloud(q.step_input);
+    rebase(output.points, gt_mesh.origin);
+  }
   EvalResult res;
   res.record = metrics::evaluate(gt, output, kind, scan.get(), q.metrics, metric_params, ctx,
                                  q.mesh_samples);
@@ -191,6 +198,7 @@ EvalResult eval_mesh_truth(const EvalRequest& q) {
                                               : q.output_covariance_mesh;
   inputs["output_kind"] = kind_name(kind);
   inputs["scan"] = q.scan.empty() ? Json(nullptr) : Json(q.scan);
+  inputs["step_input"] = q.step_input.empty() ? Json(nullptr) : Json(q.step_input);
   inputs["seed"] = q.seed;
   inputs["field_voxel_rel"] = q.field_voxel;
   inputs["heatmap_params"] = params_to_json(heat);
@@ -287,6 +295,10 @@ EvalRequest request_of(const Json& rec, const fs::path& dir) {
   }
   q.mesh_samples = scoring.value("output_mesh_samples", q.mesh_samples);
   const std::string kind = rec.value("output_kind", std::string("points"));
+  if (kind == "mesh" || kind == "covariance_mesh") {
+    // The points the chain carried beside its mesh (the step input), when it held any.
+    q.step_input = artifact(rec, dir, "output");
+  }
   if (kind == "mesh") {
     q.output_mesh = artifact(rec, dir, "mesh");
   } else if (kind == "covariance_mesh") {

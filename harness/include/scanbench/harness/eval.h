@@ -16,9 +16,12 @@ struct EvalRequest {
   /// (gt_points, aligned by gt_transform, both clouds cropped to gt_crop: metrics/point_truth.h).
   std::string mesh, dataset, gt_points, gt_transform, gt_crop;
   Json dataset_params = Json::object();
-  std::string points, output_mesh;      ///< the output: one of the two
-  std::string output_covariance_mesh;   ///< or a covariance mesh (--from-record only)
-  std::string scan;                     ///< the algorithm's input scan (for outliers.residue)
+  std::string points, output_mesh;     ///< the output: one of the two
+  std::string output_covariance_mesh;  ///< or a covariance mesh (--from-record only)
+  std::string scan;                    ///< the algorithm's input scan (for outliers.residue)
+  /// For a mesh output: the points its reconstruction consumed (surface.input_distance
+  /// of=step_input); --from-record takes the job's saved points (artifacts.output).
+  std::string step_input;
   std::string heatmap, vdb;             ///< folders for the images and the distance fields
   std::vector<std::string> metrics;     ///< empty = every registered metric
   Json metric_params = Json::object();  ///< metric -> params; "heatmap" -> HeatmapParams

@@ -48,7 +48,10 @@ Json evaluate_covariance_mesh(const GroundTruth& gt, const CovarianceMesh& outpu
 
 /// The one entry for a stage's output (a job's chain, `scanbench eval`), scored as its `primary`
 /// kind: a covariance mesh by evaluate_covariance_mesh, a mesh by evaluate_mesh, a mixture by
-/// evaluate on its components as points, points by evaluate. InputError when `output` lacks the
+/// evaluate on its components as points, points by evaluate. For a mesh or covariance mesh,
+/// `output.points` (when not empty) are the points the chain carried to its reconstruction
+/// (StageData::carry) and become MetricInput::step_input (surface.input_distance of=step_input);
+/// this is the only way the step input reaches the metrics. InputError when `output` lacks the
 /// primary kind.
 Json evaluate(const GroundTruth& gt, const StageData& output, DataKind primary,
               const PointCloud* scan, const std::vector<std::string>& metric_names,

@@ -20,7 +20,12 @@ struct MetricInput {
   /// The algorithm's output points; for a mesh output, the seeded area-uniform samples of the
   /// output surface (evaluate_mesh), with the sampled face's unit normal as normal.
   const PointCloud& output;
-  const PointCloud* scan = nullptr;           ///< the algorithm's input (outliers, input distance)
+  const PointCloud* scan = nullptr;  ///< the chain's input scan (outliers, noise, input distance)
+  /// For a mesh output: the points the chain held when it ended, i.e. the points its
+  /// reconstruction consumed (the last point set a step produced, or the scan when none did;
+  /// core/stage_data.h carries them through the mesh steps and evaluate(StageData) passes them).
+  /// Null for point outputs and for chains that hold no points (started from the ground truth).
+  const PointCloud* step_input = nullptr;
   const TriangleMesh* output_mesh = nullptr;  ///< set for mesh outputs
   /// Set when the output is a covariance mesh (output_mesh is then its mean mesh).
   const CovarianceMesh* output_covariance_mesh = nullptr;

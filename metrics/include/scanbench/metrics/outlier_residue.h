@@ -22,6 +22,11 @@ struct OutlierResidueParams {
   }
 };
 
+/// The scan noise sigma estimated from the scan: RMS |p - clean| over its points with
+/// outlier == 0 (all points without the property); NaN when the scan lacks clean_x/y/z or has no
+/// inlier. Also the noise of edges.p2plane's band_noise_multiple (sharp_edges.h).
+double scan_noise_rms(const PointCloud& scan);
+
 /// Metric "outliers.residue".
 Json outlier_residue_metric(const MetricInput& in, const OutlierResidueParams& p);
 

@@ -15,11 +15,22 @@
 //    arccos |n_O(s) . n_G(p)| between the face normal of O at s and the face normal of G at the
 //    closest point p of s. Same keys as normals.angle (normal_angle_mean_deg, _rms_deg, pgp5, 10).
 //  surface.input_distance  The GPS paper's reconstruction error (Preiner et al. 2019, sec. 7.2,
-//    Fig. 13): the distance of each input (scan) point to O, exact. Reported: input_distance_mean,
-//    input_distance_rms (the RMSE of Fig. 14), input_distance_max (lengths, with _rel), the point
-//    count input_distance_points, and the histogram "input_distance". The paper's input is a
+//    Fig. 13): the distance of each input point to O, exact. Which points (`of`):
+//      "scan"        the chain's input scan (the default, what existing configs measure);
+//      "step_input"  the points the reconstruction consumed (MetricInput::step_input: e.g. the
+//                    CLOP particles of `resample.clop -> normals.pca -> reconstruct.poisson` or
+//                    of `resample.clop -> mixture.hem -> ...`), the fair quantity when two chains
+//                    reconstruct from differently consolidated points; NotApplicable when the
+//                    chain holds no points.
+//    The effective `of` is recorded with the other parameters in the record's metric_params.
+//    Reported: input_distance_mean, input_distance_rms (the RMSE of Fig. 14; both statistics,
+//    neither is the verdict), input_distance_max (lengths, with _rel), the point count
+//    input_distance_points, and the histogram "input_distance". The paper's input is a
 //    consolidated scan without outliers; the scanner simulator marks its outliers (property
-//    "outlier"), which are left out by default (skip_outliers). NotApplicable without a scan.
+//    "outlier"), which are left out by default (skip_outliers) from whichever cloud is measured
+//    when it carries the property. NotApplicable without the cloud asked for.
+#include <string>
+
 #include "scanbench/core/run_context.h"
 #include "scanbench/metrics/metric_input.h"
 
@@ -33,12 +44,17 @@ PointCloud output_surface_samples(const TriangleMesh& mesh, Eigen::Index count,
 std::uint64_t output_surface_samples_seed(const RunContext& ctx);
 
 struct InputDistanceParams {
+  std::string of = "scan";  ///< "scan" or "step_input" (see above)
   bool skip_outliers = true;
   double hist_max = 0.01;  ///< histogram range, fraction of the diagonal
   int bins = 50;
   static void declare(ParamDeclarer<InputDistanceParams>& d) {
+    d.choice("of", &InputDistanceParams::of, {"scan", "step_input"},
+             "whose points are measured: the chain's input scan, or the points the "
+             "reconstruction step consumed (the chain's points when it ended)");
     d.flag("skip_outliers", &InputDistanceParams::skip_outliers,
-           "leave out scan points the scanner marked as outliers (property \"outlier\")");
+           "leave out the points the scanner marked as outliers (property \"outlier\") "
+           "of the cloud measured");
     d.real("hist_max", &InputDistanceParams::hist_max, Range::above(0.0), "diag",
            "upper end of the input distance histogram");
     d.integer("bins", &InputDistanceParams::bins, Range::closed(1, 10000), "", "histogram bins");
@@ -52,7 +68,7 @@ struct NormalAngleParams;
 Json surface_chamfer_metric(const MetricInput& in, const ChamferParams& p);
 /// Metric "surface.normals".
 Json surface_normals_metric(const MetricInput& in, const NormalAngleParams& p);
-/// Metric "surface.input_distance" (needs in.output_oracle and in.scan).
+/// Metric "surface.input_distance" (needs in.output_oracle, and in.scan or in.step_input).
 Json input_distance_metric(const MetricInput& in, const InputDistanceParams& p);
 
 }  // namespace scanbench::metrics
