@@ -4,6 +4,7 @@
 #include <OpenImageIO/imagebuf.h>
 
 #include <filesystem>
+#include <map>
 
 #include "scanbench/core/errors.h"
 #include "scanbench/metrics/heatmap.h"
@@ -62,10 +63,17 @@ TEST(Heatmap, SizeColoursAndDepthTest) {
     return Eigen::Vector2i(static_cast<int>(std::floor(200 + (x - 0.5f) * scale)),
                            40 + static_cast<int>(std::floor(200 - (y - 0.5f) * scale)));
   };
+  // Oracle: viridis' published 8-bit colours (matplotlib, d3): #440154 at 0, #21918c at 0.5,
+  // #fde725 at 1, independent of the writer's table.
+  const auto hex = [](int r, int g, int b) -> Eigen::Vector3f {
+    return Eigen::Vector3f(r, g, b) / 255.0f;
+  };
+  const std::map<float, Eigen::Vector3f> published = {
+      {0.0f, hex(0x44, 0x01, 0x54)}, {0.5f, hex(0x21, 0x91, 0x8c)}, {1.0f, hex(0xfd, 0xe7, 0x25)}};
   const float tol = 2.5f / 255.0f;
   auto expect_colour = [&](Eigen::Vector2i px, float t) {
     const Eigen::Vector3f got = pixel(img, px.x(), px.y());
-    const Eigen::Vector3f want = turbo_color(t);
+    const Eigen::Vector3f want = published.at(t);
     EXPECT_LT((got - want).cwiseAbs().maxCoeff(), tol)
         << "pixel " << px.transpose() << " got " << got.transpose() << " want " << want.transpose();
   };
@@ -76,9 +84,21 @@ TEST(Heatmap, SizeColoursAndDepthTest) {
   // Back view (camera on -z, x mirrored): the point at z = -0.3 is nearer there.
   const Eigen::Vector2i b = front(0.5f, 0.9f) + Eigen::Vector2i(2 * 400, 0);
   expect_colour(b, 0.0f);
-  // Known colours of the map: 0 is blue-dominated, 1 red-dominated, and the background white.
-  EXPECT_GT(turbo_color(0.0f).z(), turbo_color(0.0f).x());
-  EXPECT_GT(turbo_color(1.0f).x(), turbo_color(1.0f).z());
+  // The map itself: the published colours, clamping, and lightness rising monotonically
+  // (sequential: a larger error is always lighter; Rec. 709 luma as the proxy).
+  for (const auto& [t, rgb] : published)
+    EXPECT_LT((viridis_color(t) - rgb).cwiseAbs().maxCoeff(), tol) << t;
+  EXPECT_EQ(viridis_color(-1.0f), viridis_color(0.0f));
+  EXPECT_EQ(viridis_color(7.0f), viridis_color(1.0f));
+  const Eigen::Vector3f luma(0.2126f, 0.7152f, 0.0722f);
+  for (int i = 1; i < 256; ++i) {
+    const Eigen::Vector3f a(viridis_table()[i - 1]), b(viridis_table()[i]);
+    EXPECT_GT(b.dot(luma), a.dot(luma)) << "entry " << i;
+  }
+  // The colour bar's top and bottom rows are the map's ends; the background is white.
+  const int bx = 4 * 400 + 12 + 12;
+  EXPECT_LT((pixel(img, bx, 40 + 20) - published.at(1.0f)).cwiseAbs().maxCoeff(), tol);
+  EXPECT_LT((pixel(img, bx, 40 + 400 - 21) - published.at(0.0f)).cwiseAbs().maxCoeff(), tol);
   EXPECT_EQ(pixel(img, 3, size.y() - 3), Eigen::Vector3f(1, 1, 1));
   fs::remove(png);
 

@@ -8,8 +8,8 @@
 // frame the given bounding box (its diagonal spans 95% of the shorter view side).
 // Each point is splatted as a disc of splat_radius pixels with a depth test (the point nearest
 // to the camera wins a pixel; ties keep the lower index) and coloured by t = clamp(|E| / (range x
-// diagonal), 0, 1) through OIIO's "turbo" map: t = 0 is dark blue, t = 1 dark red; errors above
-// the range saturate. The background is white. The colour bar shows the map from 0 (bottom) to
+// diagonal), 0, 1) through the viridis map (viridis_color; perceptually uniform, sequential):
+// t = 0 is dark purple, t = 1 yellow; errors above the range saturate. The background is white. The colour bar shows the map from 0 (bottom) to
 // the stated range (top) with labels in DejaVuSans.
 #include <Eigen/Core>
 #include <filesystem>
@@ -30,7 +30,7 @@ struct HeatmapParams {
     d.integer("width", &HeatmapParams::width, Range::closed(64, 4096), "px", "width of a view");
     d.integer("height", &HeatmapParams::height, Range::closed(64, 4096), "px", "height of a view");
     d.real("range", &HeatmapParams::range, Range::above(0.0), "diag",
-           "fixed colour range: |E| = range is the top of the turbo map");
+           "fixed colour range: |E| = range is the top of the viridis map");
     d.integer("splat_radius", &HeatmapParams::splat_radius, Range::closed(0, 16), "px",
               "point splat radius");
   }
@@ -52,7 +52,12 @@ void write_heatmap(const PointCloud& points, const Eigen::VectorXf& errors,
 void write_histogram_image(const Json& histogram, const std::filesystem::path& png,
                            const std::string& title, int width = 640, int height = 400);
 
-/// The RGB colour (0..1) of the turbo map at t in [0, 1], as OIIO computes it.
-Eigen::Vector3f turbo_color(float t);
+/// The RGB colour (0..1, sRGB) of viridis at t: matplotlib's 256-entry table (van der Walt,
+/// Smith and Firing, CC0), entry min(255, floor(256 t)) as matplotlib looks it up; t is clamped
+/// to [0, 1], NaN maps to 0. The report's 3D viewer colours by the same table.
+Eigen::Vector3f viridis_color(float t);
+
+/// The 256 entries of viridis_color, in order (row i: t in [i/256, (i+1)/256)).
+const float (&viridis_table())[256][3];
 
 }  // namespace scanbench::metrics
