@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # scanbench set-up on Debian 12: installs the Debian packages scanbench needs (only those that are
 # missing) and extracts the classic test meshes from the libcgal-demo package into data/meshes/
-# (ignored by git). Idempotent: a second run installs and extracts nothing.
+# (ignored by git), and three.js from npm for the report's viewer. Idempotent: a second run installs
+# and extracts nothing.
 #
 #   scripts/setup.sh            install + extract
 #   scripts/setup.sh --check    only report what is missing (exit 1 if anything is)
@@ -38,6 +39,26 @@ if ((${#missing[@]})); then
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
 else
   echo "setup: all ${#packages[@]} packages already installed"
+fi
+
+# three.js for the report's 3D viewer: npm ci of the pinned harness/report-assets/package-lock.json
+# into harness/report-assets/node_modules (ignored by git), again only when the lock changes.
+assets="$here/harness/report-assets"
+if ! command -v npm >/dev/null; then
+  echo "setup: installing npm"
+  SUDO=""; if [[ $(id -u) -ne 0 ]]; then SUDO="sudo"; fi
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends npm >/dev/null
+fi
+if cmp -s "$assets/package-lock.json" "$assets/node_modules/.scanbench-lock"; then
+  echo "setup: three.js already in $assets/node_modules"
+else
+  if (cd "$assets" && npm ci --no-audit --no-fund --loglevel=error >/dev/null); then
+    cp "$assets/package-lock.json" "$assets/node_modules/.scanbench-lock"
+    echo "setup: installed three.js into $assets/node_modules"
+  else  # not fatal: a report then says how to install it
+    echo "setup: npm ci failed in $assets; the report's 3D viewer needs it" >&2
+  fi
 fi
 
 # Classic meshes (closed OFF files) from libcgal-demo, extracted once.

@@ -9,6 +9,7 @@
 #include <map>
 #include <set>
 
+#include "results/report_viewer.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/json_text.h"
 #include "scanbench/core/paths.h"
@@ -643,8 +644,9 @@ std::vector<std::string> report_metrics(const Json& report_cfg, const std::vecto
 std::string head_section(const std::string& name, const Json& cfg,
                          const std::vector<Json>& records) {
   std::string h;
-  h += "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>scanbench: " +
-       html_escape(name) +
+  h += std::string("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">") +
+       "<meta http-equiv=\"Content-Security-Policy\" content=\"" + kReportCsp + "\">" +
+       "<title>scanbench: " + html_escape(name) +
        "</title>\n<style>\n"
        "body{font-family:sans-serif;margin:1.5em;max-width:1400px;color:#222}"
        "table{border-collapse:collapse;margin:0.6em 0}td,th{border:1px solid #ccc;padding:2px 6px;"
@@ -1359,6 +1361,7 @@ fs::path write_report(const fs::path& dir, const fs::path& out_arg, const fs::pa
   h += tables_section(records, metrics);
   h += sweep_sections(ok, report_cfg, metrics);
   h += error_heatmaps_section(dir, ok);
+  h += viewer_section(dir, ok);
   h += phases_section(ok);
   h += cost_section(ok, report_cfg);
   h += histograms_section(ok);

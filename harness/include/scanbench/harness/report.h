@@ -1,6 +1,6 @@
 #pragma once
-// `scanbench report DIR`: one static HTML page (DIR/index.html) that works offline: no script,
-// no external file, plots as inline SVG.
+// `scanbench report DIR`: one HTML page (DIR/index.html) that works offline: no external file,
+// plots as inline SVG; the only script is the 3D viewer's, inlined (results/report_viewer.h).
 //
 // Contents: the run context and status counts; failed jobs with their reasons; comparison
 // tables (rows dataset / scanner / sweep point, columns variants) for the main accuracy, regularity
@@ -9,8 +9,9 @@
 // e.g. error and regularity against alpha per HEM level, or against h); error against compression
 // (scan points / mixture components) when the variant produces a mixture (CLOP paper Fig. 13);
 // heatmaps of a metric over two swept parameters; time per phase (stacked bars, medians); error
-// histograms per dataset and variant; the verdicts of DIR/compare.json when present (nightly);
-// and per job the links to its scan, sidecar, outputs, log and any .vdb/.png artifacts.
+// histograms per dataset and variant; a 3D viewer of the outputs coloured by their error; the
+// verdicts of DIR/compare.json when present (nightly); and per job the links to its scan,
+// sidecar, outputs, log and any .vdb/.png artifacts.
 // "report" in the experiment config may set {"metrics": [keys to plot], "x": "<sweep key>"}.
 //
 // Nothing is pooled silently: every table and section states what a value aggregates (seeds,

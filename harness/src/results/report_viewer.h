@@ -1,0 +1,50 @@
+#pragma once
+// The report's 3D viewer (report.h): per dataset / scanner group one WebGL canvas with a view per
+// method, written into the page at report time so that it works offline from file://.
+//
+// What each view shows: the output of the group's first ok job (first seed) of every variant and
+// sweep point; points coloured by the point-to-plane error E(q) = <q - p, N_p> (CLOP paper
+// sec. 10.2) to the ground-truth mesh, a mesh output's vertices by their distance to the ground
+// truth; the colour is viridis (metrics::viridis_color) of |E| / saturation, saturation =
+// kViewerSaturationRel x the ground truth's bbox diagonal (the per-job heatmaps' default range).
+// Large outputs are subsampled deterministically: n points of N kept are the indices
+// floor(k N / n), k = 0..n-1. Positions are quantised to 16 bits per axis over the group's cube,
+// errors to signed 16 bits of their largest magnitude, normals to 8 bits; all inlined as base64.
+//
+// The JavaScript: three.js (npm, pinned by harness/report-assets/package.json, installed by
+// scripts/setup.sh into harness/report-assets/node_modules) and harness/report-assets/viewer.js,
+// inlined as text and loaded through an import map of blob: URLs (browsers refuse module scripts
+// by src from file://; three.js r160+ ships modules only). Without three.js the section says how
+// to install it and the rest of the report is unchanged.
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "scanbench/core/params.h"
+
+namespace scanbench::harness {
+
+/// Colour saturation of the viewer, fraction of the ground truth's bbox diagonal.
+inline constexpr double kViewerSaturationRel = 0.005;
+
+struct ViewerBudget {
+  std::int64_t points_per_view = 200000;  ///< most points (or mesh vertices) one view holds
+  std::int64_t points_total = 2000000;    ///< most points over the whole page
+  std::int64_t truth_faces = 400000;      ///< larger ground-truth meshes are shown as samples
+};
+
+/// The folder of the viewer's assets: $SCANBENCH_REPORT_ASSETS when set, else the source tree's
+/// harness/report-assets.
+std::filesystem::path report_assets_dir();
+
+/// The HTML of the viewer section for the ok records of results folder `dir`; "" when no record
+/// has an output file. Never throws for a missing three.js or an unreadable dataset: the section
+/// says what is missing. `js_bytes` (if given) receives the bytes of JavaScript inlined.
+std::string viewer_section(const std::filesystem::path& dir, const std::vector<const Json*>& ok,
+                           const ViewerBudget& budget = {}, std::size_t* js_bytes = nullptr);
+
+/// The Content-Security-Policy of the page: nothing outside the page and its folder.
+inline constexpr const char* kReportCsp = "default-src 'self' data: blob: 'unsafe-inline'";
+
+}  // namespace scanbench::harness
