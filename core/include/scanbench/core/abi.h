@@ -8,6 +8,6 @@
 // GaussianMixture, CovarianceMesh, PolygonFaces, StageData, RunContext, ParamSchema, the
 // registries' entries, MetricInput, ClosestPoint, KdTree, NeighborGrid), or a public function
 // its signature (2: CovarianceMesh's faces became a PolygonFaces; 3: NeighborGrid gained a
-// layout, the exact-quotient cell rule and fine cells).
+// layout, the exact-quotient cell rule and fine cells; 4: MetricInput gained step_input).
 // cmake/Install.cmake reads the number from this line.
-#define SCANBENCH_ABI_VERSION 3
+#define SCANBENCH_ABI_VERSION 4
