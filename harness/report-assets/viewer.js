@@ -9,6 +9,7 @@
 //                  centre, at d x its diagonal, in every group
 //   pick=g,v,k     pick point k (index into the view's shown points) of view v of group g
 //   frames=N       time N renders of group 0 (status "frame_ms")
+//   all=1          build every group at once (else one per task after the load event)
 //   truth=1, scan=1, outliers=1   show these at start
 //   point=i        show sweep point i (the slider's position)
 // The status (JSON in #sb-viewer-status) lists per group and view the canvas rectangles and
@@ -41,6 +42,7 @@ function decode(b64, Type) {
 
 THREE.ColorManagement.enabled = false;  // colours are written as given (sRGB bytes)
 const data = JSON.parse(document.getElementById('sb-viewer-data').textContent);
+data.groups = [];  // each parsed from its own element when built
 const cmapBytes = new Uint8Array(256 * 4);
 data.colormap.forEach((c, i) => { cmapBytes.set([c[0], c[1], c[2], 255], 4 * i); });
 const cmap = new THREE.DataTexture(cmapBytes, 256, 1, THREE.RGBAFormat);
@@ -104,8 +106,8 @@ function geometry(cloud) {
   g.setAttribute('position', new THREE.BufferAttribute(decode(cloud.pos, Uint16Array), 3, true));
   if (cloud.err) g.setAttribute('err', new THREE.BufferAttribute(decode(cloud.err, Int16Array), 1, false));
   if (cloud.nrm) g.setAttribute('nrm', new THREE.BufferAttribute(decode(cloud.nrm, Int8Array), 3, true));
-  if (cloud.tri) {
-    g.setIndex(new THREE.BufferAttribute(decode(cloud.tri, Uint32Array), 1));
+  if (cloud.tri || cloud.tri16) {
+    g.setIndex(new THREE.BufferAttribute(cloud.tri16 ? decode(cloud.tri16, Uint16Array) : decode(cloud.tri, Uint32Array), 1));
     g.computeVertexNormals();
     g.setAttribute('nrm', g.getAttribute('normal'));
   }
@@ -416,29 +418,70 @@ class GroupViewer {
   }
 }
 
+// The page opens without waiting for WebGL: after the load event the groups are built and drawn
+// one per task, a group whose canvas comes within a screen of the window first; all=1 in the
+// hash builds every group at once, before the status says ready.
 const viewers = [];
-try {
-  document.querySelectorAll('.sb-viewer').forEach((root) => {
-    const gi = Number(root.dataset.group);
-    viewers.push(new GroupViewer(root, data.groups[gi], gi));
-  });
+const roots = [...document.querySelectorAll('.sb-viewer')];
+function build(root) {
+  const gi = Number(root.dataset.group);
+  if (viewers[gi]) return viewers[gi];
+  data.groups[gi] = JSON.parse(document.getElementById('sb-viewer-group-' + gi).textContent);
+  const v = new GroupViewer(root, data.groups[gi], gi);
+  viewers[gi] = v;
   if (opts.cam) {
     const [az, el, d] = opts.cam.split(',').map(Number);
-    for (const v of viewers) { v.setPose(az, el, d); v.controls.update(); }
+    v.setPose(az, el, d);
+    v.controls.update();
   }
-  for (const v of viewers) v.render();
+  v.render();
+  status.groups[gi] = v.describe();
+  status.built_ms[gi] = performance.now();
+  status.points[gi] = v.views.reduce((s, w) => s + w.data.count, 0);
+  return v;
+}
+function guarded(f) {
+  try { f(); } catch (e) { status.errors.push(String(e && e.stack || e)); }
+  writeStatus();
+}
+status.points = [];
+status.built_ms = [];
+guarded(() => {
+  if (opts.all === '1') {
+    roots.forEach(build);
+  } else {
+    // After the page has loaded: one group per task in page order (the page stays responsive),
+    // a group coming near the window first.
+    const queue = [...roots];
+    const next = () => guarded(() => {
+      const r = queue.shift();
+      if (!r) return;
+      build(r);
+      setTimeout(next, 0);
+    });
+    if ('IntersectionObserver' in window) {
+      const io = new IntersectionObserver((entries) => guarded(() => {
+        for (const e of entries) {
+          if (!e.isIntersecting) continue;
+          io.unobserve(e.target);
+          build(e.target);
+        }
+      }), { rootMargin: '100% 0px' });
+      roots.forEach((r) => io.observe(r));
+    }
+    const start = () => setTimeout(next, 0);
+    if (document.readyState === 'complete') start(); else window.addEventListener('load', start);
+  }
   if (opts.pick) {
     const [g, v, k] = opts.pick.split(',').map(Number);
-    viewers[g].pick(v, k);
+    build(roots[g]).pick(v, k);
   }
-  if (opts.frames) status.frame_ms = viewers[0].time(Number(opts.frames));
-  status.groups = viewers.map((v) => v.describe());
-  status.points = viewers.map((v) => v.views.reduce((s, w) => s + w.data.count, 0));
+  if (opts.frames) status.frame_ms = build(roots[0]).time(Number(opts.frames));
   status.resources = performance.getEntriesByType('resource').map((e) => e.name);
   status.ready = true;
   status.ready_ms = performance.now();  // since the navigation started
-} catch (e) {
-  status.errors.push(String(e && e.stack || e));
-}
-window.scanbenchViewer = { viewers, status, render: () => viewers.forEach((v) => v.render()) };
-writeStatus();
+});
+window.scanbenchViewer = {
+  viewers, status, build: (g) => build(roots[g]),
+  render: () => viewers.forEach((v) => v && v.render()),
+};

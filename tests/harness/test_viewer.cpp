@@ -99,7 +99,7 @@ TEST_F(Viewer, PageIsSelfContainedAndLoadsOffline) {
   EXPECT_NE(html.find("id=\"sb-viewer-data\""), std::string::npos);
   EXPECT_EQ(html.find("<script src"), std::string::npos);
   ASSERT_TRUE(fs::exists("/usr/bin/chromium")) << "chromium not installed (scripts/setup.sh)";
-  const Json s = status("shade=0");
+  const Json s = status("all=1&shade=0");
   ASSERT_TRUE(s.is_object()) << "no viewer status in the page";
   EXPECT_TRUE(s.value("ready", false)) << s.dump();
   EXPECT_TRUE(s["errors"].empty()) << s.dump();
@@ -110,7 +110,7 @@ TEST_F(Viewer, PageIsSelfContainedAndLoadsOffline) {
   EXPECT_TRUE(views[0]["shown"].get<bool>() && views[1]["shown"].get<bool>());
   EXPECT_FALSE(views[2]["shown"].get<bool>());
   EXPECT_EQ(views[1]["rect"], views[2]["rect"]);
-  const Json second = status("point=1");
+  const Json second = status("all=1&point=1");
   EXPECT_TRUE(second["groups"][0]["views"][2]["shown"].get<bool>()) << second.dump();
   EXPECT_FALSE(second["groups"][0]["views"][1]["shown"].get<bool>());
   // Everything the page loaded is inside the results folder (or the page's own blob: URLs).
@@ -125,7 +125,7 @@ TEST_F(Viewer, PageIsSelfContainedAndLoadsOffline) {
 
 TEST_F(Viewer, CanvasColoursLieOnViridis) {
   ASSERT_TRUE(ok_) << log_;
-  const std::string hash = "shade=0";
+  const std::string hash = "all=1&shade=0";
   const Json s = status(hash);
   ASSERT_TRUE(s.is_object() && s.value("ready", false)) << s.dump();
   const TempDir shots("viewer-shot");
@@ -168,8 +168,8 @@ TEST_F(Viewer, CanvasColoursLieOnViridis) {
 
 TEST_F(Viewer, ScriptedCameraTurnMovesEveryViewAlike) {
   ASSERT_TRUE(ok_) << log_;
-  const Json before = status("shade=0");
-  const Json after = status("shade=0&cam=120,40,2.5");
+  const Json before = status("all=1&shade=0");
+  const Json after = status("all=1&shade=0&cam=120,40,2.5");
   ASSERT_TRUE(before.value("ready", false) && after.value("ready", false)) << after.dump();
   const auto& views = after["groups"][0]["views"];
   // Every view has the camera the hash asked for: at azimuth 120 and elevation 40 degrees

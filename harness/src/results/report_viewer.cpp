@@ -212,7 +212,12 @@ Json cloud_json(const Cloud& c, const Cube& cube) {
   if (c.normals.cols() > 0)
     j["nrm"] = normals_b64(c.normals, kept_indices(c.normals.cols(), c.normals.cols()));
   if (c.errors.size() > 0) errors_json(c.errors, j);
-  if (c.faces.cols() > 0) {
+  if (c.faces.cols() > 0 && c.positions.cols() <= 65536) {  // 16-bit indices when they fit
+    std::vector<std::uint16_t> f(static_cast<std::size_t>(c.faces.size()));
+    for (std::size_t i = 0; i < f.size(); ++i)
+      f[i] = static_cast<std::uint16_t>(c.faces.data()[i]);
+    j["tri16"] = base64(f);
+  } else if (c.faces.cols() > 0) {
     std::vector<std::uint32_t> f(static_cast<std::size_t>(c.faces.size()));
     std::memcpy(f.data(), c.faces.data(), f.size() * sizeof(std::uint32_t));
     j["tri"] = base64(f);
@@ -283,7 +288,7 @@ std::string colour_bar(std::size_t group, double saturation_abs) {
         x, format_number(k / 4.0 * kViewerSaturationRel));
   }
   return fmt::format(
-      "<svg class=\"colour-bar\" width=\"420\" height=\"62\" font-family=\"sans-serif\" "
+      "<svg class=\"colour-bar\" width=\"560\" height=\"62\" font-family=\"sans-serif\" "
       "font-size=\"11\"><defs><linearGradient id=\"viridis-{0}\">{1}</linearGradient></defs>"
       "<rect x=\"10\" y=\"8\" width=\"280\" height=\"18\" fill=\"url(#viridis-{0})\"/>{2}"
       "<text x=\"300\" y=\"21\">|E| / diagonal</text><text x=\"10\" y=\"58\">saturates at {3} "
@@ -352,7 +357,7 @@ std::string viewer_section(const fs::path& dir, const std::vector<const Json*>& 
   for (const auto& c : metrics::viridis_table())
     cmap.push_back({std::lround(c[0] * 255), std::lround(c[1] * 255), std::lround(c[2] * 255)});
   data["colormap"] = cmap;
-  data["groups"] = Json::array();
+  std::vector<Json> groups_json;  // one script element each, parsed when the group is shown
   std::string html, notes;
   for (const auto& g : groups) {
     const Json& first = *g.records.front();
@@ -426,19 +431,19 @@ std::string viewer_section(const fs::path& dir, const std::vector<const Json*>& 
         if (!in.is_null()) gj["scan"] = in;
         if (!out.is_null()) gj["outliers"] = out;
       }
-      const std::size_t gi = data["groups"].size();
+      const std::size_t gi = groups_json.size();
       html += fmt::format(
           "<div class=\"sb-viewer\" id=\"viewer-{0}\" data-group=\"{0}\"><h3>{1}</h3>"
           "<div class=\"sb-controls\"></div><div class=\"sb-stage\"><canvas></canvas></div>"
           "{2}<div class=\"sb-pick\">Click a point to see its error and coordinates.</div>"
           "</div>\n",
           gi, html_escape(g.label), colour_bar(gi, kViewerSaturationRel * diag));
-      data["groups"].push_back(std::move(gj));
+      groups_json.push_back(std::move(gj));
     } catch (const Error& e) {
       notes += "<li>" + html_escape(g.label) + ": " + html_escape(e.what()) + "</li>\n";
     }
   }
-  if (data["groups"].empty()) {
+  if (groups_json.empty()) {
     return "<h2 id=\"viewer\">3D viewer</h2>\n<ul id=\"viewer-notes\">" + notes + "</ul>\n";
   }
   std::string h =
@@ -459,6 +464,10 @@ std::string viewer_section(const fs::path& dir, const std::vector<const Json*>& 
   h += "<pre id=\"sb-viewer-status\" style=\"display:none\"></pre>\n";
   h += "<script type=\"application/json\" id=\"sb-viewer-data\">" + script_safe(data.dump()) +
        "</script>\n";
+  for (std::size_t gi = 0; gi < groups_json.size(); ++gi) {
+    h += fmt::format("<script type=\"application/json\" id=\"sb-viewer-group-{}\">", gi) +
+         script_safe(groups_json[gi].dump()) + "</script>\n";
+  }
   const std::string js_core = script_safe(*core), js_module = script_safe(*module),
                     js_orbit = script_safe(*orbit), js_viewer = script_safe(*viewer);
   // The boot script: blob: URLs for the inlined modules, an import map naming them, then the
