@@ -128,7 +128,8 @@ function object(cloud, gd, size, flat) {
 }
 
 // Eye-dome lighting (Boucheny 2009): darkens a pixel by how much nearer its neighbours are, on
-// log depth; background neighbours count as 0.05 log2 units nearer (a light silhouette).
+// log depth; background neighbours count as 0.005 log2 units nearer (a light outline that
+// leaves a lone point its colour).
 const edlShader = {
   uniforms: { tColor: { value: null }, tDepth: { value: null }, texel: { value: new THREE.Vector2() },
               near: { value: 1 }, far: { value: 100 }, strength: { value: 1.2 } },
@@ -145,7 +146,7 @@ const edlShader = {
       for (int i = 0; i < 8; ++i) {
         float a = float(i) * 0.785398;
         float d = texture2D(tDepth, vUv + 1.5 * texel * vec2(cos(a), sin(a))).x;
-        float l = d >= 1.0 ? l0 - 0.05 : logz(d);
+        float l = d >= 1.0 ? l0 - 0.005 : logz(d);
         sum += max(0.0, l0 - l);
       }
       gl_FragColor = vec4(c.rgb * exp(-sum / 8.0 * 60.0 * strength), 1.0);
