@@ -70,6 +70,15 @@ Json input_distance_metric(const MetricInput& in, const InputDistanceParams& p) 
   } else {
     q = cloud.positions;
   }
+  if (p.max_truth_distance > 0.0 && q.cols() > 0) {
+    // Residual outliers by the ground truth: the points farther from it than the limit.
+    const Eigen::VectorXf dt = in.truth.distances(q, DistancePath::Exact);
+    const auto limit = static_cast<float>(p.max_truth_distance * in.truth.diagonal());
+    Eigen::Index k = 0;
+    for (Eigen::Index i = 0; i < q.cols(); ++i)
+      if (dt[i] <= limit) q.col(k++) = q.col(i);
+    q.conservativeResize(3, k);
+  }
   if (q.cols() == 0) {
     throw InputError(std::string("surface.input_distance: the ") +
                      (of_scan ? "scan" : "step input") + " has no (inlier) points");

@@ -83,6 +83,29 @@ class Viewer : public ::testing::Test {
     return Json::parse(text, nullptr, false);
   }
 
+  /// The screenshot of the report with `hash` (RGB, 8 bits), kept in $SCANBENCH_VIEWER_SHOTS
+  /// as `name` when that is set.
+  static OIIO::ImageBuf screenshot(const std::string& hash, const std::string& name) {
+    const TempDir shots("viewer-shot");
+    const fs::path png = shots / "viewer.png";
+    chromium(hash, "--screenshot=" + png.string());
+    OIIO::ImageBuf img(png.string());
+    img.read(0, 0, true, OIIO::TypeDesc::UINT8);
+    if (const char* keep = std::getenv("SCANBENCH_VIEWER_SHOTS"); keep && fs::exists(png)) {
+      fs::create_directories(keep);
+      fs::copy_file(png, fs::path(keep) / name, fs::copy_options::overwrite_existing);
+    }
+    return img;
+  }
+
+  /// The pixels of a view (its status "rect"), less its label (top 24 rows) and a 3-pixel margin.
+  static OIIO::ROI view_roi(const Json& v) {
+    const int x0 = static_cast<int>(v["rect"][0].get<double>()) + 3,
+              y0 = static_cast<int>(v["rect"][1].get<double>()) + 24;
+    return {x0, x0 + static_cast<int>(v["rect"][2].get<double>()) - 6, y0,
+            static_cast<int>(v["rect"][1].get<double>() + v["rect"][3].get<double>()) - 3};
+  }
+
   static TempDir* dir_;
   static bool ok_;
   static std::string log_;
@@ -128,29 +151,17 @@ TEST_F(Viewer, CanvasColoursLieOnViridis) {
   const std::string hash = "all=1&shade=0";
   const Json s = status(hash);
   ASSERT_TRUE(s.is_object() && s.value("ready", false)) << s.dump();
-  const TempDir shots("viewer-shot");
-  const fs::path png = shots / "viewer.png";
-  chromium(hash, "--screenshot=" + png.string());
-  OIIO::ImageBuf img(png.string());
-  ASSERT_TRUE(img.read(0, 0, true, OIIO::TypeDesc::UINT8)) << png;
-  if (const char* keep = std::getenv("SCANBENCH_VIEWER_SHOTS")) {
-    fs::create_directories(keep);
-    fs::copy_file(png, fs::path(keep) / "viewer-unshaded.png",
-                  fs::copy_options::overwrite_existing);
-  }
+  const OIIO::ImageBuf img = screenshot(hash, "viewer-unshaded.png");
+  ASSERT_TRUE(img.initialized()) << "no screenshot";
   const auto& table = metrics::viridis_table();
   for (const auto& v : s["groups"][0]["views"]) {
     if (!v["shown"].get<bool>()) continue;
-    // The view's pixels, less its label (top 24 rows) and a 3-pixel margin.
-    const int x0 = static_cast<int>(v["rect"][0].get<double>()) + 3,
-              y0 = static_cast<int>(v["rect"][1].get<double>()) + 24,
-              x1 = x0 + static_cast<int>(v["rect"][2].get<double>()) - 6,
-              y1 = static_cast<int>(v["rect"][1].get<double>() + v["rect"][3].get<double>()) - 3;
-    ASSERT_GE(x0, 0);
-    ASSERT_LE(y1, img.spec().height) << "the view is not inside the window";
+    const OIIO::ROI r = view_roi(v);
+    ASSERT_GE(r.xbegin, 0);
+    ASSERT_LE(r.yend, img.spec().height) << "the view is not inside the window";
     int drawn = 0, off_map = 0;
-    for (int y = y0; y < y1; ++y)
-      for (int x = x0; x < x1; ++x) {
+    for (int y = r.ybegin; y < r.yend; ++y)
+      for (int x = r.xbegin; x < r.xend; ++x) {
         float rgb[3];
         img.getpixel(x, y, rgb, 3);
         if (rgb[0] > 0.99f && rgb[1] > 0.99f && rgb[2] > 0.99f) continue;  // background
@@ -185,6 +196,23 @@ TEST_F(Viewer, ScriptedCameraTurnMovesEveryViewAlike) {
     for (int a = 0; a < 3; ++a)
       EXPECT_NEAR(views[i]["camera"][12 + a].get<double>(), want[a], 1e-4 * d) << a;
     EXPECT_NE(views[i]["camera"], before["groups"][0]["views"][i]["camera"]) << "view " << i;
+  }
+  // And the pictures follow: every shown view's pixels change with the turn.
+  const OIIO::ImageBuf a = screenshot("all=1&shade=0", "viewer-before-turn.png"),
+                       b = screenshot("all=1&shade=0&cam=120,40,2.5", "viewer-after-turn.png");
+  ASSERT_TRUE(a.initialized() && b.initialized());
+  for (const auto& v : views) {
+    if (!v["shown"].get<bool>()) continue;
+    const OIIO::ROI r = view_roi(v);
+    int changed = 0;
+    for (int y = r.ybegin; y < r.yend; ++y)
+      for (int x = r.xbegin; x < r.xend; ++x) {
+        float pa[3], pb[3];
+        a.getpixel(x, y, pa, 3);
+        b.getpixel(x, y, pb, 3);
+        changed += pa[0] != pb[0] || pa[1] != pb[1] || pa[2] != pb[2];
+      }
+    EXPECT_GT(changed, 500) << v.dump();
   }
 }
 

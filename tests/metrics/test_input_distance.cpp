@@ -71,6 +71,18 @@ TEST(InputDistance, StepInputAtKnownOffsetsFromASphere) {
   EXPECT_NEAR(all["input_distance_max"].get<double>(), 6.0, 1e-5);
   EXPECT_NEAR(all["input_distance_mean"].get<double>(), (sum + 4.0 + 6.0) / double(n + 2), 1e-6);
 
+  // A consolidation's output has no outlier marks: max_truth_distance leaves the far points out
+  // by their distance to the ground truth (here 4 and 6, above 0.5 diag = 1.73).
+  StageData unmarked = data;
+  unmarked.points.properties.clear();
+  const Json far = evaluate(
+      gt, unmarked, DataKind::Mesh, &scan, {"surface.input_distance"},
+      Json{{"surface.input_distance", {{"of", "step_input"}, {"max_truth_distance", 0.5}}}}, ctx,
+      1000);
+  EXPECT_EQ(far["input_distance_points"].get<Eigen::Index>(), n);
+  EXPECT_NEAR(far["input_distance_mean"].get<double>(), mean, 1e-6);
+  EXPECT_NEAR(far["input_distance_rms"].get<double>(), rms, 1e-6);
+
   // The covariance-mesh path hands the carried points over the same way.
   StageData cov;
   cov.covariance_mesh.emplace();

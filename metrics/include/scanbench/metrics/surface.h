@@ -28,7 +28,10 @@
 //    input_distance_points, and the histogram "input_distance". The paper's input is a
 //    consolidated scan without outliers; the scanner simulator marks its outliers (property
 //    "outlier"), which are left out by default (skip_outliers) from whichever cloud is measured
-//    when it carries the property. NotApplicable without the cloud asked for.
+//    when it carries the property. A consolidation's output carries no such marks; its residual
+//    outliers (which dominate the RMSE) can be left out by `max_truth_distance` (0 = off): the
+//    points farther than it from the ground truth (fraction of the diagonal), the same for every
+//    chain. NotApplicable without the cloud asked for; InputError when no point is left.
 #include <string>
 
 #include "scanbench/core/run_context.h"
@@ -46,7 +49,8 @@ std::uint64_t output_surface_samples_seed(const RunContext& ctx);
 struct InputDistanceParams {
   std::string of = "scan";  ///< "scan" or "step_input" (see above)
   bool skip_outliers = true;
-  double hist_max = 0.01;  ///< histogram range, fraction of the diagonal
+  double max_truth_distance = 0.0;  ///< fraction of the diagonal; 0 = keep every point
+  double hist_max = 0.01;           ///< histogram range, fraction of the diagonal
   int bins = 50;
   static void declare(ParamDeclarer<InputDistanceParams>& d) {
     d.choice("of", &InputDistanceParams::of, {"scan", "step_input"},
@@ -55,6 +59,10 @@ struct InputDistanceParams {
     d.flag("skip_outliers", &InputDistanceParams::skip_outliers,
            "leave out the points the scanner marked as outliers (property \"outlier\") "
            "of the cloud measured");
+    d.real("max_truth_distance", &InputDistanceParams::max_truth_distance, Range::at_least(0.0),
+           "diag",
+           "leave out the points farther than this from the ground truth (residual outliers of "
+           "a consolidated step input, which carry no outlier marks); 0 = keep every point");
     d.real("hist_max", &InputDistanceParams::hist_max, Range::above(0.0), "diag",
            "upper end of the input distance histogram");
     d.integer("bins", &InputDistanceParams::bins, Range::closed(1, 10000), "", "histogram bins");
