@@ -171,10 +171,23 @@ void text(OIIO::ImageBuf& img, int x, int y, const std::string& s, int size,
                   img.geterror());
 }
 
-/// Encodes the PNG in memory (OIIO's IO proxy) and writes it with write_file_atomic: OIIO's PNG
-/// writer does not report a failed write to a full disk (a 0-byte and a truncated PNG were left
-/// with success), write_file_atomic checks every write and names the reason.
-void write_png(OIIO::ImageBuf& img, const std::filesystem::path& png) {
+/// Encodes the PNG in memory (OIIO's IO proxy); write_png writes it with write_file_atomic:
+/// OIIO's PNG writer does not report a failed write to a full disk (a 0-byte and a truncated PNG
+/// were left with success), write_file_atomic checks every write and names the reason.
+std::string png_bytes(const OIIO::ImageBuf& img, const std::string& name) {
+  std::vector<unsigned char> bytes;
+  OIIO::Filesystem::IOVecOutput proxy(bytes);
+  auto out = OIIO::ImageOutput::create("png");
+  OIIO::ImageSpec spec = img.spec();
+  spec.set_format(OIIO::TypeDesc::UINT8);
+  if (!out || !out->set_ioproxy(&proxy) || !out->open(name, spec) || !img.write(out.get()) ||
+      !out->close() || bytes.empty()) {
+    throw IoError(name + ": cannot encode PNG: " + (out ? out->geterror() : OIIO::geterror()));
+  }
+  return std::string(reinterpret_cast<const char*>(bytes.data()), bytes.size());
+}
+
+void write_png(const OIIO::ImageBuf& img, const std::filesystem::path& png) {
   if (png.has_parent_path()) {
     std::error_code ec;
     std::filesystem::create_directories(png.parent_path(), ec);
@@ -183,18 +196,15 @@ void write_png(OIIO::ImageBuf& img, const std::filesystem::path& png) {
                                 ec.message()));
     }
   }
-  std::vector<unsigned char> bytes;
-  OIIO::Filesystem::IOVecOutput proxy(bytes);
-  auto out = OIIO::ImageOutput::create("png");
-  OIIO::ImageSpec spec = img.spec();
-  spec.set_format(OIIO::TypeDesc::UINT8);
-  if (!out || !out->set_ioproxy(&proxy) || !out->open(png.string(), spec) ||
-      !img.write(out.get()) || !out->close() || bytes.empty()) {
-    throw IoError(png.string() +
-                  ": cannot encode PNG: " + (out ? out->geterror() : OIIO::geterror()));
-  }
-  write_file_atomic(png,
-                    std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
+  write_file_atomic(png, png_bytes(img, png.string()));
+}
+
+OIIO::ImageBuf to_buf(const SplatImage& s) {
+  OIIO::ImageBuf b(OIIO::ImageSpec(s.width, s.height, 3, OIIO::TypeDesc::FLOAT));
+  for (int y = 0; y < s.height; ++y)
+    for (int x = 0; x < s.width; ++x)
+      b.setpixel(x, y, s.rgb.data() + 3 * static_cast<std::size_t>(y * s.width + x), 3);
+  return b;
 }
 
 // Camera of view v: (u, v, depth) of a point relative to the frame centre; smaller depth is
@@ -207,8 +217,29 @@ Eigen::Vector3f view_coords(int view, const Eigen::Vector3f& d) {
       return {-d.z(), d.y(), -d.x()};  // right, camera on +x
     case 2:
       return {-d.x(), d.y(), d.z()};  // back, camera on -z
-    default:
+    case 3:
       return {d.x(), -d.z(), -d.y()};  // top, camera on +y
+    default: {                         // iso, camera on +(1, 1, 1), y up
+      const float s2 = std::sqrt(2.0f), s3 = std::sqrt(3.0f), s6 = std::sqrt(6.0f);
+      return {(d.x() - d.z()) / s2, (2.0f * d.y() - d.x() - d.z()) / s6,
+              -(d.x() + d.y() + d.z()) / s3};
+    }
+  }
+}
+
+/// The unit vector from the frame towards the camera of a view.
+Eigen::Vector3f camera_dir(int view) {
+  switch (view) {
+    case 0:
+      return {0, 0, 1};
+    case 1:
+      return {1, 0, 0};
+    case 2:
+      return {0, 0, -1};
+    case 3:
+      return {0, 1, 0};
+    default:
+      return Eigen::Vector3f(1, 1, 1).normalized();
   }
 }
 
@@ -228,6 +259,113 @@ const float (&viridis_table())[256][3] {
   return kViridis;
 }
 
+SplatImage render_splats(const Eigen::Matrix3Xf& positions, const Eigen::Matrix3Xf& normals,
+                         const Eigen::VectorXf& errors, const BoundingBox& frame, int view,
+                         int width, int height, int splat_radius, float range, bool shaded) {
+  if (errors.size() != positions.cols())
+    throw InputError("heatmap: " + std::to_string(errors.size()) + " errors for " +
+                     std::to_string(positions.cols()) + " points");
+  const bool lambert = normals.cols() == positions.cols() && positions.cols() > 0;
+  const int w = width, h = height;
+  const float scale = 0.95f * static_cast<float>(std::min(w, h)) / frame.diagonal();
+  const Eigen::Vector3f centre = frame.center(), cam = camera_dir(view);
+  const float half = 0.5f * frame.diagonal();
+  SplatImage img;
+  img.width = w;
+  img.height = h;
+  img.rgb.assign(static_cast<std::size_t>(3 * w * h), 1.0f);
+  img.covered.assign(static_cast<std::size_t>(w * h), 0);
+  std::vector<float> depth(static_cast<std::size_t>(w * h), std::numeric_limits<float>::infinity());
+  const int r = splat_radius;
+  for (Eigen::Index i = 0; i < positions.cols(); ++i) {
+    const Eigen::Vector3f c = view_coords(view, positions.col(i) - centre);
+    const int px = static_cast<int>(std::floor(0.5f * w + c.x() * scale));
+    const int py = static_cast<int>(std::floor(0.5f * h - c.y() * scale));
+    const float t = std::min(std::abs(errors[i]) / range, 1.0f);
+    float shade = 1.0f;
+    if (shaded && lambert) {
+      shade = 0.35f + 0.65f * std::min(1.0f, std::abs(normals.col(i).dot(cam)));
+    } else if (shaded) {
+      shade = 1.0f - 0.5f * std::clamp((c.z() + half) / (2.0f * half), 0.0f, 1.0f);
+    }
+    const Eigen::Vector3f colour = viridis_color(t) * shade;
+    for (int dy = -r; dy <= r; ++dy)
+      for (int dx = -r; dx <= r; ++dx) {
+        if (dx * dx + dy * dy > r * r) continue;
+        const int x = px + dx, y = py + dy;
+        if (x < 0 || y < 0 || x >= w || y >= h) continue;
+        const std::size_t k = static_cast<std::size_t>(y * w + x);
+        if (c.z() < depth[k]) {  // strict: ties keep the earlier (lower index) point
+          depth[k] = c.z();
+          img.covered[k] = 1;
+          for (int ch = 0; ch < 3; ++ch)
+            img.rgb[3 * k + static_cast<std::size_t>(ch)] = colour[ch];
+        }
+      }
+  }
+  return img;
+}
+
+FigureLayout figure_layout(int width, int height, int rows, int cols) {
+  FigureLayout l;
+  l.left = 150;
+  l.top = 36;
+  l.bar_x = width - kBarColumns;
+  if (rows < 1 || cols < 1) throw InputError("figure: no cells");
+  l.cell_w = (l.bar_x - l.left) / cols;
+  l.cell_h = (height - l.top - 24) / rows;
+  if (l.cell_w < 16 || l.cell_h < 16)
+    throw InputError(
+        fmt::format("--size {}x{}: too small for {} x {} cells", width, height, rows, cols));
+  return l;
+}
+
+void write_figure_png(const std::vector<SplatImage>& cells, const std::vector<std::string>& rows,
+                      const std::vector<std::string>& cols, const std::string& title,
+                      double saturation, const std::string& unit, int width, int height,
+                      const std::filesystem::path& png) {
+  const FigureLayout l =
+      figure_layout(width, height, static_cast<int>(rows.size()), static_cast<int>(cols.size()));
+  const float white[3] = {1.0f, 1.0f, 1.0f}, grey[3] = {0.6f, 0.6f, 0.6f};
+  OIIO::ImageBuf img(OIIO::ImageSpec(width, height, 3, OIIO::TypeDesc::FLOAT));
+  IBA::fill(img, white);
+  const int y0 = l.top + 24;
+  for (std::size_t i = 0; i < rows.size(); ++i)
+    for (std::size_t j = 0; j < cols.size(); ++j) {
+      const SplatImage& c = cells[i * cols.size() + j];
+      const int x = l.left + static_cast<int>(j) * l.cell_w,
+                y = y0 + static_cast<int>(i) * l.cell_h;
+      if (c.width > 0) IBA::paste(img, x, y, 0, 0, to_buf(c));
+      if (j > 0) IBA::fill(img, grey, OIIO::ROI(x, x + 1, y, y + l.cell_h));
+      if (i > 0) IBA::fill(img, grey, OIIO::ROI(x, x + l.cell_w, y, y + 1));
+    }
+  for (std::size_t j = 0; j < cols.size(); ++j)
+    text(img, l.left + static_cast<int>(j) * l.cell_w + l.cell_w / 2, l.top + 18, cols[j], 14,
+         OIIO::ImageBufAlgo::TextAlignX::Center);
+  for (std::size_t i = 0; i < rows.size(); ++i)
+    text(img, 8, y0 + static_cast<int>(i) * l.cell_h + l.cell_h / 2 + 5, rows[i], 14);
+  text(img, 8, 24, title, 16);
+  // Colour bar: 24 columns wide, t = 0 at the bottom, t = 1 at the top.
+  const int bx = l.bar_x + 12, by0 = y0 + 20, by1 = height - 30;
+  for (int y = 0; y < by1 - by0; ++y) {
+    const float t = 1.0f - static_cast<float>(y) / static_cast<float>(by1 - by0 - 1);
+    const Eigen::Vector3f c = viridis_color(t);
+    IBA::fill(img, c.data(), OIIO::ROI(bx, bx + 24, by0 + y, by0 + y + 1));
+  }
+  for (int k = 0; k <= 4; ++k) {
+    const double frac = k / 4.0;
+    const int y = by1 - static_cast<int>(frac * (by1 - by0 - 1));
+    text(img, bx + 28, y + 4, fmt::format("{:.3g}", frac * saturation), 11);
+  }
+  text(img, bx, by0 - 6, unit, 11);
+  text(img, bx, by1 + 16, "top: saturated", 10);
+  write_png(img, png);
+}
+
+std::string encode_png(const SplatImage& img) {
+  return png_bytes(to_buf(img), "cell.png");
+}
+
 void write_heatmap(const PointCloud& points, const Eigen::VectorXf& errors,
                    const BoundingBox& frame, float diagonal, const HeatmapParams& p,
                    const std::filesystem::path& png, const std::string& title) {
@@ -238,45 +376,16 @@ void write_heatmap(const PointCloud& points, const Eigen::VectorXf& errors,
   if (frame.empty() || !(diagonal > 0.0f)) throw InputError("heatmap: empty frame");
   const Eigen::Vector2i size = heatmap_size(p);
   const int w = p.width, h = p.height;
-  const float scale = 0.95f * static_cast<float>(std::min(w, h)) / frame.diagonal();
   const float range = static_cast<float>(p.range) * diagonal;
-  const Eigen::Vector3f centre = frame.center();
 
-  // Value (t in [0, 1]) of every pixel of the four views, plus a coverage mask.
-  std::vector<std::uint8_t> covered(static_cast<std::size_t>(4 * w * h), 0);
-  std::vector<float> t_of(static_cast<std::size_t>(4 * w * h), 0.0f);
-  const int r = p.splat_radius;
-  for (int view = 0; view < 4; ++view) {
-    std::vector<float> depth(static_cast<std::size_t>(w * h),
-                             std::numeric_limits<float>::infinity());
-    for (Eigen::Index i = 0; i < points.size(); ++i) {
-      const Eigen::Vector3f c = view_coords(view, points.positions.col(i) - centre);
-      const int px = static_cast<int>(std::floor(0.5f * w + c.x() * scale));
-      const int py = static_cast<int>(std::floor(0.5f * h - c.y() * scale));
-      const float t = std::min(std::abs(errors[i]) / range, 1.0f);
-      for (int dy = -r; dy <= r; ++dy)
-        for (int dx = -r; dx <= r; ++dx) {
-          if (dx * dx + dy * dy > r * r) continue;
-          const int x = px + dx, y = py + dy;
-          if (x < 0 || y < 0 || x >= w || y >= h) continue;
-          const std::size_t k = static_cast<std::size_t>(y * w + x);
-          if (c.z() < depth[k]) {  // strict: ties keep the earlier (lower index) point
-            depth[k] = c.z();
-            const std::size_t g = static_cast<std::size_t>(y * 4 * w + view * w + x);
-            covered[g] = 1;
-            t_of[g] = t;
-          }
-        }
-    }
-  }
+  // The four views side by side, unshaded.
   const float white[3] = {1.0f, 1.0f, 1.0f};
   OIIO::ImageBuf coloured(OIIO::ImageSpec(4 * w, h, 3, OIIO::TypeDesc::FLOAT));
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < 4 * w; ++x) {
-      const std::size_t g = static_cast<std::size_t>(y * 4 * w + x);
-      const Eigen::Vector3f c = viridis_color(t_of[g]);
-      coloured.setpixel(x, y, covered[g] ? c.data() : white, 3);
-    }
+  for (int view = 0; view < 4; ++view) {
+    const SplatImage v = render_splats(points.positions, Eigen::Matrix3Xf(), errors, frame, view, w,
+                                       h, p.splat_radius, range, false);
+    IBA::paste(coloured, view * w, 0, 0, 0, to_buf(v));
+  }
 
   OIIO::ImageBuf img(OIIO::ImageSpec(size.x(), size.y(), 3, OIIO::TypeDesc::FLOAT));
   IBA::fill(img, white);

@@ -107,6 +107,7 @@ int run_cli(int argc, char** argv) {
   add_table_command(cli);
   add_compare_command(cli);
   add_report_command(cli);
+  add_figure_command(cli);
   add_nightly_command(cli);
   add_status_command(cli);
   add_merge_command(cli);

@@ -47,6 +47,8 @@ void add_job_command(Cli& cli);
 void add_table_command(Cli& cli);
 void add_compare_command(Cli& cli);
 void add_report_command(Cli& cli);
+/// `scanbench figure DIR -o FILE` (figure.h): a static figure grid for print.
+void add_figure_command(Cli& cli);
 void add_nightly_command(Cli& cli);
 
 /// Slurm (slurm.h): status of a results folder, merge, the hidden array task.

@@ -121,25 +121,14 @@ std::string normals_b64(const Eigen::Matrix3Xf& n, const std::vector<Eigen::Inde
   return base64(q);
 }
 
-/// What one view shows: an output (its error per shown point) or the scan.
-struct Cloud {
-  std::string label, job, kind;   // kind: "points" or "mesh"
-  std::string variant, point;     // the record's variant and sweep point labels
-  Eigen::Matrix3Xf positions;     // the shown points (mesh: every vertex)
-  Eigen::Matrix3Xf normals;       // empty or per shown point
-  Eigen::VectorXf errors;         // per shown point
-  Eigen::Matrix3Xi faces;         // mesh only
-  std::vector<Eigen::Index> idx;  // shown point -> index in the file
-  Eigen::Index total = 0;         // points (vertices) in the file
-  std::string note;
-};
+}  // namespace
 
-/// An output of `r` read in the ground truth's frame, subsampled, with its errors.
-std::optional<Cloud> output_cloud(const fs::path& dir, const Json& r, const TriangleMesh& gt_mesh,
-                                  const metrics::GroundTruth& gt, std::int64_t budget) {
+std::optional<OutputCloud> output_cloud(const fs::path& dir, const Json& r,
+                                        const TriangleMesh& gt_mesh, const metrics::GroundTruth& gt,
+                                        std::int64_t budget) {
   const Json art = r.value("artifacts", Json::object());
   const std::string kind = r.value("output_kind", std::string("points"));
-  Cloud c;
+  OutputCloud c;
   c.job = r.value("id", std::string());
   c.variant = c.label = field_value(r, "variant");
   c.point = field_value(r, "point");
@@ -198,7 +187,9 @@ std::optional<Cloud> output_cloud(const fs::path& dir, const Json& r, const Tria
   return c;
 }
 
-Json cloud_json(const Cloud& c, const Cube& cube) {
+namespace {
+
+Json cloud_json(const OutputCloud& c, const Cube& cube) {
   Json j = {{"label", c.label},
             {"job", c.job},
             {"kind", c.kind},
@@ -373,7 +364,7 @@ std::string viewer_section(const fs::path& dir, const std::vector<const Json*>& 
       const TriangleMesh gt_mesh =
           load_dataset(dataset.value("name", std::string()), from_points ? Json::object() : params);
       const metrics::GroundTruth gt(gt_mesh, 0);
-      std::vector<Cloud> clouds;
+      std::vector<OutputCloud> clouds;
       std::vector<std::string> failed;
       for (const Json* r : g.records) {
         try {
@@ -407,7 +398,7 @@ std::string viewer_section(const fs::path& dir, const std::vector<const Json*>& 
       for (const auto& c : clouds)
         gj["views"].push_back(cloud_json(c, cube));
       // The ground truth: the mesh, or (too large) its vertices.
-      Cloud truth;
+      OutputCloud truth;
       truth.label = "ground truth";
       truth.total = gt_mesh.num_vertices();
       if (gt_mesh.num_faces() <= budget.truth_faces) {

@@ -21,9 +21,40 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/Core>
+#include <optional>
+
 #include "scanbench/core/params.h"
+#include "scanbench/core/triangle_mesh.h"
+
+namespace scanbench::metrics {
+class GroundTruth;
+}
 
 namespace scanbench::harness {
+
+/// What one view shows (also one cell of `scanbench figure`): an output (its error per shown
+/// point) or the scan.
+struct OutputCloud {
+  std::string label, job, kind;   // kind: "points" or "mesh"
+  std::string variant, point;     // the record's variant and sweep point labels
+  Eigen::Matrix3Xf positions;     // the shown points (mesh: every vertex)
+  Eigen::Matrix3Xf normals;       // empty or per shown point
+  Eigen::VectorXf errors;         // per shown point
+  Eigen::Matrix3Xi faces;         // mesh only
+  std::vector<Eigen::Index> idx;  // shown point -> index in the file
+  Eigen::Index total = 0;         // points (vertices) in the file
+  std::string note;
+};
+
+/// The output of record `r` (results folder `dir`) read in the ground truth's frame (rebased to
+/// gt_mesh's origin), subsampled to `budget` points (indices floor(k N / n)), with its errors:
+/// points by E(q) = <q - p, N_p> at the closest point (CLOP paper sec. 10.2), a mesh's vertices
+/// by their distance. nullopt when the record has no output file. Throws Error for unreadable
+/// files.
+std::optional<OutputCloud> output_cloud(const std::filesystem::path& dir, const Json& r,
+                                        const TriangleMesh& gt_mesh, const metrics::GroundTruth& gt,
+                                        std::int64_t budget);
 
 /// Colour saturation of the viewer, fraction of the ground truth's bbox diagonal.
 inline constexpr double kViewerSaturationRel = 0.005;

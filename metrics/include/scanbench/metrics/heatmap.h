@@ -12,8 +12,10 @@
 // t = 0 is dark purple, t = 1 yellow; errors above the range saturate. The background is white. The colour bar shows the map from 0 (bottom) to
 // the stated range (top) with labels in DejaVuSans.
 #include <Eigen/Core>
+#include <cstdint>
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include "scanbench/core/bbox.h"
 #include "scanbench/core/params.h"
@@ -46,6 +48,48 @@ Eigen::Vector2i heatmap_size(const HeatmapParams& p);
 void write_heatmap(const PointCloud& points, const Eigen::VectorXf& errors,
                    const BoundingBox& frame, float diagonal, const HeatmapParams& p,
                    const std::filesystem::path& png, const std::string& title);
+
+/// One view of the heatmap's splat renderer as an RGB image (0..1 floats, row-major, 3 a
+/// pixel; background white) with its coverage mask.
+struct SplatImage {
+  int width = 0, height = 0;
+  std::vector<float> rgb;
+  std::vector<std::uint8_t> covered;
+};
+
+/// Views of render_splats: the heatmap's four (0 front, 1 right, 2 back, 3 top, as above) and
+/// 4 iso (camera on +(1, 1, 1), y up).
+inline constexpr int kViewIso = 4;
+
+/// Splats `positions` (errors per point, |E| / range gives t) into one width x height view
+/// framing `frame` exactly as write_heatmap does (same projection, disc splats, depth test, ties
+/// keep the lower index). Unshaded (`shaded` false): each covered pixel is viridis_color(t).
+/// Shaded: viridis_color(t) x s, with s = 0.35 + 0.65 |n . c| (Lambert, light at the camera c)
+/// when `normals` has a column per point, else s = 1 - 0.5 (z - z_min) / (z_max - z_min) over
+/// the frame's depth range (nearer is brighter). Throws InputError for mismatched sizes.
+SplatImage render_splats(const Eigen::Matrix3Xf& positions, const Eigen::Matrix3Xf& normals,
+                         const Eigen::VectorXf& errors, const BoundingBox& frame, int view,
+                         int width, int height, int splat_radius, float range, bool shaded);
+
+/// Layout of a figure grid (write_figure_png): total width x height pixels; a title band of
+/// `top` rows, then a column-label band of 24 rows; row labels in the `left` columns; cells of
+/// cell_w x cell_h; the colour bar from column bar_x on.
+struct FigureLayout {
+  int left = 0, top = 0, cell_w = 0, cell_h = 0, bar_x = 0;
+};
+/// Throws InputError naming the size when the cells would be smaller than 16 x 16 pixels.
+FigureLayout figure_layout(int width, int height, int rows, int cols);
+
+/// A grid of cells (row-major, rows x cols, each cell_w x cell_h of figure_layout) with row and
+/// column labels, a title and a viridis colour bar from 0 to `saturation` labelled `unit`, as a
+/// width x height PNG written atomically. Throws IoError.
+void write_figure_png(const std::vector<SplatImage>& cells, const std::vector<std::string>& rows,
+                      const std::vector<std::string>& cols, const std::string& title,
+                      double saturation, const std::string& unit, int width, int height,
+                      const std::filesystem::path& png);
+
+/// The PNG bytes of one image (for embedding). Throws IoError.
+std::string encode_png(const SplatImage& img);
 
 /// Bar chart of a histogram record (stats histogram JSON: counts, min, max, unit, overflow) as
 /// a width x height PNG with a title, the axis range and the overflow count. Throws IoError.
