@@ -16,8 +16,8 @@
 #include "scanbench/core/run_context.h"
 #include "scanbench/core/simd.h"
 #include "scanbench/metrics/distance_field.h"
-#include "test_meshes.h"
 #include "temp_dir.h"
+#include "test_meshes.h"
 
 namespace scanbench::metrics {
 namespace {

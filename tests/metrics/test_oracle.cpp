@@ -12,8 +12,8 @@
 #include "scanbench/metrics/distance_field.h"
 #include "scanbench/metrics/ground_truth.h"
 #include "scanbench/metrics/surface_sampling.h"
-#include "test_meshes.h"
 #include "temp_dir.h"
+#include "test_meshes.h"
 
 namespace scanbench::metrics {
 namespace {
