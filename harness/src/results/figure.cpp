@@ -22,22 +22,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-std::string base64(const std::string& in) {
-  static const char* abc = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-  const auto* p = reinterpret_cast<const unsigned char*>(in.data());
-  const std::size_t n = in.size();
-  std::string out;
-  out.reserve((n + 2) / 3 * 4);
-  for (std::size_t i = 0; i < n; i += 3) {
-    const unsigned v = (p[i] << 16) | (i + 1 < n ? p[i + 1] << 8 : 0) | (i + 2 < n ? p[i + 2] : 0);
-    out += abc[(v >> 18) & 63];
-    out += abc[(v >> 12) & 63];
-    out += i + 1 < n ? abc[(v >> 6) & 63] : '=';
-    out += i + 2 < n ? abc[v & 63] : '=';
-  }
-  return out;
-}
-
 std::string known(const std::vector<std::string>& names) {
   std::string s;
   for (const auto& n : names)
@@ -86,7 +70,10 @@ std::string svg(const std::vector<metrics::SplatImage>& cells, const FigureSumma
           "<image x=\"{}\" y=\"{}\" width=\"{}\" height=\"{}\" "
           "xlink:href=\"data:image/png;base64,{}\"/>\n",
           l.left + static_cast<int>(j) * l.cell_w, y0 + static_cast<int>(i) * l.cell_h, c.width,
-          c.height, base64(metrics::encode_png(c)));
+          c.height, [&] {
+            const std::string png = metrics::encode_png(c);
+            return base64(png.data(), png.size());
+          }());
     }
   // The colour bar: a vertical gradient through 17 viridis stops, t = 0 at the bottom.
   const int bx = l.bar_x + 12, by0 = y0 + 20, by1 = height - 30;

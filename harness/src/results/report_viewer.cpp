@@ -41,24 +41,9 @@ constexpr const char* kViewerJs = "viewer.js";
 constexpr const char* kCoreImport = "from\"./three.core.min.js\"";
 constexpr const char* kCoreBare = "from\"three-core\"";
 
-std::string base64(const void* data, std::size_t n) {
-  static const char* abc = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-  const auto* p = static_cast<const unsigned char*>(data);
-  std::string out;
-  out.reserve((n + 2) / 3 * 4);
-  for (std::size_t i = 0; i < n; i += 3) {
-    const unsigned v = (p[i] << 16) | (i + 1 < n ? p[i + 1] << 8 : 0) | (i + 2 < n ? p[i + 2] : 0);
-    out += abc[(v >> 18) & 63];
-    out += abc[(v >> 12) & 63];
-    out += i + 1 < n ? abc[(v >> 6) & 63] : '=';
-    out += i + 2 < n ? abc[v & 63] : '=';
-  }
-  return out;
-}
-
 template <class T>
 std::string base64(const std::vector<T>& v) {
-  return base64(v.data(), v.size() * sizeof(T));
+  return harness::base64(v.data(), v.size() * sizeof(T));
 }
 
 std::optional<std::string> read_text(const fs::path& p) {
@@ -480,6 +465,21 @@ std::string viewer_section(const fs::path& dir, const std::vector<const Json*>& 
     *js_bytes =
         js_core.size() + js_module.size() + js_orbit.size() + js_viewer.size() + boot.size();
   return h;
+}
+
+std::string base64(const void* data, std::size_t n) {
+  static const char* abc = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  const auto* p = static_cast<const unsigned char*>(data);
+  std::string out;
+  out.reserve((n + 2) / 3 * 4);
+  for (std::size_t i = 0; i < n; i += 3) {
+    const unsigned v = (p[i] << 16) | (i + 1 < n ? p[i + 1] << 8 : 0) | (i + 2 < n ? p[i + 2] : 0);
+    out += abc[(v >> 18) & 63];
+    out += abc[(v >> 12) & 63];
+    out += i + 1 < n ? abc[(v >> 6) & 63] : '=';
+    out += i + 2 < n ? abc[v & 63] : '=';
+  }
+  return out;
 }
 
 }  // namespace scanbench::harness

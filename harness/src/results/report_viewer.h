@@ -78,4 +78,8 @@ std::string viewer_section(const std::filesystem::path& dir, const std::vector<c
 /// The Content-Security-Policy of the page: nothing outside the page and its folder.
 inline constexpr const char* kReportCsp = "default-src 'self' data: blob: 'unsafe-inline'";
 
+/// Standard base64 (RFC 4648, with padding) of n bytes: the page's inlined buffers and the
+/// figure's embedded PNGs.
+std::string base64(const void* data, std::size_t n);
+
 }  // namespace scanbench::harness
