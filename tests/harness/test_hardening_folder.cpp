@@ -406,3 +406,37 @@ TEST(FolderRecords, ADeepRecordIsRefusedInOneLine) {
         << cmd << r.out;
   }
 }
+
+// A record in jobs/ whose field has another JSON type than scanbench writes (a label that is a
+// number, timing samples that are a string; the fuzzer's find of session 49): `merge`, `table`
+// and `report` refuse it in one line naming the file and the field, and never crash.
+TEST(FolderRecords, AFieldOfAnotherTypeIsRefusedInOneLine) {
+  const fs::path dir = make_temp_dir("typed-record");
+  write(dir / "a.json", small_config("typed", 1));
+  const fs::path out = dir / "out";
+  ASSERT_EQ(sh(run_cmd(dir / "a.json", out)).code, 0);
+  const std::string id = job_ids(out).front();
+  const fs::path rec = out / "jobs" / (id + ".json");
+  const std::string good = slurp(rec);
+  struct Damage {
+    const char* pointer;
+    Json value;
+    const char* says;
+  };
+  for (const Damage& d :
+       {Damage{"/dataset/label", 5, "field \"dataset.label\" is a number, not a string"},
+        Damage{"/timing/total_s", "x", "field \"timing.total_s\" is a string, not an array"},
+        Damage{"/variant/chain/0/params", Json::array(),
+               "field \"variant.chain[0].params\" is an array, not an object"}}) {
+    Json r = Json::parse(good);
+    r[Json::json_pointer(d.pointer)] = d.value;
+    write(rec, r.dump());
+    fs::remove(out / "runs.jsonl");
+    for (const std::string cmd : {" merge ", " table ", " report "}) {
+      const auto res = sh(sb() + cmd + out.string());
+      EXPECT_EQ(res.code, 2) << cmd << res.out;
+      EXPECT_EQ(count_lines(res.out), 1) << cmd << res.out;
+      EXPECT_NE(res.out.find(id + ".json: " + d.says), std::string::npos) << cmd << res.out;
+    }
+  }
+}

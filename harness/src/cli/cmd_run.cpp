@@ -143,7 +143,8 @@ int do_slurm_run(const Experiment& e, const RunOptions& o, const SlurmOptions& s
     const fs::path rec = dir / "jobs" / (sub.prepared.plan.jobs[i].id + ".json");
     if (!fs::exists(rec)) continue;
     ++s.ran;
-    ++s.by_status[read_json_file(rec).value("status", std::string("?"))];
+    const Json r = read_record_file(rec);
+    ++s.by_status[r.value("status", std::string("?"))];
   }
   const int failed = finish_and_print(e.name, s, dir);
   const FolderStatus st = folder_status(dir);

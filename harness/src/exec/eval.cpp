@@ -228,7 +228,7 @@ std::pair<Json, fs::path> read_record(const fs::path& source, const std::string&
     throw ParamError(where + ": no record with id " + id + did_you_mean(id, ids));
   }
   Json r = read_json_file(source);
-  if (!r.is_object()) throw ParamError(where + ": not a job record (a JSON object)");
+  check_record(r, where);
   if (!id.empty() && r.value("id", std::string()) != id)
     throw ParamError(where + ": the record's id is not " + id);
   // jobs/<id>.json: artifacts are relative to the folder holding jobs/.

@@ -416,7 +416,7 @@ PreparedRun prepare_run(const Experiment& e, const RunOptions& opts) {
     ++summary.planned;
     if (opts.resume && recorded.count(job.id)) {
       const std::string status =
-          read_json_file(out / "jobs" / (job.id + ".json")).value("status", std::string());
+          read_record_file(out / "jobs" / (job.id + ".json")).value("status", std::string());
       // "interrupted": the scheduler stopped the job (records.h), it has no outcome of its own.
       const bool again = status == "interrupted" || (opts.retry_failed && status != "ok");
       if (!again) {
@@ -503,10 +503,17 @@ void run_jobs(const std::vector<const Job*>& jobs, const RunOptions& opts, RunSu
 std::vector<Json> merge_records(const fs::path& out) {
   // The plan's jobs with records, in plan order (records of jobs no longer planned are left out).
   std::vector<Json> records;
-  const Json plan = read_json_file(out / "plan.json");
-  for (const auto& job : plan.at("jobs")) {
-    const fs::path p = out / "jobs" / (job.at("id").get<std::string>() + ".json");
-    if (fs::exists(p)) records.push_back(read_json_file(p));
+  const fs::path plan_file = out / "plan.json";
+  const Json plan = read_json_file(plan_file);
+  if (!plan.is_object() || !plan.contains("jobs") || !plan["jobs"].is_array()) {
+    throw IoError(fmt::format("{}: field \"jobs\" is not an array of jobs", plan_file.string()));
+  }
+  for (const auto& job : plan["jobs"]) {
+    if (!job.is_object() || !job.contains("id") || !job["id"].is_string()) {
+      throw IoError(fmt::format("{}: a job without a string \"id\"", plan_file.string()));
+    }
+    const fs::path p = out / "jobs" / (job["id"].get<std::string>() + ".json");
+    if (fs::exists(p)) records.push_back(read_record_file(p));
   }
   write_merged(out, records);
   return records;

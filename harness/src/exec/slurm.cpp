@@ -546,7 +546,7 @@ int run_slurm_task(const fs::path& dir, const std::string& submission) {
     }
     // A requeued task does not redo the jobs it finished before.
     const fs::path rec = dir / "jobs" / (ids[k] + ".json");
-    if (fs::exists(rec) && read_json_file(rec).value("status", std::string()) == "ok") continue;
+    if (fs::exists(rec) && read_record_file(rec).value("status", std::string()) == "ok") continue;
     todo.push_back(&it->second);
   }
 
@@ -746,7 +746,7 @@ FolderStatus folder_status(const fs::path& dir_in) {
       st.not_run.push_back(item);
       continue;
     }
-    const Json r = read_json_file(rec);
+    const Json r = read_record_file(rec);
     item.status = r.value("status", std::string("?"));
     item.detail = r.value("error", std::string());
     (item.status == "ok" ? st.done : st.failed).push_back(item);

@@ -19,7 +19,10 @@
 #include <map>
 #include <set>
 #include <sstream>
+#include <string_view>
 #include <thread>
+#include <utility>
+#include <vector>
 
 #include "scanbench/algorithms/open3d_peers.h"
 #include "scanbench/algorithms/pcl_peers.h"
@@ -126,6 +129,197 @@ Json read_json_file(const fs::path& path) {
   return parse_json_text(read_file(path), path.string());
 }
 
+namespace {
+
+/// The JSON type a field of a job record has (docs/records.md).
+enum class Shape { String, Number, Bool, Object, Array };
+
+const char* shape_name(Shape s) {
+  switch (s) {
+    case Shape::String:
+      return "a string";
+    case Shape::Number:
+      return "a number";
+    case Shape::Bool:
+      return "a boolean";
+    case Shape::Object:
+      return "an object";
+    case Shape::Array:
+      return "an array";
+  }
+  return "?";
+}
+
+bool has_shape(const Json& v, Shape s) {
+  switch (s) {
+    case Shape::String:
+      return v.is_string();
+    case Shape::Number:
+      return v.is_number();
+    case Shape::Bool:
+      return v.is_boolean();
+    case Shape::Object:
+      return v.is_object();
+    case Shape::Array:
+      return v.is_array();
+  }
+  return false;
+}
+
+const char* json_kind(const Json& v) {
+  if (v.is_null()) return "null";
+  if (v.is_string()) return "a string";
+  if (v.is_number()) return "a number";
+  if (v.is_boolean()) return "a boolean";
+  if (v.is_object()) return "an object";
+  if (v.is_array()) return "an array";
+  return "a binary value";
+}
+
+/// The fields of a job record that the readers (table, report, compare, claims, history, eval
+/// --from-record) take as given, with their types; `*` is every key of an object or element of
+/// an array. A field may be absent (a failed job writes few of them) but never of another type.
+/// Written by hand: a JSON Schema validator is not among the project's libraries, and this list
+/// is what docs/records.md documents.
+constexpr std::pair<const char*, Shape> kRecordShape[] = {
+    {"key", Shape::String},
+    {"experiment", Shape::String},
+    {"status", Shape::String},
+    {"error", Shape::String},
+    {"point_label", Shape::String},
+    {"output_kind", Shape::String},
+    {"seed", Shape::Number},
+    {"repeats", Shape::Number},
+    {"peak_rss_mb", Shape::Number},
+    {"repeat_outputs_identical", Shape::Bool},
+    {"dataset", Shape::Object},
+    {"dataset.label", Shape::String},
+    {"dataset.name", Shape::String},
+    {"dataset.params", Shape::Object},
+    {"dataset_origin", Shape::Array},
+    {"dataset_origin.*", Shape::Number},
+    {"scanner", Shape::Object},
+    {"scanner.label", Shape::String},
+    {"scanner.preset", Shape::String},
+    {"scanner.params", Shape::Object},
+    {"variant", Shape::Object},
+    {"variant.label", Shape::String},
+    {"variant.chain", Shape::Array},
+    {"variant.chain.*", Shape::Object},
+    {"variant.chain.*.algorithm", Shape::String},
+    {"variant.chain.*.label", Shape::String},
+    {"variant.chain.*.params", Shape::Object},
+    {"params", Shape::Object},
+    {"point", Shape::Object},
+    {"metrics", Shape::Object},
+    {"metric_params", Shape::Object},
+    {"scoring", Shape::Object},
+    {"skipped", Shape::Object},
+    {"skipped.*", Shape::String},
+    {"sizes", Shape::Object},
+    {"sizes.*", Shape::Number},
+    {"limits", Shape::Object},
+    {"limits.*", Shape::Number},
+    {"artifacts", Shape::Object},
+    {"artifacts.*", Shape::String},
+    {"histograms", Shape::Object},
+    {"histograms.*", Shape::Object},
+    {"histograms.*.unit", Shape::String},
+    {"histograms.*.min", Shape::Number},
+    {"histograms.*.max", Shape::Number},
+    {"histograms.*.count", Shape::Number},
+    {"histograms.*.counts", Shape::Array},
+    {"histograms.*.counts.*", Shape::Number},
+    {"timing", Shape::Object},
+    {"timing.scan_s", Shape::Number},
+    {"timing.scan_cached", Shape::Bool},
+    {"timing.total_s", Shape::Array},
+    {"timing.total_s.*", Shape::Number},
+    {"timing.cpu_s", Shape::Array},
+    {"timing.cpu_s.*", Shape::Number},
+    {"timing.phases", Shape::Object},
+    {"timing.phases.*", Shape::Array},
+    {"timing.phases.*.*", Shape::Number},
+    {"timing.step_peak_rss_mb", Shape::Object},
+    {"timing.step_peak_rss_mb.*", Shape::Number},
+    {"timing.step_work_mb", Shape::Object},
+    {"timing.step_work_mb.*", Shape::Number},
+    {"timing.step_program_peak_rss_mb", Shape::Object},
+    {"timing.step_program_peak_rss_mb.*", Shape::Number},
+    {"timing.metrics_s", Shape::Number},
+    {"timing.metric_phases", Shape::Object},
+    {"timing.metric_phases.*", Shape::Number},
+    {"timing.job_wall_s", Shape::Number},
+    {"context", Shape::Object},
+    {"context.scanbench", Shape::String},
+    {"context.commit", Shape::String},
+    {"context.compiler", Shape::String},
+    {"context.build", Shape::String},
+    {"context.libraries", Shape::Object},
+    {"context.libraries.*", Shape::String},
+    {"context.plugins", Shape::Array},
+    {"context.host", Shape::String},
+    {"context.cpu", Shape::String},
+    {"context.hardware_threads", Shape::Number},
+    {"context.isa", Shape::String},
+    {"context.isa_compiled", Shape::String},
+    {"context.isa_flags", Shape::String},
+    {"context.allocator", Shape::String},
+    {"context.date", Shape::String},
+    {"context.threads", Shape::Number},
+};
+
+/// Checks the values at PATH[i..] below V (named NAME so far) against S.
+void check_path(const Json& v, const std::vector<std::string>& path, std::size_t i,
+                const std::string& name, Shape s, const std::string& where) {
+  if (i == path.size()) {
+    if (!has_shape(v, s)) {
+      throw IoError(
+          fmt::format("{}: field \"{}\" is {}, not {} (not a job record scanbench "
+                      "wrote; docs/records.md lists the fields)",
+                      where, name, json_kind(v), shape_name(s)));
+    }
+    return;
+  }
+  const std::string& part = path[i];
+  if (part == "*") {
+    if (v.is_object()) {
+      for (const auto& [k, x] : v.items())
+        check_path(x, path, i + 1, name + "." + k, s, where);
+    } else if (v.is_array()) {
+      for (std::size_t e = 0; e < v.size(); ++e)
+        check_path(v[e], path, i + 1, fmt::format("{}[{}]", name, e), s, where);
+    }
+    return;
+  }
+  if (!v.is_object() || !v.contains(part)) return;
+  check_path(v[part], path, i + 1, name.empty() ? part : name + "." + part, s, where);
+}
+
+}  // namespace
+
+void check_record(const Json& r, const std::string& where) {
+  if (!r.is_object() || !r.contains("id") || !r["id"].is_string()) {
+    throw IoError(fmt::format("{}: not a job record (an object with an \"id\")", where));
+  }
+  for (const auto& [field, shape] : kRecordShape) {
+    std::vector<std::string> path;
+    for (std::string_view rest = field;;) {
+      const auto dot = rest.find('.');
+      path.emplace_back(rest.substr(0, dot));
+      if (dot == std::string_view::npos) break;
+      rest.remove_prefix(dot + 1);
+    }
+    check_path(r, path, 0, "", shape, where);
+  }
+}
+
+Json read_record_file(const fs::path& path) {
+  Json r = read_json_file(path);
+  check_record(r, path.string());
+  return r;
+}
+
 std::vector<Json> load_job_records(const fs::path& dir) {
   std::map<std::string, Json> by_id;
   const fs::path jobs = dir / "jobs";
@@ -133,10 +327,7 @@ std::vector<Json> load_job_records(const fs::path& dir) {
     for (const auto& entry : fs::directory_iterator(jobs)) {
       const fs::path p = entry.path();
       if (p.extension() != ".json" || p.filename().string().front() == '.') continue;
-      Json r = read_json_file(p);
-      if (!r.is_object() || !r.contains("id") || !r["id"].is_string()) {
-        throw IoError(fmt::format("{}: not a job record (no \"id\")", p.string()));
-      }
+      Json r = read_record_file(p);
       const std::string id = r["id"].get<std::string>();  // before r is moved from
       by_id[id] = std::move(r);
     }
@@ -146,7 +337,8 @@ std::vector<Json> load_job_records(const fs::path& dir) {
     const Json plan = read_json_file(dir / "plan.json");
     if (plan.contains("jobs") && plan["jobs"].is_array()) {
       for (const auto& job : plan["jobs"]) {
-        auto it = by_id.find(job.value("id", ""));
+        if (!job.is_object() || !job.contains("id") || !job["id"].is_string()) continue;
+        auto it = by_id.find(job["id"].get<std::string>());
         if (it != by_id.end()) {
           out.push_back(std::move(it->second));
           by_id.erase(it);
@@ -173,9 +365,7 @@ std::vector<Json> read_runs_jsonl(const fs::path& merged) {
     if (line.empty()) continue;
     const std::string where = fmt::format("{}: line {}", merged.string(), line_no);
     Json r = parse_json_text(line, where);
-    if (!r.is_object() || !r.contains("id") || !r["id"].is_string()) {
-      throw IoError(fmt::format("{}: not a job record (an object with an \"id\")", where));
-    }
+    check_record(r, where);
     const auto [it, fresh] = line_of.emplace(r["id"].get<std::string>(), line_no);
     if (!fresh) {
       throw IoError(

@@ -358,8 +358,8 @@ std::string history_section(const fs::path& db, const std::vector<Json>& records
   if (std::getline(in, line)) {
     try {
       const Json r = parse_json_text(line, "results/baseline/runs.jsonl:1");
-      const Json c = r.is_object() ? r.value("context", Json::object()) : Json::object();
-      if (c.is_object()) baseline = c.value("commit", std::string());
+      check_record(r, "results/baseline/runs.jsonl:1");
+      baseline = r.value("context", Json::object()).value("commit", std::string());
     } catch (const Error& e) {
       baseline_problem = e.what();  // the plots stand without the marker; the page says why
     }

@@ -53,6 +53,12 @@ Json read_json_file(const std::filesystem::path& path);
 /// in jobs/, else jobs/*.json (in plan.json order when present, then by id). Throws IoError when
 /// DIR holds neither.
 std::vector<Json> load_records(const std::filesystem::path& dir);
+/// Refuses (IoError naming WHERE and the field) a record that is not an object with a string
+/// "id" or whose fields have other JSON types than scanbench writes (docs/records.md), so that
+/// every reader may take the documented types as given. Called for every record loaded.
+void check_record(const Json& record, const std::string& where);
+/// Reads one job record file (jobs/<id>.json): read_json_file, then check_record.
+Json read_record_file(const std::filesystem::path& path);
 /// Records in jobs/ only, ordered by plan.json when present.
 std::vector<Json> load_job_records(const std::filesystem::path& dir);
 
