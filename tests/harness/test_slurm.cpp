@@ -194,7 +194,10 @@ TEST(SlurmE2E, ArrayOfTwelveJobsEqualsLocalRun) {
 TEST(SlurmE2E, ScancelOneTaskThenResumeCompletesTheFolder) {
   REQUIRE_CLUSTER();
   const fs::path dir = make_temp_dir("slurm-cancel");
-  write(dir / "sweep.json", sweep_config(12, 1500));
+  // Each job works 5 s: the victims below must still be in their first job when scancel and
+  // the kill reach them, after a `scanbench status` poll that takes seconds in a sanitizer
+  // build on a loaded machine (with 1.5 s, a victim once finished its first job in between).
+  write(dir / "sweep.json", sweep_config(12, 5000));
   const std::string cfg = (dir / "sweep.json").string();
   const fs::path out = dir / "slurm";
   const auto r = sh(sb() + " run " + cfg + " -o " + out.string() +
