@@ -126,6 +126,17 @@ Json parse_json_text(std::string_view text, const std::string& where,
   }
 }
 
+Json parse_assigned_value(std::string_view text, const std::string& where) {
+  const auto first = text.find_first_not_of(" \t\r\n");
+  if (first != std::string_view::npos && (text[first] == '[' || text[first] == '{')) {
+    return parse_json_text(text, where);
+  }
+  // A scalar cannot nest, so nlohmann's parser is safe here; not JSON: the text itself.
+  Json value = Json::parse(text, nullptr, /*allow_exceptions=*/false);
+  if (value.is_discarded()) return Json(std::string(text));
+  return value;
+}
+
 Json parse_json_file(const std::filesystem::path& file, std::string_view what,
                      const JsonTextOptions& options) {
   std::ifstream in(file, std::ios::binary);

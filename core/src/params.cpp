@@ -5,6 +5,8 @@
 #include <cmath>
 #include <cstdint>
 
+#include "scanbench/core/json_text.h"
+
 namespace scanbench {
 
 const char* to_string(ParamType t) {
@@ -176,8 +178,7 @@ void apply_assignment(Json& obj, std::string_view assignment) {
   }
   const std::string key(assignment.substr(0, eq));
   const std::string text(assignment.substr(eq + 1));
-  Json value = Json::parse(text, nullptr, /*allow_exceptions=*/false);
-  if (value.is_discarded()) value = text;  // not JSON: a plain string (e.g. a choice)
+  const Json value = parse_assigned_value(text, fmt::format("--set {}", key));
   Json* target = &obj;
   std::size_t start = 0;
   while (true) {

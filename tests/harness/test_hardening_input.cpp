@@ -82,6 +82,28 @@ TEST(InputJsonText, RefusesDeepNestingBeforeBuildingAValue) {
             "o.json: JSON nested deeper than 100 levels");
 }
 
+// A command line's `--set key=value` (algo, scan, eval): a JSON array or object goes through the
+// checked reader, a scalar is itself, any other text is a string.
+TEST(InputJsonText, AssignedValuesGoThroughTheCheckedReader) {
+  EXPECT_EQ(parse_assigned_value("3", "w"), Json(3));
+  EXPECT_EQ(parse_assigned_value("true", "w"), Json(true));
+  EXPECT_EQ(parse_assigned_value("\"a b\"", "w"), Json("a b"));
+  EXPECT_EQ(parse_assigned_value("exact", "w"), Json("exact"));
+  EXPECT_EQ(parse_assigned_value(" [1, 2]", "w"), Json::parse("[1, 2]"));
+  EXPECT_EQ(parse_assigned_value("{\"a\": 1}", "w"), Json::parse("{\"a\": 1}"));
+  EXPECT_EQ(error_of<IoError>([&] { (void)parse_assigned_value(nested(200000), "--set x"); }),
+            "--set x: JSON nested deeper than 100 levels");
+  EXPECT_NE(error_of<IoError>([&] {
+              (void)parse_assigned_value("[1,", "--set x");
+            }).find("--set x: not valid JSON"),
+            std::string::npos);
+  Json obj = Json::object();
+  EXPECT_EQ(error_of<IoError>([&] { apply_assignment(obj, "a.b=" + nested(200000)); }),
+            "--set a.b: JSON nested deeper than 100 levels");
+  apply_assignment(obj, "a.b=[0.5]");
+  EXPECT_EQ(obj, Json::parse(R"({"a": {"b": [0.5]}})"));
+}
+
 TEST(InputJsonText, DuplicateKeysNamedByJsonPointerWhenAsked) {
   const std::string text = R"({"a": [{"b": 1}, {"b": 1, "c/d": {"x": 1, "x": 2}}]})";
   EXPECT_NO_THROW((void)parse_json_text(text, "t.json"));

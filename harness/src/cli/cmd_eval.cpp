@@ -18,6 +18,7 @@
 
 #include "cli/commands.h"
 #include "scanbench/core/errors.h"
+#include "scanbench/core/json_text.h"
 #include "scanbench/harness/eval.h"
 #include "scanbench/harness/records.h"
 
@@ -36,8 +37,7 @@ void apply_metric_set(Json& params, const std::string& s) {
   if (dot == std::string::npos || dot == 0 || dot + 1 == lhs.size())
     throw ParamError("eval --set " + s + ": expected <metric name>.<key>=value");
   const std::string text = s.substr(eq + 1);
-  Json value = Json::parse(text, nullptr, /*allow_exceptions=*/false);
-  if (value.is_discarded()) value = text;
+  const Json value = parse_assigned_value(text, "eval --set " + lhs);
   params[lhs.substr(0, dot)][lhs.substr(dot + 1)] = value;
 }
 

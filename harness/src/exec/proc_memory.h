@@ -2,6 +2,7 @@
 // The process's resident memory from /proc/self (Linux): the current and peak RSS, and a reset of
 // the peak so that the peak of one stretch of work can be read (`scanbench bench resample`, the
 // per-step working memory of a job's chain).
+#include <cstdlib>
 #include <fstream>
 #include <string>
 
@@ -12,7 +13,9 @@ inline long status_kb(const std::string& field) {
   std::ifstream f("/proc/self/status");
   std::string line;
   while (std::getline(f, line)) {
-    if (line.rfind(field + ":", 0) == 0) return std::stol(line.substr(field.size() + 1));
+    if (line.rfind(field + ":", 0) == 0) {
+      return std::strtol(line.c_str() + field.size() + 1, nullptr, 10);  // never throws
+    }
   }
   return -1;
 }

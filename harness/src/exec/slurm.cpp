@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <charconv>
 #include <chrono>
 #include <cmath>
 #include <csignal>
@@ -242,8 +243,16 @@ std::vector<std::string> submission_ids(const fs::path& dir) {
       ids.push_back(n);
     }
   }
-  std::sort(ids.begin(), ids.end(),
-            [](const std::string& a, const std::string& b) { return std::stol(a) < std::stol(b); });
+  // Numeric order of digit strings without converting them (a planted name of 30 digits would
+  // overflow std::stol): shorter first once leading zeros are dropped, then lexicographic.
+  auto digits = [](const std::string& n) {
+    const auto nz = n.find_first_not_of('0');
+    return nz == std::string::npos ? std::string() : n.substr(nz);
+  };
+  std::sort(ids.begin(), ids.end(), [&](const std::string& a, const std::string& b) {
+    const std::string x = digits(a), y = digits(b);
+    return x.size() != y.size() ? x.size() < y.size() : x < y;
+  });
   return ids;
 }
 
@@ -405,7 +414,18 @@ SlurmSubmission submit_slurm(const Experiment& e, const RunOptions& opts, const 
   const long mem_mb = static_cast<long>(std::ceil(mem));
 
   const auto existing = submission_ids(dir);
-  s.id = fmt::format("{:03d}", existing.empty() ? 1 : std::stoi(existing.back()) + 1);
+  long last = 0;
+  if (!existing.empty()) {
+    const std::string& n = existing.back();
+    const auto [end, ec] = std::from_chars(n.data(), n.data() + n.size(), last);
+    if (ec != std::errc() || end != n.data() + n.size() || last >= 999999) {
+      throw IoError(
+          fmt::format("{}: submission folder '{}' is not a submission number scanbench "
+                      "wrote; move it away",
+                      (dir / "slurm").string(), n));
+    }
+  }
+  s.id = fmt::format("{:03d}", last + 1);
   const fs::path sub = dir / "slurm" / s.id;
   fs::create_directories(sub / "started");
   const fs::path exe = opts.exe.empty() ? fs::read_symlink("/proc/self/exe") : opts.exe;
@@ -710,7 +730,9 @@ FolderStatus folder_status(const fs::path& dir_in) {
         }
         if (array_job.empty() || e.array_job != array_job) continue;
         if (e.task.empty() || !std::all_of(e.task.begin(), e.task.end(), ::isdigit)) continue;
-        const std::size_t task = std::stoul(e.task);
+        std::size_t task = 0;
+        const auto [end, ec] = std::from_chars(e.task.data(), e.task.data() + e.task.size(), task);
+        if (ec != std::errc() || end != e.task.data() + e.task.size()) continue;
         const bool running = e.state != "PENDING";
         for (std::size_t k = task * chunk; k < std::min(ids.size(), (task + 1) * chunk); ++k) {
           const std::string& id = ids[k];

@@ -42,6 +42,12 @@ struct JsonTextOptions {
 Json parse_json_text(std::string_view text, const std::string& where,
                      const JsonTextOptions& options = {});
 
+/// The value of a command line's `key=value` (`--set`): a text starting with `[` or `{` is JSON,
+/// read by parse_json_text (so a malformed or 200,000-deep value is refused, naming `where`);
+/// any other text that is a JSON scalar (a number, true, false, null, a quoted string) is that
+/// scalar; anything else is the text itself as a string (a choice such as `exact`).
+Json parse_assigned_value(std::string_view text, const std::string& where);
+
 /// Reads the whole of `file` and parses it with parse_json_text (`where` = the path as given).
 /// Throws IoError "<file>: cannot open <what>: <reason>" when it cannot be read (`what` names the
 /// kind of file: "experiment config", "scanner preset").
