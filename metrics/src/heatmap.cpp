@@ -320,6 +320,37 @@ FigureLayout figure_layout(int width, int height, int rows, int cols) {
   return l;
 }
 
+namespace {
+
+/// A vertical viridis colour bar, 24 columns wide, from t = 0 at the bottom (y1) to t = 1 at
+/// the top (y0): five ticks labelled k/4 x top, a heading above it and a footnote below.
+struct ColourBar {
+  int x, y0, y1;
+  double top;
+  int precision, tick_size;
+  std::string heading;
+  int heading_size;
+  std::string footnote;
+  int footnote_size;
+};
+
+void draw_colour_bar(OIIO::ImageBuf& img, const ColourBar& b) {
+  for (int y = 0; y < b.y1 - b.y0; ++y) {
+    const float t = 1.0f - static_cast<float>(y) / static_cast<float>(b.y1 - b.y0 - 1);
+    const Eigen::Vector3f c = viridis_color(t);
+    IBA::fill(img, c.data(), OIIO::ROI(b.x, b.x + 24, b.y0 + y, b.y0 + y + 1));
+  }
+  for (int k = 0; k <= 4; ++k) {
+    const double frac = k / 4.0;
+    const int y = b.y1 - static_cast<int>(frac * (b.y1 - b.y0 - 1));
+    text(img, b.x + 28, y + 4, fmt::format("{:.{}g}", frac * b.top, b.precision), b.tick_size);
+  }
+  text(img, b.x, b.y0 - 6, b.heading, b.heading_size);
+  text(img, b.x, b.y1 + 16, b.footnote, b.footnote_size);
+}
+
+}  // namespace
+
 void write_figure_png(const std::vector<SplatImage>& cells, const std::vector<std::string>& rows,
                       const std::vector<std::string>& cols, const std::string& title,
                       double saturation, const std::string& unit, int width, int height,
@@ -345,20 +376,8 @@ void write_figure_png(const std::vector<SplatImage>& cells, const std::vector<st
   for (std::size_t i = 0; i < rows.size(); ++i)
     text(img, 8, y0 + static_cast<int>(i) * l.cell_h + l.cell_h / 2 + 5, rows[i], 14);
   text(img, 8, 24, title, 16);
-  // Colour bar: 24 columns wide, t = 0 at the bottom, t = 1 at the top.
-  const int bx = l.bar_x + 12, by0 = y0 + 20, by1 = height - 30;
-  for (int y = 0; y < by1 - by0; ++y) {
-    const float t = 1.0f - static_cast<float>(y) / static_cast<float>(by1 - by0 - 1);
-    const Eigen::Vector3f c = viridis_color(t);
-    IBA::fill(img, c.data(), OIIO::ROI(bx, bx + 24, by0 + y, by0 + y + 1));
-  }
-  for (int k = 0; k <= 4; ++k) {
-    const double frac = k / 4.0;
-    const int y = by1 - static_cast<int>(frac * (by1 - by0 - 1));
-    text(img, bx + 28, y + 4, fmt::format("{:.3g}", frac * saturation), 11);
-  }
-  text(img, bx, by0 - 6, unit, 11);
-  text(img, bx, by1 + 16, "top: saturated", 10);
+  draw_colour_bar(
+      img, {l.bar_x + 12, y0 + 20, height - 30, saturation, 3, 11, unit, 11, "top: saturated", 10});
   write_png(img, png);
 }
 
@@ -400,20 +419,8 @@ void write_heatmap(const PointCloud& points, const Eigen::VectorXf& errors,
   }
   text(img, 8, 27, title, 18);
 
-  // Colour bar: 24 columns wide, from t = 0 at the bottom to t = 1 at the top.
-  const int bx = 4 * w + 12, by0 = kTitleRows + 20, by1 = kTitleRows + h - 20;
-  for (int y = 0; y < by1 - by0; ++y) {
-    const float t = 1.0f - static_cast<float>(y) / static_cast<float>(by1 - by0 - 1);
-    const Eigen::Vector3f c = viridis_color(t);
-    IBA::fill(img, c.data(), OIIO::ROI(bx, bx + 24, by0 + y, by0 + y + 1));
-  }
-  for (int k = 0; k <= 4; ++k) {
-    const double frac = k / 4.0;
-    const int y = by1 - static_cast<int>(frac * (by1 - by0 - 1));
-    text(img, bx + 28, y + 4, fmt::format("{:.4g}", frac * p.range), 12);
-  }
-  text(img, bx, by0 - 6, "|E| / diag", 12);
-  text(img, bx, by1 + 16, fmt::format(">= {:.3g} sat.", p.range), 11);
+  draw_colour_bar(img, {4 * w + 12, kTitleRows + 20, kTitleRows + h - 20, p.range, 4, 12,
+                        "|E| / diag", 12, fmt::format(">= {:.3g} sat.", p.range), 11});
   write_png(img, png);
 }
 

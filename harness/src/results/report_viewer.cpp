@@ -1,6 +1,7 @@
 #include "results/report_viewer.h"
 
 #include <fmt/format.h>
+#include <openssl/evp.h>
 
 #include <algorithm>
 #include <cmath>
@@ -468,16 +469,20 @@ std::string viewer_section(const fs::path& dir, const std::vector<const Json*>& 
 }
 
 std::string base64(const void* data, std::size_t n) {
-  static const char* abc = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  // OpenSSL's encoder (libcrypto is linked for the cache seals). EVP_EncodeBlock takes an int
+  // length and writes a terminating NUL: the bytes go in chunks of a multiple of 3, whose
+  // encodings concatenate to the encoding of the whole.
+  constexpr std::size_t kChunk = std::size_t{3} << 20;
   const auto* p = static_cast<const unsigned char*>(data);
   std::string out;
-  out.reserve((n + 2) / 3 * 4);
-  for (std::size_t i = 0; i < n; i += 3) {
-    const unsigned v = (p[i] << 16) | (i + 1 < n ? p[i + 1] << 8 : 0) | (i + 2 < n ? p[i + 2] : 0);
-    out += abc[(v >> 18) & 63];
-    out += abc[(v >> 12) & 63];
-    out += i + 1 < n ? abc[(v >> 6) & 63] : '=';
-    out += i + 2 < n ? abc[v & 63] : '=';
+  out.reserve((n + 2) / 3 * 4 + 1);
+  for (std::size_t i = 0; i < n; i += kChunk) {
+    const std::size_t m = std::min(kChunk, n - i);
+    const std::size_t at = out.size();
+    out.resize(at + (m + 2) / 3 * 4 + 1);
+    const int written = EVP_EncodeBlock(reinterpret_cast<unsigned char*>(out.data() + at), p + i,
+                                        static_cast<int>(m));
+    out.resize(at + static_cast<std::size_t>(written));
   }
   return out;
 }
