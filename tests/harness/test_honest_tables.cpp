@@ -10,6 +10,8 @@
 #include <cmath>
 #include <map>
 #include <set>
+#include <string>
+#include <vector>
 
 #include "cli_test_util.h"
 #include "experiment_test_util.h"
@@ -160,6 +162,93 @@ TEST_F(HonestTables, WinnersCompareEachVariantAtItsBestSweepPoint) {
       std::to_string(recs.front()["sizes"]["scan_points"].get<long long>());
   EXPECT_NE(html.find("<td>" + scan_points + "</td>", html.find("id=\"setup-scans\"")),
             std::string::npos);
+}
+
+/// The SVG of the report whose <title> is `title` ("" when none).
+std::string svg_titled(const std::string& html, const std::string& title) {
+  const auto t = html.find("<title>" + title + "</title>");
+  if (t == std::string::npos) return "";
+  const auto open = html.rfind("<svg", t);
+  return html.substr(open, html.find("</svg>", t) - open);
+}
+
+/// The hover titles of the <circle>s of an SVG that carry `cls` (every circle when empty).
+std::vector<std::string> circle_titles(const std::string& svg, const std::string& cls = "") {
+  std::vector<std::string> out;
+  for (auto c = svg.find("<circle"); c != std::string::npos; c = svg.find("<circle", c + 1)) {
+    const auto end = svg.find("</circle>", c);
+    const std::string el = svg.substr(c, end - c);
+    if (!cls.empty() && el.find("class=\"" + cls + "\"") == std::string::npos) continue;
+    const auto t = el.find("<title>");
+    out.push_back(t == std::string::npos ? "" : el.substr(t + 7, el.find("</title>") - t - 7));
+  }
+  return out;
+}
+
+double median_of(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
+}
+
+// Plots a reader can query: each marker's values as its hover title; on a sweep plot the best
+// point (from the records: the argmin of the per-point medians) ringed; a time-against-quality
+// plot whose outlined front is exactly the non-dominated set of (median time, median value),
+// recomputed here by brute force from the records.
+TEST_F(HonestTables, PlotsRingTheBestPointAndOutlineTheParetoFront) {
+  const std::vector<Json> recs = read_jsonl(out() / "runs.jsonl");
+  const auto r = sh(sb() + " report " + out().string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  const std::string html = slurp(out() / "index.html");
+  for (const std::string key : {"p2plane_mean_rel", "nn_dist_cv"}) {
+    SCOPED_TRACE(key);
+    const std::string sweep = svg_titled(html, "sub: " + key + " vs stride (sphere / clean)");
+    ASSERT_FALSE(sweep.empty());
+    for (const auto& t : circle_titles(sweep))
+      EXPECT_NE(t.find(", " + key + " = "), std::string::npos) << t;
+    const auto sub = point_medians(recs, "sub", key);
+    const auto best = std::min_element(
+        sub.begin(), sub.end(), [](const auto& a, const auto& b) { return a.second < b.second; });
+    const auto ringed = circle_titles(sweep, "best");
+    ASSERT_EQ(ringed.size(), 1u) << sweep;
+    EXPECT_EQ(ringed.front(), "best (lower is better): sub: test.subsample.stride = " +
+                                  best->first.substr(best->first.find('=') + 1) + ", " + key +
+                                  " = " + h::format_number(best->second));
+
+    // The front from the records: per (variant, point) the median over seeds of each job's
+    // median time and of the value; a point is on it when no other has at most its time and at
+    // most its value with one of them strictly less.
+    struct P {
+      std::string label;
+      double t, v;
+    };
+    std::map<std::string, std::pair<std::vector<double>, std::vector<double>>> acc;
+    for (const auto& rec : recs) {
+      std::vector<double> samples = rec["timing"]["total_s"].get<std::vector<double>>();
+      const std::string v = rec["variant"]["label"], pt = rec["point_label"];
+      const std::string label = pt.empty() ? v : v + " (" + pt + ")";
+      acc[label].first.push_back(median_of(samples));
+      acc[label].second.push_back(rec["metrics"][key].get<double>());
+    }
+    std::vector<P> pts;
+    for (const auto& [label, tv] : acc)
+      pts.push_back({label, median_of(tv.first), median_of(tv.second)});
+    std::set<std::string> expected;
+    for (const P& p : pts) {
+      const bool dominated = std::any_of(pts.begin(), pts.end(), [&](const P& q) {
+        return q.t <= p.t && q.v <= p.v && (q.t < p.t || q.v < p.v);
+      });
+      if (!dominated) expected.insert(p.label);
+    }
+    const std::string pareto = svg_titled(html, key + " against time.total (sphere / clean)");
+    ASSERT_FALSE(pareto.empty());
+    EXPECT_EQ(circle_titles(pareto).size(), pts.size());
+    std::set<std::string> front;
+    for (const auto& t : circle_titles(pareto, "front")) {
+      EXPECT_NE(t.find(" (on the front)"), std::string::npos) << t;
+      front.insert(t.substr(0, t.find(": time.total = ")));
+    }
+    EXPECT_EQ(front, expected);
+  }
 }
 
 TEST_F(HonestTables, UnknownNamesAreRefusedWithASuggestion) {

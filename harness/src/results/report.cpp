@@ -140,9 +140,12 @@ struct RefLine {
   double y;
 };
 
+/// Lines of (x, y) markers, each marker with its values as a hover title. With `better` -1 or
+/// +1 (quantity_direction), the best marker over all series (the least or greatest y; the first
+/// on a tie) is ringed (class "best"), with its values in its title.
 std::string line_plot(const std::string& title, const std::string& xlabel,
                       const std::string& ylabel, const std::vector<Series>& series,
-                      const std::vector<RefLine>& refs = {}) {
+                      const std::vector<RefLine>& refs = {}, int better = 0) {
   double xlo = INFINITY, xhi = -INFINITY, ylo = INFINITY, yhi = -INFINITY;
   for (const auto& s : series) {
     for (const auto& [x, y] : s.pts) {
@@ -163,17 +166,37 @@ std::string line_plot(const std::string& title, const std::string& xlabel,
   Axes a{};
   svg += draw_axes(a, xlo, xhi, ylo, yhi, xlabel, ylabel);
   std::vector<std::string> names;
+  auto values = [&](const std::string& name, double x, double y) {
+    return html_escape(fmt::format("{}: {} = {}, {} = {}", name, xlabel, format_number(x), ylabel,
+                                   format_number(y)));
+  };
+  std::size_t best_series = series.size(), best_point = 0;
   for (std::size_t i = 0; i < series.size(); ++i) {
     std::string path;
-    for (const auto& [x, y] : series[i].pts) {
+    for (std::size_t k = 0; k < series[i].pts.size(); ++k) {
+      const auto [x, y] = series[i].pts[k];
       if (!std::isfinite(x) || !std::isfinite(y)) continue;
+      if (better != 0 && (best_series == series.size() ||
+                          better * (y - series[best_series].pts[best_point].second) > 0)) {
+        best_series = i;
+        best_point = k;
+      }
       path += fmt::format("{}{:.1f},{:.1f}", path.empty() ? "" : " ", a.px(x), a.py(y));
-      svg += fmt::format("<circle cx=\"{:.1f}\" cy=\"{:.1f}\" r=\"2.5\" fill=\"{}\"/>", a.px(x),
-                         a.py(y), color(i));
+      svg += fmt::format(
+          "<circle cx=\"{:.1f}\" cy=\"{:.1f}\" r=\"2.5\" fill=\"{}\"><title>{}</title></circle>",
+          a.px(x), a.py(y), color(i), values(series[i].name, x, y));
     }
     svg += fmt::format("<polyline points=\"{}\" fill=\"none\" stroke=\"{}\" stroke-width=\"1.5\"/>",
                        path, color(i));
     names.push_back(series[i].name);
+  }
+  if (best_series < series.size()) {
+    const auto [x, y] = series[best_series].pts[best_point];
+    svg += fmt::format(
+        "<circle class=\"best\" cx=\"{:.1f}\" cy=\"{:.1f}\" r=\"6\" fill=\"none\" "
+        "stroke=\"{}\" stroke-width=\"2\"><title>best ({} is better): {}</title></circle>",
+        a.px(x), a.py(y), color(best_series), better < 0 ? "lower" : "higher",
+        values(series[best_series].name, x, y));
   }
   svg += legend(names);
   // Reference lines: dashed grey shades, listed under the series in the legend.
@@ -816,7 +839,7 @@ std::string sweep_plots(const SweepGroup& g, const std::vector<std::string>& met
     }
     const std::string svg =
         line_plot(fmt::format("{}: {} vs {} ({})", g.variant, m, short_key(xkey), g.group), xkey, m,
-                  series, refs);
+                  series, refs, quantity_direction(m));
     if (!svg.empty()) html += svg + "\n";
   }
   return html;
@@ -902,9 +925,11 @@ std::string sweep_sections(const std::vector<const Json*>& ok, const Json& repor
   std::string h;
   if (!sweep_html.empty()) {
     h += "<h2>Sweeps</h2>\n<p class=\"aggregates\">Each marker: the median over the seeds of one "
-         "sweep point (time.total: of each job's median over its repeats); dashed lines: the "
-         "variants run "
-         "without a sweep on the same dataset and scanner (median over their seeds).</p>\n"
+         "sweep point (time.total: of each job's median over its repeats); ringed: the best point "
+         "of the plot in the quantity's direction; dashed lines: the variants run without a sweep "
+         "on "
+         "the same dataset and scanner (median over their seeds). Hover a marker for its "
+         "values.</p>\n"
          "<div class=\"plots\" id=\"sweeps\">\n" +
          sweep_html + "</div>\n";
   }
@@ -917,6 +942,114 @@ std::string sweep_sections(const std::vector<const Json*>& ok, const Json& repor
          heat_html + "</div>\n";
   }
   return h;
+}
+
+/// One marker of a time-against-quality plot: a variant at one sweep point on one group.
+struct ParetoPoint {
+  std::string variant, point;
+  double seconds, value;
+  bool front = false;
+};
+
+/// The points no other point beats: none has at most its seconds and at least as good a value
+/// (in direction `better`) with one of the two strictly better. Brute force, O(n^2): a group
+/// holds tens of sweep points.
+void mark_front(std::vector<ParetoPoint>& pts, int better) {
+  for (auto& p : pts) {
+    p.front = std::none_of(pts.begin(), pts.end(), [&](const ParetoPoint& q) {
+      const double gain = better * (q.value - p.value);
+      return q.seconds <= p.seconds && gain >= 0 && (q.seconds < p.seconds || gain > 0);
+    });
+  }
+}
+
+/// Time against each shown quantity per dataset/scanner group: one marker per variant and sweep
+/// point (the medians over its seeds of each job's median time.total and of the quantity), the
+/// Pareto front joined by a line and ringed (class "front"), every marker's values as its hover
+/// title. Quantities without a direction are left out; at most 60 plots.
+std::string pareto_section(const std::vector<const Json*>& ok,
+                           const std::vector<std::string>& metrics) {
+  std::vector<std::string> groups;
+  std::map<std::string, std::vector<const Json*>> by_group;
+  for (const Json* r : ok) {
+    const std::string g = group_of(*r);
+    if (!by_group.count(g)) groups.push_back(g);
+    by_group[g].push_back(r);
+  }
+  std::string html;
+  int shown = 0;
+  for (const std::string& m : metrics) {
+    const int better = quantity_direction(m);
+    if (better == 0 || m.rfind("time.", 0) == 0) continue;
+    for (const std::string& g : groups) {
+      // (variant, point) in record order, with the samples of its seeds.
+      std::vector<std::pair<std::string, std::string>> order;
+      std::map<std::pair<std::string, std::string>,
+               std::pair<std::vector<double>, std::vector<double>>>
+          acc;
+      for (const Json* r : by_group[g]) {
+        const double t = record_value(*r, "time.total"), v = record_value(*r, m);
+        if (!std::isfinite(t) || !std::isfinite(v)) continue;
+        const auto key = std::make_pair(field_value(*r, "variant"), field_value(*r, "point"));
+        if (!acc.count(key)) order.push_back(key);
+        acc[key].first.push_back(t);
+        acc[key].second.push_back(v);
+      }
+      if (order.size() < 2 || shown >= 60) continue;
+      std::vector<ParetoPoint> pts;
+      std::vector<std::string> variants;
+      for (const auto& key : order) {
+        pts.push_back({key.first, key.second, median(acc[key].first), median(acc[key].second)});
+        if (std::find(variants.begin(), variants.end(), key.first) == variants.end())
+          variants.push_back(key.first);
+      }
+      mark_front(pts, better);
+      double xlo = INFINITY, xhi = -INFINITY, ylo = INFINITY, yhi = -INFINITY;
+      for (const auto& p : pts) {
+        xlo = std::min(xlo, p.seconds);
+        xhi = std::max(xhi, p.seconds);
+        ylo = std::min(ylo, p.value);
+        yhi = std::max(yhi, p.value);
+      }
+      std::string svg = svg_open(fmt::format("{} against time.total ({})", m, g));
+      Axes a{};
+      svg += draw_axes(a, xlo, xhi, ylo, yhi, "time.total [s]", m);
+      std::vector<const ParetoPoint*> front;
+      for (const auto& p : pts)
+        if (p.front) front.push_back(&p);
+      std::sort(front.begin(), front.end(),
+                [](const ParetoPoint* x, const ParetoPoint* y) { return x->seconds < y->seconds; });
+      std::string path;
+      for (const ParetoPoint* p : front)
+        path += fmt::format("{}{:.1f},{:.1f}", path.empty() ? "" : " ", a.px(p->seconds),
+                            a.py(p->value));
+      svg += fmt::format(
+          "<polyline points=\"{}\" fill=\"none\" stroke=\"#888\" stroke-width=\"1\"/>", path);
+      for (const auto& p : pts) {
+        const std::size_t c = static_cast<std::size_t>(
+            std::find(variants.begin(), variants.end(), p.variant) - variants.begin());
+        const std::string label = p.point.empty() ? p.variant : p.variant + " (" + p.point + ")";
+        svg += fmt::format(
+            "<circle{} cx=\"{:.1f}\" cy=\"{:.1f}\" r=\"{}\" fill=\"{}\"{}><title>{}</title>"
+            "</circle>",
+            p.front ? " class=\"front\"" : "", a.px(p.seconds), a.py(p.value),
+            p.front ? "4.5" : "3", color(c), p.front ? " stroke=\"#000\" stroke-width=\"1.5\"" : "",
+            html_escape(fmt::format("{}: time.total = {} s, {} = {}{}", label,
+                                    format_number(p.seconds), m, format_number(p.value),
+                                    p.front ? " (on the front)" : "")));
+      }
+      svg += legend(variants);
+      html += svg + "</svg>\n";
+      ++shown;
+    }
+  }
+  if (html.empty()) return "";
+  return "<h2>Time against quality</h2>\n<p class=\"aggregates\">Each marker: one variant at one "
+         "sweep point, the medians over its seeds of each job's median time.total and of the "
+         "quantity. Outlined and joined: the Pareto front, the points no other point beats in "
+         "both time and quality. Hover a marker for its values.</p>\n"
+         "<div class=\"plots\" id=\"pareto\">\n" +
+         html + "</div>\n";
 }
 
 /// Per-job error heatmaps (PNG images written next to the outputs), inline; at most 40.
@@ -1360,6 +1493,7 @@ fs::path write_report(const fs::path& dir, const fs::path& out_arg, const fs::pa
   h += failures_section(dir, records);
   h += tables_section(records, metrics);
   h += sweep_sections(ok, report_cfg, metrics);
+  h += pareto_section(ok, metrics);
   h += error_heatmaps_section(dir, ok);
   h += viewer_section(dir, ok);
   h += phases_section(ok);
