@@ -401,6 +401,34 @@ TEST(HonestTablesMesh, MeshAndPointOutputsFlaggedOnChamferKeys) {
   EXPECT_NE(html.find("mesh and point outputs not comparable on this key"), std::string::npos);
   EXPECT_NE(html.find("mesh outputs: mesh"), std::string::npos);
   EXPECT_NE(html.find("point outputs: points"), std::string::npos);
+  // Time against quality: on a key that cannot compare them, mesh and point outputs each have
+  // their own front (two joined lines, the mesh one dashed), and every marker names its kind.
+  EXPECT_NE(html.find("each kind has its own front"), std::string::npos);
+  for (const std::string key : {"fscore", "chamfer_rel"}) {
+    SCOPED_TRACE(key);
+    const std::string svg = svg_titled(html, key + " against time.total (sphere / clean)");
+    ASSERT_FALSE(svg.empty());
+    std::size_t lines = 0, dashed = 0;
+    for (auto at = svg.find("<polyline"); at != std::string::npos;
+         at = svg.find("<polyline", at + 1)) {
+      ++lines;
+      dashed +=
+          svg.substr(at, svg.find('>', at) - at).find("stroke-dasharray") != std::string::npos;
+    }
+    EXPECT_EQ(lines, 2u);
+    EXPECT_EQ(dashed, 1u);
+    const auto titles = circle_titles(svg);
+    ASSERT_EQ(titles.size(), 2u);
+    // One point per kind: each is its kind's front, whatever the other kind scores.
+    EXPECT_EQ(circle_titles(svg, "front").size(), 2u);
+    EXPECT_NE(svg.find("mesh: time.total = "), std::string::npos);
+    for (const auto& t : titles) {
+      const bool mesh = t.rfind("mesh:", 0) == 0;
+      EXPECT_NE(t.find(mesh ? " [mesh output] (on the front)" : " [points output] (on the front)"),
+                std::string::npos)
+          << t;
+    }
+  }
   fs::remove_all(dir);
 }
 

@@ -948,15 +948,18 @@ std::string sweep_sections(const std::vector<const Json*>& ok, const Json& repor
 struct ParetoPoint {
   std::string variant, point;
   double seconds, value;
+  std::string kind;  ///< scored_kind: "mesh" or "points"; a front per kind where they cannot meet
   bool front = false;
 };
 
 /// The points no other point beats: none has at most its seconds and at least as good a value
-/// (in direction `better`) with one of the two strictly better. Brute force, O(n^2): a group
-/// holds tens of sweep points.
-void mark_front(std::vector<ParetoPoint>& pts, int better) {
+/// (in direction `better`) with one of the two strictly better. With `per_kind`, a point is
+/// beaten only by points of its own kind (mesh and point outputs on a key that cannot compare
+/// them). Brute force, O(n^2): a group holds tens of sweep points.
+void mark_front(std::vector<ParetoPoint>& pts, int better, bool per_kind) {
   for (auto& p : pts) {
     p.front = std::none_of(pts.begin(), pts.end(), [&](const ParetoPoint& q) {
+      if (per_kind && q.kind != p.kind) return false;
       const double gain = better * (q.value - p.value);
       return q.seconds <= p.seconds && gain >= 0 && (q.seconds < p.seconds || gain > 0);
     });
@@ -978,12 +981,14 @@ std::string pareto_section(const std::vector<const Json*>& ok,
   }
   std::string html;
   int shown = 0;
+  bool split = false;  // some plot has a front per output kind
   for (const std::string& m : metrics) {
     const int better = quantity_direction(m);
     if (better == 0 || m.rfind("time.", 0) == 0) continue;
     for (const std::string& g : groups) {
       // (variant, point) in record order, with the samples of its seeds.
       std::vector<std::pair<std::string, std::string>> order;
+      std::map<std::pair<std::string, std::string>, std::string> kind;
       std::map<std::pair<std::string, std::string>,
                std::pair<std::vector<double>, std::vector<double>>>
           acc;
@@ -992,6 +997,8 @@ std::string pareto_section(const std::vector<const Json*>& ok,
         if (!std::isfinite(t) || !std::isfinite(v)) continue;
         const auto key = std::make_pair(field_value(*r, "variant"), field_value(*r, "point"));
         if (!acc.count(key)) order.push_back(key);
+        const std::string k = scored_kind(*r);
+        kind[key] = kind.count(key) && kind[key] != k ? "mesh+points" : k;
         acc[key].first.push_back(t);
         acc[key].second.push_back(v);
       }
@@ -999,11 +1006,16 @@ std::string pareto_section(const std::vector<const Json*>& ok,
       std::vector<ParetoPoint> pts;
       std::vector<std::string> variants;
       for (const auto& key : order) {
-        pts.push_back({key.first, key.second, median(acc[key].first), median(acc[key].second)});
+        pts.push_back(
+            {key.first, key.second, median(acc[key].first), median(acc[key].second), kind[key]});
         if (std::find(variants.begin(), variants.end(), key.first) == variants.end())
           variants.push_back(key.first);
       }
-      mark_front(pts, better);
+      const bool per_kind =
+          mesh_points_incomparable(m) &&
+          std::any_of(pts.begin(), pts.end(), [&](const auto& p) { return p.kind != pts[0].kind; });
+      split = split || per_kind;
+      mark_front(pts, better, per_kind);
       double xlo = INFINITY, xhi = -INFINITY, ylo = INFINITY, yhi = -INFINITY;
       for (const auto& p : pts) {
         xlo = std::min(xlo, p.seconds);
@@ -1014,17 +1026,24 @@ std::string pareto_section(const std::vector<const Json*>& ok,
       std::string svg = svg_open(fmt::format("{} against time.total ({})", m, g));
       Axes a{};
       svg += draw_axes(a, xlo, xhi, ylo, yhi, "time.total [s]", m);
-      std::vector<const ParetoPoint*> front;
+      std::set<std::string> kinds;
       for (const auto& p : pts)
-        if (p.front) front.push_back(&p);
-      std::sort(front.begin(), front.end(),
-                [](const ParetoPoint* x, const ParetoPoint* y) { return x->seconds < y->seconds; });
-      std::string path;
-      for (const ParetoPoint* p : front)
-        path += fmt::format("{}{:.1f},{:.1f}", path.empty() ? "" : " ", a.px(p->seconds),
-                            a.py(p->value));
-      svg += fmt::format(
-          "<polyline points=\"{}\" fill=\"none\" stroke=\"#888\" stroke-width=\"1\"/>", path);
+        kinds.insert(per_kind ? p.kind : "");
+      for (const std::string& k : kinds) {  // one joined front per kind when split
+        std::vector<const ParetoPoint*> front;
+        for (const auto& p : pts)
+          if (p.front && (k.empty() || p.kind == k)) front.push_back(&p);
+        std::sort(front.begin(), front.end(), [](const ParetoPoint* x, const ParetoPoint* y) {
+          return x->seconds < y->seconds;
+        });
+        std::string path;
+        for (const ParetoPoint* p : front)
+          path += fmt::format("{}{:.1f},{:.1f}", path.empty() ? "" : " ", a.px(p->seconds),
+                              a.py(p->value));
+        svg += fmt::format(
+            "<polyline points=\"{}\" fill=\"none\" stroke=\"#888\" stroke-width=\"1\"{}/>", path,
+            k.empty() || k == "points" ? "" : " stroke-dasharray=\"4 2\"");
+      }
       for (const auto& p : pts) {
         const std::size_t c = static_cast<std::size_t>(
             std::find(variants.begin(), variants.end(), p.variant) - variants.begin());
@@ -1034,8 +1053,9 @@ std::string pareto_section(const std::vector<const Json*>& ok,
             "</circle>",
             p.front ? " class=\"front\"" : "", a.px(p.seconds), a.py(p.value),
             p.front ? "4.5" : "3", color(c), p.front ? " stroke=\"#000\" stroke-width=\"1.5\"" : "",
-            html_escape(fmt::format("{}: time.total = {} s, {} = {}{}", label,
+            html_escape(fmt::format("{}: time.total = {} s, {} = {}{}{}", label,
                                     format_number(p.seconds), m, format_number(p.value),
+                                    per_kind ? " [" + p.kind + " output]" : "",
                                     p.front ? " (on the front)" : "")));
       }
       svg += legend(variants);
@@ -1047,9 +1067,13 @@ std::string pareto_section(const std::vector<const Json*>& ok,
   return "<h2>Time against quality</h2>\n<p class=\"aggregates\">Each marker: one variant at one "
          "sweep point, the medians over its seeds of each job's median time.total and of the "
          "quantity. Outlined and joined: the Pareto front, the points no other point beats in "
-         "both time and quality. Hover a marker for its values.</p>\n"
-         "<div class=\"plots\" id=\"pareto\">\n" +
-         html + "</div>\n";
+         "both time and quality. Hover a marker for its values." +
+         std::string(split ? " Where mesh and point outputs meet on a key that cannot compare "
+                             "them (mesh outputs are scored on samples of their surface), each "
+                             "kind has its own front (the mesh front dashed) and the titles name "
+                             "the kind."
+                           : "") +
+         "</p>\n<div class=\"plots\" id=\"pareto\">\n" + html + "</div>\n";
 }
 
 /// Per-job error heatmaps (PNG images written next to the outputs), inline; at most 40.

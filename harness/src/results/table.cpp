@@ -70,11 +70,6 @@ void check_field(const std::string& f, const std::vector<Json>& records, const c
 
 /// How a record's output was scored: "mesh" (samples of its surface, output_mesh_samples) or
 /// "points".
-std::string scored_kind(const Json& r) {
-  const Json m = r.value("metrics", Json::object());
-  return m.is_object() && m.contains("output_mesh_samples") ? "mesh" : "points";
-}
-
 /// Levenshtein distance (a dozen lines; no library among the dependencies offers one).
 std::size_t edit_distance(const std::string& a, const std::string& b) {
   std::vector<std::size_t> prev(b.size() + 1), cur(b.size() + 1);
@@ -118,6 +113,11 @@ std::string tex_escape(const std::string& s) {
 }
 
 }  // namespace
+
+std::string scored_kind(const Json& r) {
+  const Json m = r.value("metrics", Json::object());
+  return m.is_object() && m.contains("output_mesh_samples") ? "mesh" : "points";
+}
 
 std::string html_escape(const std::string& s) {
   std::string o;

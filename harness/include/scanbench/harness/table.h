@@ -89,6 +89,8 @@ void check_quantity(const std::vector<Json>& records, const std::string& quantit
 /// True when mesh and point outputs scored on `quantity` cannot be compared: a key declared both
 /// by a metric scoring meshes and by one scoring points (metrics/registry.h).
 bool mesh_points_incomparable(const std::string& quantity);
+/// "mesh" when a record's metrics were scored on samples of a mesh output, else "points".
+std::string scored_kind(const Json& record);
 
 /// One variant's best sweep point in one row (best_points).
 struct VariantBest {
