@@ -131,169 +131,175 @@ Json read_json_file(const fs::path& path) {
 
 namespace {
 
-/// The JSON type a field of a job record has (docs/records.md).
-enum class Shape { String, Number, Bool, Object, Array };
-
-const char* shape_name(Shape s) {
-  switch (s) {
-    case Shape::String:
-      return "a string";
-    case Shape::Number:
-      return "a number";
-    case Shape::Bool:
-      return "a boolean";
-    case Shape::Object:
-      return "an object";
-    case Shape::Array:
-      return "an array";
-  }
-  return "?";
-}
-
-bool has_shape(const Json& v, Shape s) {
-  switch (s) {
-    case Shape::String:
-      return v.is_string();
-    case Shape::Number:
-      return v.is_number();
-    case Shape::Bool:
-      return v.is_boolean();
-    case Shape::Object:
-      return v.is_object();
-    case Shape::Array:
-      return v.is_array();
-  }
-  return false;
-}
-
-const char* json_kind(const Json& v) {
-  if (v.is_null()) return "null";
-  if (v.is_string()) return "a string";
-  if (v.is_number()) return "a number";
-  if (v.is_boolean()) return "a boolean";
-  if (v.is_object()) return "an object";
-  if (v.is_array()) return "an array";
-  return "a binary value";
-}
-
 /// The fields of a job record that the readers (table, report, compare, claims, history, eval
 /// --from-record) take as given, with their types; `*` is every key of an object or element of
 /// an array. A field may be absent (a failed job writes few of them) but never of another type.
 /// Written by hand: a JSON Schema validator is not among the project's libraries, and this list
-/// is what docs/records.md documents.
-constexpr std::pair<const char*, Shape> kRecordShape[] = {
-    {"key", Shape::String},
-    {"experiment", Shape::String},
-    {"status", Shape::String},
-    {"error", Shape::String},
-    {"point_label", Shape::String},
-    {"output_kind", Shape::String},
-    {"seed", Shape::Number},
-    {"repeats", Shape::Number},
-    {"peak_rss_mb", Shape::Number},
-    {"repeat_outputs_identical", Shape::Bool},
-    {"dataset", Shape::Object},
-    {"dataset.label", Shape::String},
-    {"dataset.name", Shape::String},
-    {"dataset.params", Shape::Object},
-    {"dataset_origin", Shape::Array},
-    {"dataset_origin.*", Shape::Number},
-    {"scanner", Shape::Object},
-    {"scanner.label", Shape::String},
-    {"scanner.preset", Shape::String},
-    {"scanner.params", Shape::Object},
-    {"variant", Shape::Object},
-    {"variant.label", Shape::String},
-    {"variant.chain", Shape::Array},
-    {"variant.chain.*", Shape::Object},
-    {"variant.chain.*.algorithm", Shape::String},
-    {"variant.chain.*.label", Shape::String},
-    {"variant.chain.*.params", Shape::Object},
-    {"params", Shape::Object},
-    {"point", Shape::Object},
-    {"metrics", Shape::Object},
-    {"metric_params", Shape::Object},
-    {"scoring", Shape::Object},
-    {"skipped", Shape::Object},
-    {"skipped.*", Shape::String},
-    {"sizes", Shape::Object},
-    {"sizes.*", Shape::Number},
-    {"limits", Shape::Object},
-    {"limits.*", Shape::Number},
-    {"artifacts", Shape::Object},
-    {"artifacts.*", Shape::String},
-    {"histograms", Shape::Object},
-    {"histograms.*", Shape::Object},
-    {"histograms.*.unit", Shape::String},
-    {"histograms.*.min", Shape::Number},
-    {"histograms.*.max", Shape::Number},
-    {"histograms.*.count", Shape::Number},
-    {"histograms.*.counts", Shape::Array},
-    {"histograms.*.counts.*", Shape::Number},
-    {"timing", Shape::Object},
-    {"timing.scan_s", Shape::Number},
-    {"timing.scan_cached", Shape::Bool},
-    {"timing.total_s", Shape::Array},
-    {"timing.total_s.*", Shape::Number},
-    {"timing.cpu_s", Shape::Array},
-    {"timing.cpu_s.*", Shape::Number},
-    {"timing.phases", Shape::Object},
-    {"timing.phases.*", Shape::Array},
-    {"timing.phases.*.*", Shape::Number},
-    {"timing.step_peak_rss_mb", Shape::Object},
-    {"timing.step_peak_rss_mb.*", Shape::Number},
-    {"timing.step_work_mb", Shape::Object},
-    {"timing.step_work_mb.*", Shape::Number},
-    {"timing.step_program_peak_rss_mb", Shape::Object},
-    {"timing.step_program_peak_rss_mb.*", Shape::Number},
-    {"timing.metrics_s", Shape::Number},
-    {"timing.metric_phases", Shape::Object},
-    {"timing.metric_phases.*", Shape::Number},
-    {"timing.job_wall_s", Shape::Number},
-    {"context", Shape::Object},
-    {"context.scanbench", Shape::String},
-    {"context.commit", Shape::String},
-    {"context.compiler", Shape::String},
-    {"context.build", Shape::String},
-    {"context.libraries", Shape::Object},
-    {"context.libraries.*", Shape::String},
-    {"context.plugins", Shape::Array},
-    {"context.host", Shape::String},
-    {"context.cpu", Shape::String},
-    {"context.hardware_threads", Shape::Number},
-    {"context.isa", Shape::String},
-    {"context.isa_compiled", Shape::String},
-    {"context.isa_flags", Shape::String},
-    {"context.allocator", Shape::String},
-    {"context.date", Shape::String},
-    {"context.threads", Shape::Number},
+/// is what docs/records.md documents. A type is nlohmann's; number_float stands for any number.
+constexpr std::pair<const char*, Json::value_t> kRecordShape[] = {
+    {"key", Json::value_t::string},
+    {"experiment", Json::value_t::string},
+    {"status", Json::value_t::string},
+    {"error", Json::value_t::string},
+    {"point_label", Json::value_t::string},
+    {"output_kind", Json::value_t::string},
+    {"seed", Json::value_t::number_float},
+    {"repeats", Json::value_t::number_float},
+    {"peak_rss_mb", Json::value_t::number_float},
+    {"repeat_outputs_identical", Json::value_t::boolean},
+    {"dataset", Json::value_t::object},
+    {"dataset.label", Json::value_t::string},
+    {"dataset.name", Json::value_t::string},
+    {"dataset.params", Json::value_t::object},
+    {"dataset_origin", Json::value_t::array},
+    {"dataset_origin.*", Json::value_t::number_float},
+    {"scanner", Json::value_t::object},
+    {"scanner.label", Json::value_t::string},
+    {"scanner.preset", Json::value_t::string},
+    {"scanner.params", Json::value_t::object},
+    {"variant", Json::value_t::object},
+    {"variant.label", Json::value_t::string},
+    {"variant.chain", Json::value_t::array},
+    {"variant.chain.*", Json::value_t::object},
+    {"variant.chain.*.algorithm", Json::value_t::string},
+    {"variant.chain.*.label", Json::value_t::string},
+    {"variant.chain.*.params", Json::value_t::object},
+    {"params", Json::value_t::object},
+    {"point", Json::value_t::object},
+    {"metrics", Json::value_t::object},
+    {"metric_params", Json::value_t::object},
+    {"scoring", Json::value_t::object},
+    {"skipped", Json::value_t::object},
+    {"skipped.*", Json::value_t::string},
+    {"sizes", Json::value_t::object},
+    {"sizes.*", Json::value_t::number_float},
+    {"limits", Json::value_t::object},
+    {"limits.*", Json::value_t::number_float},
+    {"artifacts", Json::value_t::object},
+    {"artifacts.*", Json::value_t::string},
+    {"histograms", Json::value_t::object},
+    {"histograms.*", Json::value_t::object},
+    {"histograms.*.unit", Json::value_t::string},
+    {"histograms.*.min", Json::value_t::number_float},
+    {"histograms.*.max", Json::value_t::number_float},
+    {"histograms.*.count", Json::value_t::number_float},
+    {"histograms.*.counts", Json::value_t::array},
+    {"histograms.*.counts.*", Json::value_t::number_float},
+    {"timing", Json::value_t::object},
+    {"timing.scan_s", Json::value_t::number_float},
+    {"timing.scan_cached", Json::value_t::boolean},
+    {"timing.total_s", Json::value_t::array},
+    {"timing.total_s.*", Json::value_t::number_float},
+    {"timing.cpu_s", Json::value_t::array},
+    {"timing.cpu_s.*", Json::value_t::number_float},
+    {"timing.phases", Json::value_t::object},
+    {"timing.phases.*", Json::value_t::array},
+    {"timing.phases.*.*", Json::value_t::number_float},
+    {"timing.step_peak_rss_mb", Json::value_t::object},
+    {"timing.step_peak_rss_mb.*", Json::value_t::number_float},
+    {"timing.step_work_mb", Json::value_t::object},
+    {"timing.step_work_mb.*", Json::value_t::number_float},
+    {"timing.step_program_peak_rss_mb", Json::value_t::object},
+    {"timing.step_program_peak_rss_mb.*", Json::value_t::number_float},
+    {"timing.metrics_s", Json::value_t::number_float},
+    {"timing.metric_phases", Json::value_t::object},
+    {"timing.metric_phases.*", Json::value_t::number_float},
+    {"timing.job_wall_s", Json::value_t::number_float},
+    {"context", Json::value_t::object},
+    {"context.scanbench", Json::value_t::string},
+    {"context.commit", Json::value_t::string},
+    {"context.compiler", Json::value_t::string},
+    {"context.build", Json::value_t::string},
+    {"context.libraries", Json::value_t::object},
+    {"context.libraries.*", Json::value_t::string},
+    {"context.plugins", Json::value_t::array},
+    {"context.host", Json::value_t::string},
+    {"context.cpu", Json::value_t::string},
+    {"context.hardware_threads", Json::value_t::number_float},
+    {"context.isa", Json::value_t::string},
+    {"context.isa_compiled", Json::value_t::string},
+    {"context.isa_flags", Json::value_t::string},
+    {"context.allocator", Json::value_t::string},
+    {"context.date", Json::value_t::string},
+    {"context.threads", Json::value_t::number_float},
 };
 
-/// Checks the values at PATH[i..] below V (named NAME so far) against S.
-void check_path(const Json& v, const std::vector<std::string>& path, std::size_t i,
-                const std::string& name, Shape s, const std::string& where) {
-  if (i == path.size()) {
-    if (!has_shape(v, s)) {
+/// kRecordShape with each path split at its dots, once.
+struct RecordField {
+  std::vector<std::string> path;
+  Json::value_t type;
+};
+
+const std::vector<RecordField>& record_fields() {
+  static const std::vector<RecordField> fields = [] {
+    std::vector<RecordField> out;
+    for (const auto& [field, type] : kRecordShape) {
+      RecordField f{{}, type};
+      for (std::string_view rest = field;;) {
+        const auto dot = rest.find('.');
+        f.path.emplace_back(rest.substr(0, dot));
+        if (dot == std::string_view::npos) break;
+        rest.remove_prefix(dot + 1);
+      }
+      out.push_back(std::move(f));
+    }
+    return out;
+  }();
+  return fields;
+}
+
+/// The steps taken from the record to a value: a key, or (key null) an array index. The field's
+/// name is spelled from it only when the check fails.
+using Trail = std::vector<std::pair<const std::string*, std::size_t>>;
+
+std::string trail_name(const Trail& trail) {
+  std::string name;
+  for (const auto& [key, index] : trail)
+    name += key ? (name.empty() ? "" : ".") + *key : fmt::format("[{}]", index);
+  return name;
+}
+
+/// "a number", "an object", "null": nlohmann's type name with its article.
+std::string type_phrase(const Json& v) {
+  const std::string t = v.type_name();
+  if (v.is_null()) return t;
+  return (t.find_first_of("aeiou") == 0 ? "an " : "a ") + t;
+}
+
+/// Checks the values at F.path[i..] below V against F.type.
+void check_path(const Json& v, const RecordField& f, std::size_t i, Trail& trail,
+                const std::string& where) {
+  if (i == f.path.size()) {
+    const bool ok = f.type == Json::value_t::number_float ? v.is_number() : v.type() == f.type;
+    if (!ok) {
       throw IoError(
           fmt::format("{}: field \"{}\" is {}, not {} (not a job record scanbench "
                       "wrote; docs/records.md lists the fields)",
-                      where, name, json_kind(v), shape_name(s)));
+                      where, trail_name(trail), type_phrase(v), type_phrase(Json(f.type))));
     }
     return;
   }
-  const std::string& part = path[i];
+  const std::string& part = f.path[i];
   if (part == "*") {
     if (v.is_object()) {
-      for (const auto& [k, x] : v.items())
-        check_path(x, path, i + 1, name + "." + k, s, where);
+      for (const auto& [k, x] : v.items()) {
+        trail.emplace_back(&k, 0);
+        check_path(x, f, i + 1, trail, where);
+        trail.pop_back();
+      }
     } else if (v.is_array()) {
-      for (std::size_t e = 0; e < v.size(); ++e)
-        check_path(v[e], path, i + 1, fmt::format("{}[{}]", name, e), s, where);
+      for (std::size_t e = 0; e < v.size(); ++e) {
+        trail.emplace_back(nullptr, e);
+        check_path(v[e], f, i + 1, trail, where);
+        trail.pop_back();
+      }
     }
     return;
   }
   if (!v.is_object() || !v.contains(part)) return;
-  check_path(v[part], path, i + 1, name.empty() ? part : name + "." + part, s, where);
+  trail.emplace_back(&part, 0);
+  check_path(v[part], f, i + 1, trail, where);
+  trail.pop_back();
 }
 
 }  // namespace
@@ -302,16 +308,9 @@ void check_record(const Json& r, const std::string& where) {
   if (!r.is_object() || !r.contains("id") || !r["id"].is_string()) {
     throw IoError(fmt::format("{}: not a job record (an object with an \"id\")", where));
   }
-  for (const auto& [field, shape] : kRecordShape) {
-    std::vector<std::string> path;
-    for (std::string_view rest = field;;) {
-      const auto dot = rest.find('.');
-      path.emplace_back(rest.substr(0, dot));
-      if (dot == std::string_view::npos) break;
-      rest.remove_prefix(dot + 1);
-    }
-    check_path(r, path, 0, "", shape, where);
-  }
+  Trail trail;
+  for (const RecordField& f : record_fields())
+    check_path(r, f, 0, trail, where);
 }
 
 Json read_record_file(const fs::path& path) {
