@@ -415,6 +415,20 @@ std::string group_of(const Json& r) {
   return field_value(r, "dataset") + " / " + field_value(r, "scanner");
 }
 
+/// The records of each dataset/scanner group (group_of), the groups in the order of their first
+/// record.
+std::vector<std::pair<std::string, std::vector<const Json*>>> records_by_group(
+    const std::vector<const Json*>& ok) {
+  std::vector<std::pair<std::string, std::vector<const Json*>>> out;
+  std::map<std::string, std::size_t> at;
+  for (const Json* r : ok) {
+    const auto [it, fresh] = at.emplace(group_of(*r), out.size());
+    if (fresh) out.push_back({it->first, {}});
+    out[it->second].second.push_back(r);
+  }
+  return out;
+}
+
 /// Numeric sweep keys of a record set, in the order of the first record's point.
 std::vector<std::string> numeric_point_keys(const std::vector<const Json*>& rs) {
   std::vector<std::string> keys;
@@ -972,27 +986,21 @@ void mark_front(std::vector<ParetoPoint>& pts, int better, bool per_kind) {
 /// title. Quantities without a direction are left out; at most 60 plots.
 std::string pareto_section(const std::vector<const Json*>& ok,
                            const std::vector<std::string>& metrics) {
-  std::vector<std::string> groups;
-  std::map<std::string, std::vector<const Json*>> by_group;
-  for (const Json* r : ok) {
-    const std::string g = group_of(*r);
-    if (!by_group.count(g)) groups.push_back(g);
-    by_group[g].push_back(r);
-  }
+  const auto groups = records_by_group(ok);
   std::string html;
   int shown = 0;
   bool split = false;  // some plot has a front per output kind
   for (const std::string& m : metrics) {
     const int better = quantity_direction(m);
     if (better == 0 || m.rfind("time.", 0) == 0) continue;
-    for (const std::string& g : groups) {
+    for (const auto& [g, rs] : groups) {
       // (variant, point) in record order, with the samples of its seeds.
       std::vector<std::pair<std::string, std::string>> order;
       std::map<std::pair<std::string, std::string>, std::string> kind;
       std::map<std::pair<std::string, std::string>,
                std::pair<std::vector<double>, std::vector<double>>>
           acc;
-      for (const Json* r : by_group[g]) {
+      for (const Json* r : rs) {
         const double t = record_value(*r, "time.total"), v = record_value(*r, m);
         if (!std::isfinite(t) || !std::isfinite(v)) continue;
         const auto key = std::make_pair(field_value(*r, "variant"), field_value(*r, "point"));
@@ -1422,18 +1430,12 @@ std::string setup_section(const std::vector<const Json*>& ok) {
   }
   h += "</table>\n";
   // Datasets and scanners.
-  std::vector<std::string> groups;
-  std::map<std::string, std::vector<const Json*>> by_group;
-  for (const Json* r : ok) {
-    const std::string g = group_of(*r);
-    if (!by_group.count(g)) groups.push_back(g);
-    by_group[g].push_back(r);
-  }
   h += "<table id=\"setup-scans\"><caption>Each dataset and scanner: the scanner's settings and "
        "the scan size (median over the seeds, and the range)</caption><tr><th>dataset / "
        "scanner</th><th>preset</th><th>settings</th><th>scan points</th><th>outliers</th></tr>\n";
-  for (const auto& g : groups) {
-    const auto& rs = by_group[g];
+  for (const auto& group : records_by_group(ok)) {
+    const std::string& g = group.first;
+    const std::vector<const Json*>& rs = group.second;  // captured below (not a binding)
     auto stat = [&rs](const char* q) {
       std::vector<double> xs;
       for (const Json* r : rs)
