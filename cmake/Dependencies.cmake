@@ -23,6 +23,7 @@ find_package(Threads REQUIRED)
 find_package(SQLite3 REQUIRED)  # CMake's FindSQLite3: the results history (harness)
 # libcrypto's SHA-256 (libssl-dev): the hash of every plugin file in the records (harness).
 find_package(OpenSSL REQUIRED COMPONENTS Crypto)
+find_package(ZLIB REQUIRED)  # the PDF figure's image streams (harness figure.cpp)
 
 list(APPEND CMAKE_MODULE_PATH /usr/lib/x86_64-linux-gnu/cmake/OpenVDB)
 find_package(OpenVDB REQUIRED)

@@ -12,6 +12,11 @@
 //   all=1          build every group at once (else one per task after the load event)
 //   truth=1, scan=1, outliers=1   show these at start
 //   point=i        show sweep point i (the slider's position)
+//   colour=signed  colour by the signed error (the diverging map) from the start
+//   click=g,x,y    after building, send group g's canvas a pointer down and up at CSS pixel
+//                  (x, y) of the canvas (the mouse's path to a pick)
+//   toggle=key     after building, click the checkbox of key (truth, scan, outliers) in every
+//                  group (the user's path to a toggle)
 // The status (JSON in #sb-viewer-status) lists per group and view the canvas rectangles and
 // camera matrices, the pick, the timing (frame_ms; ready_ms: from navigation to the viewer
 // drawn), resources the page loaded and any error.
@@ -32,6 +37,7 @@ for (const kv of decodeURIComponent(location.hash.slice(1)).split('&')) {
   if (k) opts[k] = v === undefined ? '1' : v;
 }
 const shade = opts.shade !== '0';
+const colourMode = opts.colour === 'signed' ? 'signed' : 'magnitude';
 
 function decode(b64, Type) {
   const bin = atob(b64);
@@ -43,17 +49,22 @@ function decode(b64, Type) {
 THREE.ColorManagement.enabled = false;  // colours are written as given (sRGB bytes)
 const data = JSON.parse(document.getElementById('sb-viewer-data').textContent);
 data.groups = [];  // each parsed from its own element when built
-const cmapBytes = new Uint8Array(256 * 4);
-data.colormap.forEach((c, i) => { cmapBytes.set([c[0], c[1], c[2], 255], 4 * i); });
-const cmap = new THREE.DataTexture(cmapBytes, 256, 1, THREE.RGBAFormat);
-cmap.magFilter = cmap.minFilter = THREE.NearestFilter;
-cmap.wrapS = cmap.wrapT = THREE.ClampToEdgeWrapping;
-cmap.needsUpdate = true;
+function texture(table) {
+  const bytes = new Uint8Array(256 * 4);
+  table.forEach((c, i) => { bytes.set([c[0], c[1], c[2], 255], 4 * i); });
+  const t = new THREE.DataTexture(bytes, 256, 1, THREE.RGBAFormat);
+  t.magFilter = t.minFilter = THREE.NearestFilter;
+  t.wrapS = t.wrapT = THREE.ClampToEdgeWrapping;
+  t.needsUpdate = true;
+  return t;
+}
+const cmaps = { magnitude: texture(data.colormap), signed: texture(data.colormap_signed) };
 
-// Colour: viridis entry floor(256 t), t = |E| / saturation (the texture's nearest texel), or a
-// flat colour; lighting from the normals (headlight, two-sided) when shading is on.
+// Colour: viridis entry floor(256 t), t = |E| / saturation (the texture's nearest texel); with
+// signed on, the diverging map's entry at t = (1 + E / saturation) / 2, clamped; or a flat
+// colour. Lighting from the normals (headlight, two-sided) when shading is on.
 const vertexShader = `
-  uniform float size, errScale;
+  uniform float size, errScale, signedMode;
   attribute vec3 nrm;
   attribute float err;
   varying float vT, vLight;
@@ -61,7 +72,8 @@ const vertexShader = `
     vec4 mv = modelViewMatrix * vec4(position, 1.0);
     gl_Position = projectionMatrix * mv;
     gl_PointSize = size;
-    vT = clamp(abs(err) * errScale, 0.0, 1.0);
+    vT = signedMode > 0.5 ? clamp(0.5 + 0.5 * err * errScale, 0.0, 1.0)
+                          : clamp(abs(err) * errScale, 0.0, 1.0);
     vLight = 1.0;
   #ifdef HAS_NORMALS
     vLight = 0.3 + 0.7 * abs(dot(normalize(normalMatrix * nrm), normalize(-mv.xyz)));
@@ -92,7 +104,8 @@ function material(cloud, isPoints, size, flat) {
   return new THREE.ShaderMaterial({
     defines, vertexShader, fragmentShader,
     uniforms: {
-      cmap: { value: cmap }, size: { value: size },
+      cmap: { value: cmaps[colourMode] }, size: { value: size },
+      signedMode: { value: colourMode === 'signed' ? 1 : 0 },
       errScale: { value: cloud.err ? cloud.err_scale / data.groups[cloud.group].saturation : 0 },
       flatColor: { value: new THREE.Color(flat || 0x999999) },
     },
@@ -155,7 +168,7 @@ const edlShader = {
 
 class GroupViewer {
   constructor(root, gd, gi) {
-    this.gd = gd; this.gi = gi;
+    this.gd = gd; this.gi = gi; this.root = root; this.colour = colourMode;
     // One panel (viewport) per variant; a swept variant's sweep points share its panel and the
     // slider picks which one shows (index i: each variant's i-th point, or its last).
     const byVariant = new Map();
@@ -230,6 +243,7 @@ class GroupViewer {
     });
     this.show(Number(opts.point || 0));
     this.controlsUi(root.querySelector('.sb-controls'));
+    this.setColour(this.colour);
     if (shade) {
       const w = this.W * this.dpr, h = this.H * this.dpr;
       this.target = new THREE.WebGLRenderTarget(w, h, { depthTexture: new THREE.DepthTexture(w, h) });
@@ -264,6 +278,7 @@ class GroupViewer {
       l.style.marginRight = '1em';
       const c = document.createElement('input');
       c.type = 'checkbox';
+      c.className = 'sb-toggle-' + key;
       c.checked = opts[key] === '1';
       c.addEventListener('change', () => {
         for (const p of this.panels) p.extras[key].visible = c.checked;
@@ -272,6 +287,18 @@ class GroupViewer {
       l.append(c, ' ' + text + ` (${this.gd[key].total.toLocaleString('en')})`);
       el.appendChild(l);
     };
+    const sel = document.createElement('select');
+    sel.className = 'sb-colour';
+    for (const [value, text] of [['magnitude', 'colour: |E| (viridis)'],
+                                 ['signed', 'colour: signed E (cool-warm: - inside, + outside)']]) {
+      const o = document.createElement('option');
+      o.value = value; o.textContent = text;
+      sel.appendChild(o);
+    }
+    sel.value = this.colour;
+    sel.style.marginRight = '1em';
+    sel.addEventListener('change', () => { this.setColour(sel.value); this.render(); });
+    el.appendChild(sel);
     add('truth', 'ground truth');
     add('scan', 'noisy scan');
     add('outliers', "scan's outliers");
@@ -290,6 +317,17 @@ class GroupViewer {
     reset.textContent = 'reset view';
     reset.addEventListener('click', () => { this.setPose(35, 20, 1.9); this.controls.update(); this.render(); });
     el.appendChild(reset);
+  }
+
+  /// Colours every view by `mode` (magnitude or signed) and shows that mode's colour bar.
+  setColour(mode) {
+    this.colour = mode;
+    for (const v of this.views) {
+      v.out.material.uniforms.cmap.value = cmaps[mode];
+      v.out.material.uniforms.signedMode.value = mode === 'signed' ? 1 : 0;
+    }
+    for (const bar of this.root.querySelectorAll('.colour-bar'))
+      bar.style.display = bar.classList.contains(mode) ? '' : 'none';
   }
 
   /// Shows sweep point i of every panel (its last when it has fewer) and labels the panels.
@@ -381,10 +419,12 @@ class GroupViewer {
     const xyz = [0, 1, 2].map((a) => gd.lo[a] + pos.getComponent(k, a) * gd.size + gd.origin[a]);
     const err = v.out.geometry.getAttribute('err').getX(k) * (d.err_scale || 0);
     const index = Math.floor(k * d.total / d.count);
-    const res = { group: this.gi, view: vi, job: d.job, k, index, error: err, error_rel: err / gd.diagonal, xyz };
+    const p = v.panel, q = new THREE.Vector3().fromBufferAttribute(pos, k).applyMatrix4(v.out.matrixWorld).project(p.cam);
+    const screen = [p.x + (q.x + 1) / 2 * this.vw, p.y + (1 - q.y) / 2 * this.vh];  // CSS px of the canvas
+    const res = { group: this.gi, view: vi, job: d.job, k, index, error: err, error_rel: err / gd.diagonal, xyz, screen };
     const fmt = (x) => Number(x).toPrecision(4);
     this.pickInfo.textContent = `${d.label}, point ${index} of ${d.total}: ` +
-      (d.kind === 'mesh' ? 'distance ' : 'E = ') + `${fmt(err)} (${fmt(err / gd.diagonal)} x diagonal; ` +
+      (d.kind === 'mesh' ? 'signed distance ' : 'E = ') + `${fmt(err)} (${fmt(err / gd.diagonal)} x diagonal; ` +
       `colour saturates at ${fmt(gd.saturation)}) at (${xyz.map(fmt).join(', ')})`;
     status.pick = res;
     writeStatus();
@@ -407,8 +447,11 @@ class GroupViewer {
 
   describe() {
     const rc = this.canvas.getBoundingClientRect();
+    const extras = {};
+    for (const key of Object.keys(this.panels[0].extras))
+      extras[key] = this.panels.map((p) => p.extras[key].visible);
     return {
-      label: this.gd.label,
+      label: this.gd.label, colour: this.colour, extras,
       rect: [rc.left, rc.top, rc.width, rc.height],
       views: this.views.map((v) => ({
         label: v.data.label, count: v.data.count, total: v.data.total, shown: v.out.visible,
@@ -472,6 +515,22 @@ guarded(() => {
     }
     const start = () => setTimeout(next, 0);
     if (document.readyState === 'complete') start(); else window.addEventListener('load', start);
+  }
+  if (opts.toggle) {
+    roots.forEach((r) => {
+      const v = build(r);
+      const box = r.querySelector('.sb-toggle-' + opts.toggle);
+      if (box) box.click();
+      status.groups[v.gi] = v.describe();
+    });
+  }
+  if (opts.click) {
+    const [g, x, y] = opts.click.split(',').map(Number);
+    const v = build(roots[g]), rc = v.canvas.getBoundingClientRect();
+    const at = { clientX: rc.left + x, clientY: rc.top + y, bubbles: true, pointerId: 1, isPrimary: true, button: 0 };
+    v.canvas.dispatchEvent(new PointerEvent('pointerdown', at));
+    v.canvas.dispatchEvent(new PointerEvent('pointerup', at));
+    status.clicked = status.pick || null;
   }
   if (opts.pick) {
     const [g, v, k] = opts.pick.split(',').map(Number);

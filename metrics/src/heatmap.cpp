@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numbers>
 #include <string>
 #include <system_error>
 #include <vector>
@@ -259,9 +260,93 @@ const float (&viridis_table())[256][3] {
   return kViridis;
 }
 
+namespace {
+
+// Moreland (2009), sec. 4 and his appendix: Msh is CIELAB in polar form, M = |(L, a, b)|,
+// s = acos(L / M), h = atan2(b, a); sRGB (IEC 61966-2-1) <-> XYZ (D65) <-> CIELAB.
+Eigen::Vector3d msh_to_srgb(double m, double s, double h) {
+  const double l = m * std::cos(s), a = m * std::sin(s) * std::cos(h),
+               b = m * std::sin(s) * std::sin(h);
+  const double fy = (l + 16.0) / 116.0, fx = fy + a / 500.0, fz = fy - b / 200.0;
+  const auto finv = [](double f) {
+    return f * f * f > 0.008856 ? f * f * f : (f - 16.0 / 116.0) / 7.787;
+  };
+  const Eigen::Vector3d xyz(0.95047 * finv(fx), 1.0 * finv(fy), 1.08883 * finv(fz));
+  Eigen::Matrix3d to_rgb;
+  to_rgb << 3.2406, -1.5372, -0.4986, -0.9689, 1.8758, 0.0415, 0.0557, -0.2040, 1.0570;
+  Eigen::Vector3d rgb = to_rgb * xyz;
+  for (int c = 0; c < 3; ++c) {
+    const double v = rgb[c];
+    rgb[c] =
+        std::clamp(v > 0.0031308 ? 1.055 * std::pow(v, 1.0 / 2.4) - 0.055 : 12.92 * v, 0.0, 1.0);
+  }
+  return rgb;
+}
+
+/// Moreland's adjust-hue: the hue of an unsaturated end (magnitude m_unsat) spun towards the
+/// saturated colour (m, s, h) so the interpolation does not pass through an unintended hue.
+double adjust_hue(double m, double s, double h, double m_unsat) {
+  if (m >= m_unsat) return h;
+  const double spin = s * std::sqrt(m_unsat * m_unsat - m * m) / (m * std::sin(s));
+  return h > -std::numbers::pi / 3.0 ? h + spin : h - spin;
+}
+
+struct DivergingTable {
+  float rgb[256][3];
+  DivergingTable() {
+    for (int i = 0; i < 256; ++i) {
+      const Eigen::Vector3f c = cool_warm(i / 255.0);
+      for (int ch = 0; ch < 3; ++ch)
+        rgb[i][ch] = c[ch];
+    }
+  }
+};
+
+const DivergingTable& diverging() {
+  static const DivergingTable t;
+  return t;
+}
+
+}  // namespace
+
+Eigen::Vector3f cool_warm(double t) {
+  t = std::clamp(t, 0.0, 1.0);
+  // The two ends (Moreland's cool-warm) meet at the unsaturated M = max(M1, M2, 88): each half
+  // interpolates a saturated end with white, its hue adjusted.
+  double m1 = 80.0, s1 = 1.08, h1 = -1.1, m2 = 80.0, s2 = 1.08, h2 = 0.5;
+  const double m_mid = std::max({m1, m2, 88.0});
+  if (t < 0.5) {
+    m2 = m_mid, s2 = 0.0, h2 = adjust_hue(m1, s1, h1, m_mid);
+    t = 2.0 * t;
+  } else {
+    m1 = m_mid, s1 = 0.0, h1 = adjust_hue(m2, s2, h2, m_mid);
+    t = 2.0 * t - 1.0;
+  }
+  return msh_to_srgb((1 - t) * m1 + t * m2, (1 - t) * s1 + t * s2, (1 - t) * h1 + t * h2)
+      .cast<float>();
+}
+
+Eigen::Vector3f diverging_color(float t) {
+  const float tv = std::isnan(t) ? 0.5f : std::clamp(t, 0.0f, 1.0f);
+  const int i = std::min(255, static_cast<int>(tv * 256.0f));
+  const auto& row = diverging().rgb[i];
+  return {row[0], row[1], row[2]};
+}
+
+const float (&diverging_table())[256][3] {
+  return diverging().rgb;
+}
+
+Eigen::Vector3f error_color(float e, float range, ErrorScale scale) {
+  if (scale == ErrorScale::Signed)
+    return diverging_color(0.5f + 0.5f * std::clamp(e / range, -1.0f, 1.0f));
+  return viridis_color(std::min(std::abs(e) / range, 1.0f));
+}
+
 SplatImage render_splats(const Eigen::Matrix3Xf& positions, const Eigen::Matrix3Xf& normals,
                          const Eigen::VectorXf& errors, const BoundingBox& frame, int view,
-                         int width, int height, int splat_radius, float range, bool shaded) {
+                         int width, int height, int splat_radius, float range, bool shaded,
+                         ErrorScale colours) {
   if (errors.size() != positions.cols())
     throw InputError("heatmap: " + std::to_string(errors.size()) + " errors for " +
                      std::to_string(positions.cols()) + " points");
@@ -281,14 +366,13 @@ SplatImage render_splats(const Eigen::Matrix3Xf& positions, const Eigen::Matrix3
     const Eigen::Vector3f c = view_coords(view, positions.col(i) - centre);
     const int px = static_cast<int>(std::floor(0.5f * w + c.x() * scale));
     const int py = static_cast<int>(std::floor(0.5f * h - c.y() * scale));
-    const float t = std::min(std::abs(errors[i]) / range, 1.0f);
     float shade = 1.0f;
     if (shaded && lambert) {
       shade = 0.35f + 0.65f * std::min(1.0f, std::abs(normals.col(i).dot(cam)));
     } else if (shaded) {
       shade = 1.0f - 0.5f * std::clamp((c.z() + half) / (2.0f * half), 0.0f, 1.0f);
     }
-    const Eigen::Vector3f colour = viridis_color(t) * shade;
+    const Eigen::Vector3f colour = error_color(errors[i], range, colours) * shade;
     for (int dy = -r; dy <= r; ++dy)
       for (int dx = -r; dx <= r; ++dx) {
         if (dx * dx + dy * dy > r * r) continue;
@@ -322,8 +406,9 @@ FigureLayout figure_layout(int width, int height, int rows, int cols) {
 
 namespace {
 
-/// A vertical viridis colour bar, 24 columns wide, from t = 0 at the bottom (y1) to t = 1 at
-/// the top (y0): five ticks labelled k/4 x top, a heading above it and a footnote below.
+/// A vertical colour bar, 24 columns wide, from t = 0 at the bottom (y1) to t = 1 at the top
+/// (y0), a heading above it and a footnote below. Magnitude: viridis, five ticks labelled
+/// k/4 x top; Signed: cool-warm, ticks from -top to +top.
 struct ColourBar {
   int x, y0, y1;
   double top;
@@ -332,18 +417,21 @@ struct ColourBar {
   int heading_size;
   std::string footnote;
   int footnote_size;
+  ErrorScale scale = ErrorScale::Magnitude;
 };
 
 void draw_colour_bar(OIIO::ImageBuf& img, const ColourBar& b) {
+  const bool sgn = b.scale == ErrorScale::Signed;
   for (int y = 0; y < b.y1 - b.y0; ++y) {
     const float t = 1.0f - static_cast<float>(y) / static_cast<float>(b.y1 - b.y0 - 1);
-    const Eigen::Vector3f c = viridis_color(t);
+    const Eigen::Vector3f c = sgn ? diverging_color(t) : viridis_color(t);
     IBA::fill(img, c.data(), OIIO::ROI(b.x, b.x + 24, b.y0 + y, b.y0 + y + 1));
   }
   for (int k = 0; k <= 4; ++k) {
     const double frac = k / 4.0;
     const int y = b.y1 - static_cast<int>(frac * (b.y1 - b.y0 - 1));
-    text(img, b.x + 28, y + 4, fmt::format("{:.{}g}", frac * b.top, b.precision), b.tick_size);
+    const double value = sgn ? (2.0 * frac - 1.0) * b.top : frac * b.top;
+    text(img, b.x + 28, y + 4, fmt::format("{:.{}g}", value, b.precision), b.tick_size);
   }
   text(img, b.x, b.y0 - 6, b.heading, b.heading_size);
   text(img, b.x, b.y1 + 16, b.footnote, b.footnote_size);
@@ -354,7 +442,7 @@ void draw_colour_bar(OIIO::ImageBuf& img, const ColourBar& b) {
 void write_figure_png(const std::vector<SplatImage>& cells, const std::vector<std::string>& rows,
                       const std::vector<std::string>& cols, const std::string& title,
                       double saturation, const std::string& unit, int width, int height,
-                      const std::filesystem::path& png) {
+                      const std::filesystem::path& png, ErrorScale scale) {
   const FigureLayout l =
       figure_layout(width, height, static_cast<int>(rows.size()), static_cast<int>(cols.size()));
   const float white[3] = {1.0f, 1.0f, 1.0f}, grey[3] = {0.6f, 0.6f, 0.6f};
@@ -376,8 +464,9 @@ void write_figure_png(const std::vector<SplatImage>& cells, const std::vector<st
   for (std::size_t i = 0; i < rows.size(); ++i)
     text(img, 8, y0 + static_cast<int>(i) * l.cell_h + l.cell_h / 2 + 5, rows[i], 14);
   text(img, 8, 24, title, 16);
-  draw_colour_bar(
-      img, {l.bar_x + 12, y0 + 20, height - 30, saturation, 3, 11, unit, 11, "top: saturated", 10});
+  draw_colour_bar(img,
+                  {l.bar_x + 12, y0 + 20, height - 30, saturation, 3, 11, unit, 11,
+                   scale == ErrorScale::Signed ? "ends: saturated" : "top: saturated", 10, scale});
   write_png(img, png);
 }
 

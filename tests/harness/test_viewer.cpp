@@ -1,8 +1,11 @@
 // The report's 3D viewer in a real browser (Debian's chromium, headless, WebGL through
 // SwiftShader), on a tiny real experiment: the page loads offline and requests nothing outside
-// its folder; the canvas draws pixels whose colours are viridis entries; a scripted camera turn
-// moves every view of a dataset alike; a picked point reports the error the oracle computes from
-// the output file and the ground truth. And without three.js the report is still written.
+// its folder; the canvas draws pixels whose colours are viridis entries (diverging-map entries
+// when coloured by the signed error); a scripted camera turn moves every view of a dataset alike;
+// a picked point (by the hook, and by a pointer click at its pixel) reports the error the oracle
+// computes from the output file and the ground truth; the ground-truth checkbox shows the truth
+// in every panel. And without three.js the report is still written.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <OpenImageIO/imagebuf.h>
@@ -106,6 +109,63 @@ class Viewer : public ::testing::Test {
             static_cast<int>(v["rect"][1].get<double>() + v["rect"][3].get<double>()) - 3};
   }
 
+  /// Drawn (non-white) pixels of a view and how many of them are no entry of `table` (each
+  /// channel within 1.5 8-bit steps).
+  static std::pair<int, int> off_map(const OIIO::ImageBuf& img, const Json& view,
+                                     const float (&table)[256][3]) {
+    const OIIO::ROI r = view_roi(view);
+    int drawn = 0, off = 0;
+    for (int y = r.ybegin; y < r.yend; ++y)
+      for (int x = r.xbegin; x < r.xend; ++x) {
+        float rgb[3];
+        img.getpixel(x, y, rgb, 3);
+        if (rgb[0] > 0.99f && rgb[1] > 0.99f && rgb[2] > 0.99f) continue;  // background
+        ++drawn;
+        float best = 1.0f;
+        for (const auto& c : table)
+          best = std::min(best, std::max({std::abs(rgb[0] - c[0]), std::abs(rgb[1] - c[1]),
+                                          std::abs(rgb[2] - c[2])}));
+        off += best > 1.5f / 255.0f;
+      }
+    return {drawn, off};
+  }
+
+  /// The oracle for a pick: the output file of the picked job, its point `index`'s
+  /// point-to-plane error to the sphere's closest face, and the largest |E| of the file (the
+  /// viewer stores errors as 16-bit multiples of max |E| / 32767).
+  struct Oracle {
+    double error = 0.0, max_abs = 0.0;
+    Eigen::Vector3d xyz = Eigen::Vector3d::Zero();  // the ground truth's frame plus its origin
+    double diagonal = 0.0;
+    Eigen::Index size = 0;
+  };
+  static Oracle oracle(const Json& pick) {
+    Json rec;
+    for (const auto& r : read_jsonl(out() / "runs.jsonl"))
+      if (r["id"] == pick["job"]) rec = r;
+    EXPECT_TRUE(rec.is_object()) << pick.dump();
+    if (!rec.is_object()) return {};
+    const TriangleMesh mesh =
+        load_dataset("sphere", rec["dataset"].value("params", Json::object()));
+    const metrics::GroundTruth gt(mesh, 0);
+    PointCloud pts = read_point_cloud(out() / rec["artifacts"]["output"].get<std::string>());
+    rebase(pts, mesh.origin);
+    Oracle o;
+    o.size = pts.size();
+    o.diagonal = gt.diagonal();
+    const auto i = pick["index"].get<Eigen::Index>();
+    for (Eigen::Index j = 0; j < pts.size(); ++j) {
+      const auto cp = gt.closest_point(pts.positions.col(j));
+      const double ej = (pts.positions.col(j) - cp.point).dot(cp.normal);
+      o.max_abs = std::max(o.max_abs, std::abs(ej));
+      if (j == i) {
+        o.error = ej;
+        o.xyz = pts.positions.col(j).cast<double>() + mesh.origin.cast<double>();
+      }
+    }
+    return o;
+  }
+
   static TempDir* dir_;
   static bool ok_;
   static std::string log_;
@@ -153,27 +213,32 @@ TEST_F(Viewer, CanvasColoursLieOnViridis) {
   ASSERT_TRUE(s.is_object() && s.value("ready", false)) << s.dump();
   const OIIO::ImageBuf img = screenshot(hash, "viewer-unshaded.png");
   ASSERT_TRUE(img.initialized()) << "no screenshot";
-  const auto& table = metrics::viridis_table();
   for (const auto& v : s["groups"][0]["views"]) {
     if (!v["shown"].get<bool>()) continue;
     const OIIO::ROI r = view_roi(v);
     ASSERT_GE(r.xbegin, 0);
     ASSERT_LE(r.yend, img.spec().height) << "the view is not inside the window";
-    int drawn = 0, off_map = 0;
-    for (int y = r.ybegin; y < r.yend; ++y)
-      for (int x = r.xbegin; x < r.xend; ++x) {
-        float rgb[3];
-        img.getpixel(x, y, rgb, 3);
-        if (rgb[0] > 0.99f && rgb[1] > 0.99f && rgb[2] > 0.99f) continue;  // background
-        ++drawn;
-        float best = 1.0f;
-        for (const auto& c : table)
-          best = std::min(best, std::max({std::abs(rgb[0] - c[0]), std::abs(rgb[1] - c[1]),
-                                          std::abs(rgb[2] - c[2])}));
-        off_map += best > 1.5f / 255.0f;
-      }
+    const auto [drawn, off] = off_map(img, v, metrics::viridis_table());
     EXPECT_GT(drawn, 500) << v.dump();
-    EXPECT_EQ(off_map, 0) << v.dump() << ": of " << drawn << " drawn pixels";
+    EXPECT_EQ(off, 0) << v.dump() << ": of " << drawn << " drawn pixels";
+  }
+}
+
+TEST_F(Viewer, SignedColoursLieOnTheDivergingMap) {
+  ASSERT_TRUE(ok_) << log_;
+  const std::string hash = "all=1&shade=0&colour=signed";
+  const Json s = status(hash);
+  ASSERT_TRUE(s.is_object() && s.value("ready", false)) << s.dump();
+  EXPECT_EQ(s["groups"][0]["colour"], "signed");
+  const OIIO::ImageBuf img = screenshot(hash, "viewer-signed.png");
+  ASSERT_TRUE(img.initialized()) << "no screenshot";
+  for (const auto& v : s["groups"][0]["views"]) {
+    if (!v["shown"].get<bool>()) continue;
+    const auto [drawn, off] = off_map(img, v, metrics::diverging_table());
+    EXPECT_GT(drawn, 500) << v.dump();
+    EXPECT_EQ(off, 0) << v.dump() << ": of " << drawn << " drawn pixels";
+    // Not viridis any more: most drawn pixels are off that map.
+    EXPECT_GT(off_map(img, v, metrics::viridis_table()).second, drawn / 2) << v.dump();
   }
 }
 
@@ -224,31 +289,73 @@ TEST_F(Viewer, PickedPointReportsTheOraclesError) {
   ASSERT_TRUE(s.value("ready", false)) << s.dump();
   const Json& pick = s["pick"];
   ASSERT_TRUE(pick.is_object()) << s.dump();
-  Json rec;
-  for (const auto& r : read_jsonl(out() / "runs.jsonl"))
-    if (r["id"] == pick["job"]) rec = r;
-  ASSERT_TRUE(rec.is_object()) << pick.dump();
-  const TriangleMesh mesh = load_dataset("sphere", rec["dataset"].value("params", Json::object()));
-  const metrics::GroundTruth gt(mesh, 0);
-  PointCloud pts = read_point_cloud(out() / rec["artifacts"]["output"].get<std::string>());
-  rebase(pts, mesh.origin);
-  const auto i = pick["index"].get<Eigen::Index>();
-  ASSERT_LT(i, pts.size());
-  EXPECT_EQ(i, 57);  // every point shown: the file index is k
-  double max_e = 0.0, e = 0.0;
-  for (Eigen::Index j = 0; j < pts.size(); ++j) {
-    const auto cp = gt.closest_point(pts.positions.col(j));
-    const double ej = (pts.positions.col(j) - cp.point).dot(cp.normal);
-    max_e = std::max(max_e, std::abs(ej));
-    if (j == i) e = ej;
-  }
+  const Oracle o = oracle(pick);
+  ASSERT_LT(pick["index"].get<Eigen::Index>(), o.size);
+  EXPECT_EQ(pick["index"].get<Eigen::Index>(), 57);  // every point shown: the file index is k
   // Errors are stored as 16-bit multiples of max |E| / 32767; positions as 16 bits of the cube.
-  EXPECT_NEAR(pick["error"].get<double>(), e, max_e / 32767.0 + 1e-9) << pick.dump();
-  EXPECT_GT(std::abs(e), 0.0);
+  EXPECT_NEAR(pick["error"].get<double>(), o.error, o.max_abs / 32767.0 + 1e-9) << pick.dump();
+  EXPECT_GT(std::abs(o.error), 0.0);
   for (int a = 0; a < 3; ++a)
-    EXPECT_NEAR(pick["xyz"][a].get<double>(), pts.positions(a, i) + mesh.origin[a],
-                2e-5 * gt.diagonal())
-        << a;
+    EXPECT_NEAR(pick["xyz"][a].get<double>(), o.xyz[a], 2e-5 * o.diagonal) << a;
+}
+
+TEST_F(Viewer, APointerClickPicksThePointUnderIt) {
+  ASSERT_TRUE(ok_) << log_;
+  // Where point 57 of view 1 is drawn (the hook reports its canvas pixel), then a pointer down
+  // and up there through the canvas's own listeners: the pick is a point drawn within the 8-px
+  // radius of the click, and its error is the oracle's for the file index it names.
+  const Json hooked = status("pick=0,1,57");
+  ASSERT_TRUE(hooked["pick"].is_object()) << hooked.dump();
+  const double x = std::round(hooked["pick"]["screen"][0].get<double>()),
+               y = std::round(hooked["pick"]["screen"][1].get<double>());
+  const Json s = status(fmt::format("click=0,{},{}", x, y));
+  ASSERT_TRUE(s.value("ready", false)) << s.dump();
+  EXPECT_TRUE(s["errors"].empty()) << s.dump();
+  const Json& pick = s["clicked"];
+  ASSERT_TRUE(pick.is_object()) << "the click picked nothing: " << s.dump();
+  EXPECT_EQ(pick["view"], 1) << pick.dump();
+  EXPECT_LE(std::hypot(pick["screen"][0].get<double>() - x, pick["screen"][1].get<double>() - y),
+            8.0)
+      << pick.dump();
+  const Oracle o = oracle(pick);
+  EXPECT_NEAR(pick["error"].get<double>(), o.error, o.max_abs / 32767.0 + 1e-9) << pick.dump();
+  // The page says so too.
+  const std::string dom = chromium(fmt::format("click=0,{},{}", x, y), "--dump-dom");
+  EXPECT_NE(dom.find(fmt::format(", point {} of ", pick["index"].get<long>())), std::string::npos);
+}
+
+TEST_F(Viewer, TheGroundTruthCheckboxShowsItInEveryPanel) {
+  ASSERT_TRUE(ok_) << log_;
+  // Clicking the checkbox (its change listener, as a user's click) turns the ground truth on in
+  // every panel; under shade=0 it is drawn in its flat grey, rgb(200, 200, 200), no colour-map
+  // entry, which the views show only then.
+  const Json before = status("all=1&shade=0"), after = status("all=1&shade=0&toggle=truth");
+  ASSERT_TRUE(before.value("ready", false) && after.value("ready", false)) << after.dump();
+  for (const bool shown : before["groups"][0]["extras"]["truth"])
+    EXPECT_FALSE(shown) << before.dump();
+  ASSERT_FALSE(after["groups"][0]["extras"]["truth"].empty()) << after.dump();
+  for (const bool shown : after["groups"][0]["extras"]["truth"])
+    EXPECT_TRUE(shown) << after.dump();
+  const OIIO::ImageBuf a = screenshot("all=1&shade=0", "viewer-no-truth.png"),
+                       b = screenshot("all=1&shade=0&toggle=truth", "viewer-truth.png");
+  ASSERT_TRUE(a.initialized() && b.initialized());
+  const auto grey = [](const OIIO::ImageBuf& img, const Json& v) {
+    const OIIO::ROI r = view_roi(v);
+    int n = 0;
+    for (int y = r.ybegin; y < r.yend; ++y)
+      for (int x = r.xbegin; x < r.xend; ++x) {
+        float p[3];
+        img.getpixel(x, y, p, 3);
+        n += std::lround(p[0] * 255) == 200 && std::lround(p[1] * 255) == 200 &&
+             std::lround(p[2] * 255) == 200;
+      }
+    return n;
+  };
+  for (const auto& v : after["groups"][0]["views"]) {
+    if (!v["shown"].get<bool>()) continue;
+    EXPECT_EQ(grey(a, v), 0) << v.dump();
+    EXPECT_GT(grey(b, v), 500) << v.dump();
+  }
 }
 
 TEST(ViewerMissingThree, ReportStillWrittenWithTheInstallLine) {

@@ -3,8 +3,11 @@
 
 #include <OpenImageIO/imagebuf.h>
 
+#include <array>
+#include <cmath>
 #include <filesystem>
 #include <map>
+#include <vector>
 
 #include "scanbench/core/errors.h"
 #include "scanbench/metrics/heatmap.h"
@@ -122,6 +125,63 @@ TEST(Heatmap, HistogramImage) {
   EXPECT_EQ(pixel(img, x0 + static_cast<int>(3.5 * bw), y1 - 2), Eigen::Vector3f(1, 1, 1));
   fs::remove(png);
   EXPECT_THROW(write_histogram_image(Json::object(), png, "x"), InputError);
+}
+
+TEST(Heatmap, CoolWarmIsMorelandsPublishedDivergingMap) {
+  // Oracle: Moreland's own table (kennethmoreland.com/color-maps, CoolWarmFloat33.csv), 33
+  // entries computed by his code, independent of the Msh interpolation here. Every ninth entry
+  // and the ends; agreement to 5e-4 (his conversion constants differ in the fourth digit).
+  const std::vector<std::array<double, 4>> published = {
+      {0.0, 0.2298057, 0.298717966, 0.753683153},
+      {0.125, 0.38301334, 0.50941904, 0.917387822},
+      {0.25, 0.552953156, 0.688929332, 0.995375608},
+      {0.375, 0.722193294, 0.813952739, 0.976574709},
+      {0.5, 0.865395197, 0.86541021, 0.865395561},
+      {0.625, 0.958852946, 0.769767752, 0.678007945},
+      {0.75, 0.958003065, 0.602842431, 0.481775914},
+      {0.875, 0.869186849, 0.378313092, 0.300267182},
+      {0.96875, 0.752534934, 0.157246067, 0.184115123},
+      {1.0, 0.705673158, 0.01555616, 0.150232812}};
+  for (const auto& [t, r, g, b] : published) {
+    const Eigen::Vector3f got = cool_warm(t);
+    EXPECT_LT((got - Eigen::Vector3f(r, g, b)).cwiseAbs().maxCoeff(), 5e-4f)
+        << "t " << t << " got " << got.transpose();
+  }
+  // The table the viewer and figures use: row i is cool_warm(i / 255), looked up by floor(256 t);
+  // clamped ends; NaN is the middle (a zero error).
+  for (int i = 0; i < 256; ++i)
+    EXPECT_EQ(Eigen::Vector3f(diverging_table()[i]), cool_warm(i / 255.0)) << i;
+  EXPECT_EQ(diverging_color(-3.0f), cool_warm(0.0));
+  EXPECT_EQ(diverging_color(3.0f), cool_warm(1.0));
+  EXPECT_EQ(diverging_color(std::nanf("")), diverging_color(0.5f));
+  // Symmetric lightness: CIELAB L* (from the sRGB bytes: linearised, Y of Rec. 709 primaries)
+  // rises to the middle and falls after it, and t and 1 - t are equally light within one L*
+  // unit; a signed error of either sign reads alike.
+  const auto lstar = [](const float* rgb) {
+    double y = 0.0;
+    const double w[3] = {0.2126, 0.7152, 0.0722};
+    for (int c = 0; c < 3; ++c) {
+      const double v = rgb[c];
+      y += w[c] * (v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4));
+    }
+    return y > 0.008856 ? 116.0 * std::cbrt(y) - 16.0 : 903.3 * y;
+  };
+  for (int i = 1; i < 256; ++i) {
+    const double a = lstar(diverging_table()[i - 1]), b = lstar(diverging_table()[i]);
+    if (i <= 127) {
+      EXPECT_GT(b, a) << "entry " << i;
+    } else if (i >= 129) {
+      EXPECT_LT(b, a) << "entry " << i;
+    }
+  }
+  for (int i = 0; i < 128; ++i)
+    EXPECT_NEAR(lstar(diverging_table()[i]), lstar(diverging_table()[255 - i]), 1.0) << i;
+  // error_color: magnitude through viridis (the sign ignored), signed through the diverging map.
+  EXPECT_EQ(error_color(-0.3f, 1.0f, ErrorScale::Magnitude), viridis_color(0.3f));
+  EXPECT_EQ(error_color(0.3f, 1.0f, ErrorScale::Magnitude), viridis_color(0.3f));
+  EXPECT_EQ(error_color(-2.0f, 1.0f, ErrorScale::Signed), cool_warm(0.0));
+  EXPECT_EQ(error_color(2.0f, 1.0f, ErrorScale::Signed), cool_warm(1.0));
+  EXPECT_EQ(error_color(0.5f, 1.0f, ErrorScale::Signed), diverging_color(0.75f));
 }
 
 }  // namespace

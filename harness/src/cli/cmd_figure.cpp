@@ -1,5 +1,6 @@
-// scanbench figure DIR -o FILE.png|.svg [--metric p2plane] [--datasets a,b] [--variants x,y]
-//   [--view front|iso|top|side] [--size WxH] [--point P] [--max M] [--flat]
+// scanbench figure DIR -o FILE.png|.svg|.pdf [--metric p2plane] [--datasets a,b]
+//   [--variants x,y] [--view front|iso|top|side] [--size WxH] [--point P] [--max M] [--flat]
+//   [--signed]
 #include <fmt/format.h>
 
 #include <sstream>
@@ -31,10 +32,11 @@ void add_figure_command(Cli& cli) {
   auto a = std::make_shared<Args>();
   CLI::App* sub = cli.app.add_subcommand(
       "figure",
-      "Write a static figure grid for print (PNG, or SVG with embedded cells): rows datasets, "
-      "columns variants, each cell the output coloured by |E| in viridis on one scale");
+      "Write a static figure grid for print (PNG, SVG with embedded cells, or PDF): rows "
+      "datasets, columns variants, each cell the output coloured by |E| in viridis (or the "
+      "signed E in a diverging map) on one scale");
   sub->add_option("dir", a->dir, "Results folder")->required();
-  sub->add_option("-o,--out", a->out, "Figure file, .png or .svg")->required();
+  sub->add_option("-o,--out", a->out, "Figure file, .png, .svg or .pdf")->required();
   sub->add_option("--metric", a->o.metric, "Per-point error to colour by (p2plane)")
       ->capture_default_str();
   sub->add_option("--datasets", a->datasets, "Rows, comma-separated (default: every dataset)");
@@ -44,7 +46,10 @@ void add_figure_command(Cli& cli) {
   sub->add_option("--point", a->o.point, "Sweep point label (default: the first)");
   sub->add_option("--max", a->o.max,
                   "Colour saturation, |E| / diagonal (default: 95th percentile of all cells)");
-  sub->add_flag("--flat", a->o.flat, "Unshaded: every pixel exactly a viridis entry");
+  sub->add_flag("--flat", a->o.flat, "Unshaded: every pixel exactly a colour-map entry");
+  sub->add_flag("--signed", a->o.signed_errors,
+                "Colour by the signed error E (- inside, + outside) in Moreland's cool-warm "
+                "diverging map, from -max to +max");
   sub->callback([&cli, a] {
     cli.action = [a] {
       FigureOptions o = a->o;

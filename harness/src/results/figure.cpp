@@ -1,6 +1,7 @@
 #include "scanbench/harness/figure.h"
 
 #include <fmt/format.h>
+#include <zlib.h>
 
 #include <algorithm>
 #include <cmath>
@@ -42,8 +43,19 @@ std::string rgb_hex(const Eigen::Vector3f& c) {
                      std::lround(c[2] * 255));
 }
 
+Eigen::Vector3f bar_colour(float t, metrics::ErrorScale scale) {
+  return scale == metrics::ErrorScale::Signed ? metrics::diverging_color(t)
+                                              : metrics::viridis_color(t);
+}
+
+/// The colour bar's tick k of 0..4: from 0 to the saturation, or (signed) from -s to +s.
+double bar_tick(int k, double saturation, metrics::ErrorScale scale) {
+  return scale == metrics::ErrorScale::Signed ? (k / 2.0 - 1.0) * saturation : k / 4.0 * saturation;
+}
+
 std::string svg(const std::vector<metrics::SplatImage>& cells, const FigureSummary& s,
-                const std::string& title, const std::string& unit, int width, int height) {
+                const std::string& title, const std::string& unit, int width, int height,
+                metrics::ErrorScale scale) {
   const metrics::FigureLayout l = metrics::figure_layout(
       width, height, static_cast<int>(s.rows.size()), static_cast<int>(s.cols.size()));
   const int y0 = l.top + 24;
@@ -75,25 +87,168 @@ std::string svg(const std::vector<metrics::SplatImage>& cells, const FigureSumma
             return base64(png.data(), png.size());
           }());
     }
-  // The colour bar: a vertical gradient through 17 viridis stops, t = 0 at the bottom.
+  // The colour bar: a vertical gradient through 17 stops of the map, t = 0 at the bottom.
   const int bx = l.bar_x + 12, by0 = y0 + 20, by1 = height - 30;
   o += "<defs><linearGradient id=\"viridis\" x1=\"0\" y1=\"1\" x2=\"0\" y2=\"0\">";
   for (int k = 0; k <= 16; ++k)
     o += fmt::format("<stop offset=\"{:.4g}\" stop-color=\"{}\"/>", k / 16.0,
-                     rgb_hex(metrics::viridis_color(std::min(1.0f, k / 16.0f))));
+                     rgb_hex(bar_colour(std::min(1.0f, k / 16.0f), scale)));
   o += "</linearGradient></defs>\n";
   o += fmt::format("<rect x=\"{}\" y=\"{}\" width=\"24\" height=\"{}\" fill=\"url(#viridis)\"/>\n",
                    bx, by0, by1 - by0);
   for (int k = 0; k <= 4; ++k) {
     const int y = by1 - static_cast<int>(k / 4.0 * (by1 - by0 - 1));
     o += fmt::format("<text x=\"{}\" y=\"{}\" font-size=\"11\">{:.3g}</text>\n", bx + 28, y + 4,
-                     k / 4.0 * s.saturation);
+                     bar_tick(k, s.saturation, scale));
   }
   o += fmt::format("<text x=\"{}\" y=\"{}\" font-size=\"11\">{}</text>\n", bx, by0 - 6,
                    html_escape(unit));
-  o +=
-      fmt::format("<text x=\"{}\" y=\"{}\" font-size=\"10\">top: saturated</text>\n", bx, by1 + 16);
+  o += fmt::format("<text x=\"{}\" y=\"{}\" font-size=\"10\">{}</text>\n", bx, by1 + 16,
+                   scale == metrics::ErrorScale::Signed ? "ends: saturated" : "top: saturated");
   return o + "</svg>\n";
+}
+
+// A PDF figure, written here rather than by a library: none of the chosen dependencies writes
+// PDF (OpenImageIO reads it at most; Chromium's print-to-PDF stamps the date, so two runs would
+// differ, and needs a browser at figure time). The page is the SVG's layout in points (1 px =
+// 1 pt): each cell an RGB image (8 bits, Flate-compressed by zlib, the PNG's pixels), the labels
+// in the standard Helvetica (WinAnsi; labels left-aligned), the colour bar a 1 x 256 image of
+// the map. No dates, no IDs: the same figure gives the same bytes.
+
+/// UTF-8 text as a PDF literal string in WinAnsiEncoding (U+0020..U+007E and U+00A0..U+00FF,
+/// where WinAnsi is Latin-1). Throws InputError naming `what` for any other character.
+std::string pdf_string(const std::string& utf8, const std::string& what) {
+  std::string out = "(";
+  for (std::size_t i = 0; i < utf8.size();) {
+    const auto c = static_cast<unsigned char>(utf8[i]);
+    unsigned cp = 0x110000;
+    std::size_t n = 1;
+    if (c < 0x80) {
+      cp = c;
+    } else if ((c & 0xE0) == 0xC0 && i + 1 < utf8.size() &&
+               (static_cast<unsigned char>(utf8[i + 1]) & 0xC0) == 0x80) {
+      cp = ((c & 0x1Fu) << 6) | (static_cast<unsigned char>(utf8[i + 1]) & 0x3Fu);
+      n = 2;
+    }
+    if (cp < 0x20 || (cp >= 0x7F && cp < 0xA0) || cp > 0xFF)
+      throw InputError(what + ": '" + utf8 +
+                       "' has a character a PDF figure's standard font cannot show (Latin-1 "
+                       "only); write .svg or .png");
+    if (cp == '(' || cp == ')' || cp == '\\') out += '\\';
+    out += cp < 0x80 ? std::string(1, static_cast<char>(cp)) : fmt::format("\\{:03o}", cp);
+    i += n;
+  }
+  return out + ")";
+}
+
+std::string deflate(const std::vector<unsigned char>& raw, const std::string& what) {
+  uLongf n = compressBound(static_cast<uLong>(raw.size()));
+  std::string out(n, '\0');
+  if (compress2(reinterpret_cast<Bytef*>(out.data()), &n, raw.data(),
+                static_cast<uLong>(raw.size()), 9) != Z_OK)
+    throw IoError(what + ": zlib could not compress an image");
+  out.resize(n);
+  return out;
+}
+
+std::vector<unsigned char> rgb_bytes(const metrics::SplatImage& c) {
+  std::vector<unsigned char> b(c.rgb.size());
+  for (std::size_t i = 0; i < b.size(); ++i)
+    b[i] = static_cast<unsigned char>(std::lround(std::clamp(c.rgb[i], 0.0f, 1.0f) * 255.0f));
+  return b;
+}
+
+std::string pdf(const std::vector<metrics::SplatImage>& cells, const FigureSummary& s,
+                const std::string& title, const std::string& unit, int width, int height,
+                metrics::ErrorScale scale, const std::string& what) {
+  const metrics::FigureLayout l = metrics::figure_layout(
+      width, height, static_cast<int>(s.rows.size()), static_cast<int>(s.cols.size()));
+  const int y0 = l.top + 24;
+  const auto text = [&](int x, int y, int size, const std::string& t, const std::string& field) {
+    return fmt::format("BT /F1 {} Tf {} {} Td {} Tj ET\n", size, x, height - y,
+                       pdf_string(t, field));
+  };
+  // Images: every drawn cell, then the colour bar (1 x 256, t = 1 in the top row).
+  std::vector<std::string> images;
+  std::string page = "1 g 0 0 " + fmt::format("{} {}", width, height) + " re f\n0 g\n";
+  page += text(8, 24, 16, title, what + ": the title");
+  for (std::size_t j = 0; j < s.cols.size(); ++j)
+    page += text(l.left + static_cast<int>(j) * l.cell_w + 4, l.top + 18, 14, s.cols[j],
+                 what + ": variant");
+  for (std::size_t i = 0; i < s.rows.size(); ++i)
+    page += text(8, y0 + static_cast<int>(i) * l.cell_h + l.cell_h / 2 + 5, 14, s.rows[i],
+                 what + ": dataset");
+  const auto image = [&](int w, int h, const std::vector<unsigned char>& raw) {
+    images.push_back(
+        fmt::format("<< /Type /XObject /Subtype /Image /Width {} /Height {} "
+                    "/ColorSpace /DeviceRGB /BitsPerComponent 8 /Filter "
+                    "/FlateDecode /Length ",
+                    w, h));
+    const std::string z = deflate(raw, what);
+    images.back() += std::to_string(z.size()) + " >>\nstream\n" + z + "\nendstream";
+    return images.size() - 1;
+  };
+  for (std::size_t i = 0; i < s.rows.size(); ++i)
+    for (std::size_t j = 0; j < s.cols.size(); ++j) {
+      const auto& c = cells[i * s.cols.size() + j];
+      const int x = l.left + static_cast<int>(j) * l.cell_w,
+                y = y0 + static_cast<int>(i) * l.cell_h;
+      if (c.width > 0) {
+        const std::size_t k = image(c.width, c.height, rgb_bytes(c));
+        page += fmt::format("q {} 0 0 {} {} {} cm /Im{} Do Q\n", c.width, c.height, x,
+                            height - y - c.height, k);
+      }
+      // The PNG's separators: grey lines left of and above every cell but the first.
+      if (j > 0)
+        page += fmt::format("0.6 g {} {} 1 {} re f 0 g\n", x, height - y - l.cell_h, l.cell_h);
+      if (i > 0) page += fmt::format("0.6 g {} {} {} 1 re f 0 g\n", x, height - y - 1, l.cell_w);
+    }
+  const int bx = l.bar_x + 12, by0 = y0 + 20, by1 = height - 30;
+  std::vector<unsigned char> bar;
+  for (int r = 0; r < 256; ++r) {
+    const Eigen::Vector3f c = bar_colour((255 - r) / 255.0f, scale);
+    for (int ch = 0; ch < 3; ++ch)
+      bar.push_back(static_cast<unsigned char>(std::lround(c[ch] * 255.0f)));
+  }
+  page += fmt::format("q 24 0 0 {} {} {} cm /Im{} Do Q\n", by1 - by0, bx, height - by1,
+                      image(1, 256, bar));
+  for (int k = 0; k <= 4; ++k) {
+    const int y = by1 - static_cast<int>(k / 4.0 * (by1 - by0 - 1));
+    page += text(bx + 28, y + 4, 11, fmt::format("{:.3g}", bar_tick(k, s.saturation, scale)), what);
+  }
+  page += text(bx, by0 - 6, 11, unit, what);
+  page += text(bx, by1 + 16, 10,
+               scale == metrics::ErrorScale::Signed ? "ends: saturated" : "top: saturated", what);
+
+  // Objects 1 catalog, 2 pages, 3 page, 4 contents, 5 font, 6.. images; then the xref table.
+  std::vector<std::string> objs = {
+      "<< /Type /Catalog /Pages 2 0 R >>", "<< /Type /Pages /Kids [3 0 R] /Count 1 >>", "",
+      fmt::format("<< /Length {} >>\nstream\n{}endstream", page.size(), page),
+      "<< /Type /Font /Subtype /Type1 /BaseFont /Helvetica /Encoding /WinAnsiEncoding >>"};
+  std::string xobjects;
+  for (std::size_t k = 0; k < images.size(); ++k)
+    xobjects += fmt::format(" /Im{} {} 0 R", k, 6 + k);
+  objs[2] = fmt::format(
+      "<< /Type /Page /Parent 2 0 R /MediaBox [0 0 {} {}] /Contents 4 0 R /Resources << /Font "
+      "<< /F1 5 0 R >> /XObject <<{} >> >> >>",
+      width, height, xobjects);
+  for (auto& im : images)
+    objs.push_back(std::move(im));
+  std::string out = "%PDF-1.4\n%\xe2\xe3\xcf\xd3\n";
+  std::vector<std::size_t> offsets;
+  for (std::size_t k = 0; k < objs.size(); ++k) {
+    offsets.push_back(out.size());
+    out += fmt::format("{} 0 obj\n{}\nendobj\n", k + 1, objs[k]);
+  }
+  const std::size_t xref = out.size();
+  out += fmt::format("xref\n0 {}\n0000000000 65535 f \n", objs.size() + 1);
+  for (std::size_t o : offsets)
+    out += fmt::format("{:010d} 00000 n \n", o);
+  out += fmt::format(
+      "trailer\n<< /Size {} /Root 1 0 R /Info << /Producer (scanbench figure) >> >>\n"
+      "startxref\n{}\n%%EOF\n",
+      objs.size() + 1, xref);
+  return out;
 }
 
 }  // namespace
@@ -105,8 +260,9 @@ FigureSummary write_figure(const FigureOptions& opts) {
   const int view = view_index(opts.view);
   if (opts.out.empty()) throw InputError("-o: the figure file is required");
   const std::string ext = opts.out.extension().string();
-  if (ext != ".png" && ext != ".svg")
-    throw InputError("-o " + opts.out.string() + ": the figure file must end in .png or .svg");
+  if (ext != ".png" && ext != ".svg" && ext != ".pdf")
+    throw InputError("-o " + opts.out.string() +
+                     ": the figure file must end in .png, .svg or .pdf");
   if (!(opts.max >= 0.0) || !std::isfinite(opts.max))
     throw InputError(fmt::format("--max {}: not a non-negative number", opts.max));
   if (!fs::is_directory(opts.dir)) throw InputError(opts.dir.string() + ": not a results folder");
@@ -204,24 +360,30 @@ FigureSummary write_figure(const FigureOptions& opts) {
   }
   if (!(s.saturation > 0.0)) s.saturation = 1e-9;
 
+  const metrics::ErrorScale scale =
+      opts.signed_errors ? metrics::ErrorScale::Signed : metrics::ErrorScale::Magnitude;
   std::vector<metrics::SplatImage> images(cells.size());
   for (std::size_t k = 0; k < cells.size(); ++k) {
     const auto& c = cells[k].cloud;
     if (!c) continue;
     images[k] = metrics::render_splats(c->positions, c->normals, c->errors, cells[k].frame, view,
                                        layout.cell_w, layout.cell_h, opts.splat_radius,
-                                       static_cast<float>(s.saturation), !opts.flat);
+                                       static_cast<float>(s.saturation), !opts.flat, scale);
   }
-  const std::string title =
-      fmt::format("|E| point-to-plane, view {}{}; colour saturates at {:.3g} x diagonal ({})",
-                  opts.view, opts.point.empty() ? "" : ", sweep point " + opts.point, s.saturation,
-                  s.percentile ? "95th percentile of all cells" : "--max");
-  const std::string unit = "|E| / diagonal";
+  const std::string title = fmt::format(
+      "{} point-to-plane, view {}{}; colour saturates at {}{:.3g} x diagonal ({})",
+      opts.signed_errors ? "Signed E (- inside, + outside)" : "|E|", opts.view,
+      opts.point.empty() ? "" : ", sweep point " + opts.point, opts.signed_errors ? "+/-" : "",
+      s.saturation, s.percentile ? "95th percentile of all cells' |E|" : "--max");
+  const std::string unit = opts.signed_errors ? "E / diagonal" : "|E| / diagonal";
   if (ext == ".svg") {
-    write_file_atomic(opts.out, svg(images, s, title, unit, opts.width, opts.height));
+    write_file_atomic(opts.out, svg(images, s, title, unit, opts.width, opts.height, scale));
+  } else if (ext == ".pdf") {
+    write_file_atomic(
+        opts.out, pdf(images, s, title, unit, opts.width, opts.height, scale, opts.out.string()));
   } else {
     metrics::write_figure_png(images, s.rows, s.cols, title, s.saturation, unit, opts.width,
-                              opts.height, opts.out);
+                              opts.height, opts.out, scale);
   }
   return s;
 }

@@ -146,7 +146,14 @@ std::optional<OutputCloud> output_cloud(const fs::path& dir, const Json& r,
     c.positions.resize(3, static_cast<Eigen::Index>(c.idx.size()));
     for (std::size_t k = 0; k < c.idx.size(); ++k)
       c.positions.col(static_cast<Eigen::Index>(k)) = mesh->vertices.col(c.idx[k]);
-    c.errors = gt.distances(c.positions, metrics::DistancePath::Exact);
+    // The distance to the ground truth, signed by the side: + where v - c points along the
+    // normal N of the closest face at the closest point c (outside), - inside.
+    const auto cps = gt.closest_points(c.positions);
+    c.errors.resize(c.positions.cols());
+    for (Eigen::Index k = 0; k < c.positions.cols(); ++k) {
+      const auto& cp = cps[static_cast<std::size_t>(k)];
+      c.errors[k] = std::copysign(cp.distance, (c.positions.col(k) - cp.point).dot(cp.normal));
+    }
     return c;
   }
   if (file("output").empty()) return std::nullopt;
@@ -247,28 +254,43 @@ std::string script_safe(std::string s) {
   return s;
 }
 
-/// The colour bar (SVG, static: readable without the script) from 0 to the saturation.
-std::string colour_bar(std::size_t group, double saturation_abs) {
+/// The colour bars (SVG, static: readable without the script): |E| in viridis from 0 to the
+/// saturation (shown), and the signed error in the diverging map from -saturation to
+/// +saturation (shown when the viewer's colour choice is "signed").
+std::string colour_bar(std::size_t group, double saturation_abs, bool signed_scale) {
   std::string stops;
   for (int i = 0; i <= 16; ++i) {
-    const Eigen::Vector3f c = metrics::viridis_color(std::min(1.0f, static_cast<float>(i) / 16));
+    const float t = std::min(1.0f, static_cast<float>(i) / 16);
+    const Eigen::Vector3f c =
+        signed_scale ? metrics::diverging_color(t) : metrics::viridis_color(t);
     stops +=
         fmt::format("<stop offset=\"{:.4f}\" stop-color=\"rgb({},{},{})\"/>", i / 16.0,
                     std::lround(c.x() * 255), std::lround(c.y() * 255), std::lround(c.z() * 255));
   }
   std::string ticks;
   for (int k = 0; k <= 4; ++k) {
-    const double x = 10 + k * 70.0;
+    const double x = 24 + k * 70.0;
+    const double v = (signed_scale ? k / 2.0 - 1.0 : k / 4.0) * kViewerSaturationRel;
     ticks += fmt::format(
         "<line x1=\"{0}\" x2=\"{0}\" y1=\"26\" y2=\"30\" stroke=\"#333\"/><text x=\"{0}\" y=\"42\" "
         "text-anchor=\"middle\">{1}</text>",
-        x, format_number(k / 4.0 * kViewerSaturationRel));
+        x, format_number(v));
+  }
+  if (signed_scale) {
+    return fmt::format(
+        "<svg class=\"colour-bar signed\" style=\"display:none\" width=\"560\" height=\"62\" "
+        "font-family=\"sans-serif\" font-size=\"11\"><defs><linearGradient "
+        "id=\"coolwarm-{0}\">{1}</linearGradient></defs><rect x=\"24\" y=\"8\" width=\"280\" "
+        "height=\"18\" fill=\"url(#coolwarm-{0})\"/>{2}<text x=\"314\" y=\"21\">signed E / "
+        "diagonal (- inside, + outside)</text><text x=\"24\" y=\"58\">saturates at &#177;{3} x "
+        "diagonal = &#177;{4} (mesh units); larger errors take the end colours</text></svg>",
+        group, stops, ticks, format_number(kViewerSaturationRel), format_number(saturation_abs));
   }
   return fmt::format(
-      "<svg class=\"colour-bar\" width=\"560\" height=\"62\" font-family=\"sans-serif\" "
+      "<svg class=\"colour-bar magnitude\" width=\"560\" height=\"62\" font-family=\"sans-serif\" "
       "font-size=\"11\"><defs><linearGradient id=\"viridis-{0}\">{1}</linearGradient></defs>"
-      "<rect x=\"10\" y=\"8\" width=\"280\" height=\"18\" fill=\"url(#viridis-{0})\"/>{2}"
-      "<text x=\"300\" y=\"21\">|E| / diagonal</text><text x=\"10\" y=\"58\">saturates at {3} "
+      "<rect x=\"24\" y=\"8\" width=\"280\" height=\"18\" fill=\"url(#viridis-{0})\"/>{2}"
+      "<text x=\"314\" y=\"21\">|E| / diagonal</text><text x=\"24\" y=\"58\">saturates at {3} "
       "x diagonal = {4} (mesh units); larger errors are yellow</text></svg>",
       group, stops, ticks, format_number(kViewerSaturationRel), format_number(saturation_abs));
 }
@@ -334,6 +356,11 @@ std::string viewer_section(const fs::path& dir, const std::vector<const Json*>& 
   for (const auto& c : metrics::viridis_table())
     cmap.push_back({std::lround(c[0] * 255), std::lround(c[1] * 255), std::lround(c[2] * 255)});
   data["colormap"] = cmap;
+  Json cmap_signed = Json::array();
+  for (const auto& c : metrics::diverging_table())
+    cmap_signed.push_back(
+        {std::lround(c[0] * 255), std::lround(c[1] * 255), std::lround(c[2] * 255)});
+  data["colormap_signed"] = cmap_signed;
   std::vector<Json> groups_json;  // one script element each, parsed when the group is shown
   std::string html, notes;
   for (const auto& g : groups) {
@@ -414,7 +441,9 @@ std::string viewer_section(const fs::path& dir, const std::vector<const Json*>& 
           "<div class=\"sb-controls\"></div><div class=\"sb-stage\"><canvas></canvas></div>"
           "{2}<div class=\"sb-pick\">Click a point to see its error and coordinates.</div>"
           "</div>\n",
-          gi, html_escape(g.label), colour_bar(gi, kViewerSaturationRel * diag));
+          gi, html_escape(g.label),
+          colour_bar(gi, kViewerSaturationRel * diag, false) +
+              colour_bar(gi, kViewerSaturationRel * diag, true));
       groups_json.push_back(std::move(gj));
     } catch (const Error& e) {
       notes += "<li>" + html_escape(g.label) + ": " + html_escape(e.what()) + "</li>\n";
@@ -428,7 +457,9 @@ std::string viewer_section(const fs::path& dir, const std::vector<const Json*>& 
       "output (the first seed of each variant and sweep point): points coloured by "
       "|E|, their point-to-plane error to the ground truth (CLOP paper sec. 10.2), a mesh "
       "output's vertices by their distance to it, in viridis from 0 to the saturation stated "
-      "under each viewer. Drag to turn (every view of a dataset turns together), wheel to zoom, "
+      "under each viewer; or (the colour choice above each viewer) by the signed error in "
+      "Moreland's cool-warm diverging map, blue inside the surface, red outside, grey on it. Drag "
+      "to turn (every view of a dataset turns together), wheel to zoom, "
       "right-drag to pan; click a point for its error and coordinates. Shading: the normals when "
       "the output has them, eye-dome lighting otherwise. " +
       fmt::format(

@@ -14,7 +14,7 @@ namespace scanbench::harness {
 
 struct FigureOptions {
   std::filesystem::path dir;          ///< results folder
-  std::filesystem::path out;          ///< .png, or .svg (cells embedded as base64 PNG)
+  std::filesystem::path out;          ///< .png, .svg (cells as base64 PNG) or .pdf (one page)
   std::string metric = "p2plane";     ///< the per-point error; only p2plane for now
   std::vector<std::string> datasets;  ///< rows (default: every dataset, in record order)
   std::vector<std::string> variants;  ///< columns (default: every variant, in record order)
@@ -22,7 +22,8 @@ struct FigureOptions {
   int width = 1200, height = 800;     ///< the whole figure, pixels
   std::string point;                  ///< sweep point label; empty = the first
   double max = 0.0;                   ///< saturation, |E| / diagonal; 0 = 95th percentile
-  bool flat = false;                  ///< unshaded: each pixel exactly a viridis entry
+  bool flat = false;                  ///< unshaded: each pixel exactly a colour-map entry
+  bool signed_errors = false;         ///< signed E in the cool-warm map, -max..+max
   int splat_radius = 1;               ///< pixels
   std::int64_t budget = 200000;       ///< most points a cell shows (floor(k N / n) subsample)
 };

@@ -61,15 +61,25 @@ struct SplatImage {
 /// 4 iso (camera on +(1, 1, 1), y up).
 inline constexpr int kViewIso = 4;
 
-/// Splats `positions` (errors per point, |E| / range gives t) into one width x height view
+/// How errors map to colours: Magnitude, viridis at t = min(|e| / range, 1) (sequential; the
+/// heatmaps and the viewer's default); Signed, the cool-warm diverging map at
+/// t = (1 + clamp(e / range, -1, 1)) / 2 (negative blue, 0 grey, positive red).
+enum class ErrorScale { Magnitude, Signed };
+
+/// The colour of error e under `scale` with saturation `range` (> 0).
+Eigen::Vector3f error_color(float e, float range, ErrorScale scale);
+
+/// Splats `positions` (errors per point, their colour error_color(e, range, colours)) into one
+/// width x height view
 /// framing `frame` exactly as write_heatmap does (same projection, disc splats, depth test, ties
-/// keep the lower index). Unshaded (`shaded` false): each covered pixel is viridis_color(t).
-/// Shaded: viridis_color(t) x s, with s = 0.35 + 0.65 |n . c| (Lambert, light at the camera c)
+/// keep the lower index). Unshaded (`shaded` false): each covered pixel is the error's colour.
+/// Shaded: that colour x s, with s = 0.35 + 0.65 |n . c| (Lambert, light at the camera c)
 /// when `normals` has a column per point, else s = 1 - 0.5 (z - z_min) / (z_max - z_min) over
 /// the frame's depth range (nearer is brighter). Throws InputError for mismatched sizes.
 SplatImage render_splats(const Eigen::Matrix3Xf& positions, const Eigen::Matrix3Xf& normals,
                          const Eigen::VectorXf& errors, const BoundingBox& frame, int view,
-                         int width, int height, int splat_radius, float range, bool shaded);
+                         int width, int height, int splat_radius, float range, bool shaded,
+                         ErrorScale colours = ErrorScale::Magnitude);
 
 /// Layout of a figure grid (write_figure_png): total width x height pixels; a title band of
 /// `top` rows, then a column-label band of 24 rows; row labels in the `left` columns; cells of
@@ -81,12 +91,13 @@ struct FigureLayout {
 FigureLayout figure_layout(int width, int height, int rows, int cols);
 
 /// A grid of cells (row-major, rows x cols, each cell_w x cell_h of figure_layout) with row and
-/// column labels, a title and a viridis colour bar from 0 to `saturation` labelled `unit`, as a
-/// width x height PNG written atomically. Throws IoError.
+/// column labels, a title and a colour bar labelled `unit` (Magnitude: viridis from 0 to
+/// `saturation`; Signed: cool-warm from -saturation to +saturation), as a width x height PNG
+/// written atomically. Throws IoError.
 void write_figure_png(const std::vector<SplatImage>& cells, const std::vector<std::string>& rows,
                       const std::vector<std::string>& cols, const std::string& title,
                       double saturation, const std::string& unit, int width, int height,
-                      const std::filesystem::path& png);
+                      const std::filesystem::path& png, ErrorScale scale = ErrorScale::Magnitude);
 
 /// The PNG bytes of one image (for embedding). Throws IoError.
 std::string encode_png(const SplatImage& img);
@@ -103,5 +114,20 @@ Eigen::Vector3f viridis_color(float t);
 
 /// The 256 entries of viridis_color, in order (row i: t in [i/256, (i+1)/256)).
 const float (&viridis_table())[256][3];
+
+/// Moreland's smooth cool-warm diverging map at t in [0, 1] (K. Moreland, "Diverging Color Maps
+/// for Scientific Visualization", ISVC 2009, sec. 4-5): linear interpolation in his Msh space
+/// (polar CIELAB, D65) from blue (M, s, h) = (80, 1.08, -1.1) through an unsaturated white
+/// M = 88 at t = 1/2 to red (80, 1.08, 0.5), with the hue spin of his adjust-hue rule; sRGB out,
+/// each channel clamped to [0, 1]. Lightness rises then falls linearly in t: perceptually even
+/// on each side and symmetric about 0, which viridis' monotone ramp is not.
+Eigen::Vector3f cool_warm(double t);
+
+/// The diverging map as the viewer and figures use it: entry min(255, floor(256 t)) of a
+/// 256-entry table whose row i is cool_warm(i / 255); t clamped, NaN maps to 1/2 (zero error).
+Eigen::Vector3f diverging_color(float t);
+
+/// The 256 entries of diverging_color, in order.
+const float (&diverging_table())[256][3];
 
 }  // namespace scanbench::metrics
