@@ -1,6 +1,7 @@
 #include "scanbench/metrics/registry.h"
 
 #include "scanbench/metrics/chamfer.h"
+#include "scanbench/metrics/conventions.h"
 #include "scanbench/metrics/ground_truth.h"
 #include "scanbench/metrics/mesh_facts.h"
 #include "scanbench/metrics/mesh_volume.h"
@@ -291,6 +292,21 @@ const MetricRegistry& registry() {
             .plain("mesh_closed", kNone)
             .plain("mesh_bytes", kNone),
         Needs{}, mesh_facts_metric));
+    // Published evaluators' conventions (conventions.h, docs/metrics.md "Conventions").
+    reg.add(make_metric<ScoreDenoiseParams>(
+        "convention.scoredenoise",
+        "ScoreDenoise's evaluator (luost26/score-denoise utils/evaluate.py, PyTorch3D 0.5.0; "
+        "also IterativePFN, StraightPCF): clouds in the unit sphere (bbox centre, max radius), "
+        "sd_cd_sph_x1e4 = 1e4 x (mean squared nearest distance output->reference + "
+        "reference->output), sd_p2f_x1e4 = 1e4 x (mean squared point->face + face->point, "
+        "PyTorch3D's point_mesh_face_distance), sd_hd_sph (squared); as the papers print them",
+        Scores::Points,
+        Keys{}
+            .plain("sd_cd_sph_x1e4", kLower)
+            .plain("sd_p2f_x1e4", kLower)
+            .plain("sd_hd_sph", kLower)
+            .plain("sd_reference_points", kNone),
+        Needs{}, scoredenoise_metric));
     return reg;
   }();
   return r;

@@ -203,7 +203,8 @@ TEST(Metrics, EveryRegisteredMetricRunsByName) {
       {"normals.angle",
        {"normal_angle_mean_deg", "normal_angle_rms_deg", "normal_pgp5", "normal_pgp10"}},
       {"outliers.residue", {"outlier_residue", "outlier_threshold", "scan_noise"}},
-      {"mesh.volume", {"volume_mean_abs_diff", "volume_iou"}}};
+      {"mesh.volume", {"volume_mean_abs_diff", "volume_iou"}},
+      {"convention.scoredenoise", {"sd_cd_sph_x1e4", "sd_p2f_x1e4", "sd_hd_sph"}}};
   for (const auto& e : registry().entries()) {
     Json r;
     if (e.name.rfind("edges.", 0) == 0) {
@@ -229,7 +230,7 @@ TEST(Metrics, EveryRegisteredMetricRunsByName) {
     }
     EXPECT_TRUE(r["skipped"].empty()) << e.name << r["skipped"].dump();
   }
-  EXPECT_EQ(registry().entries().size(), 12u);
+  EXPECT_EQ(registry().entries().size(), 13u);
 }
 
 TEST(Metrics, BadInputThrowsTypedErrors) {

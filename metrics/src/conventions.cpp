@@ -1,0 +1,193 @@
+#include "scanbench/metrics/conventions.h"
+
+#include <tbb/parallel_for.h>
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "scanbench/core/kdtree.h"
+#include "scanbench/metrics/ground_truth.h"
+
+namespace scanbench::metrics {
+
+namespace {
+
+using V3 = Eigen::Vector3d;
+
+// score-denoise models/utils.py normalize_sphere: c = (max + min) / 2, s = max_i |p_i - c|.
+struct Sphere {
+  V3 c = V3::Zero();
+  double s = 1.0;
+};
+
+Sphere normalize_sphere(const Eigen::Matrix3Xf& p) {
+  const Eigen::Matrix3Xd d = p.cast<double>();
+  Sphere n;
+  n.c = (d.rowwise().maxCoeff() + d.rowwise().minCoeff()) / 2.0;
+  n.s = (d.colwise() - n.c).colwise().norm().maxCoeff();
+  if (!(n.s > 0.0)) throw InputError("convention.scoredenoise: the normalising cloud is one point");
+  return n;
+}
+
+Eigen::Matrix3Xd normalized(const Eigen::Matrix3Xf& p, const Sphere& n) {
+  return (p.cast<double>().colwise() - n.c) / n.s;
+}
+
+// PyTorch3D's constants (csrc/utils/geometry_utils.h, pytorch3d/csrc/utils/vec3.h).
+constexpr double kEpsilon = 1e-8;   // BarycentricCoords3Forward's denominator, degenerate edges
+constexpr double kVEpsilon = 1e-8;  // the normal's normalisation
+
+/// PointLine3DistanceForward: squared distance from p to the segment v0 v1.
+double point_segment2(const V3& p, const V3& v0, const V3& v1) {
+  const V3 e = v1 - v0;
+  const double l2 = e.squaredNorm();
+  if (l2 <= kEpsilon) return (p - v1).squaredNorm();
+  const double t = std::clamp(e.dot(p - v0) / l2, 0.0, 1.0);
+  return (p - (v0 + t * e)).squaredNorm();
+}
+
+/// PointTriangle3DistanceForward with IsInsideTriangle's area threshold (AreaOfTriangle =
+/// |(v1 - v0) x (v2 - v0)| / 2).
+double point_triangle2(const V3& p, const V3& v0, const V3& v1, const V3& v2, double min_area) {
+  V3 normal = (v2 - v0).cross(v1 - v0);
+  const double norm_normal = normal.norm();
+  normal /= norm_normal + kVEpsilon;
+  const double t = (v0 - p).dot(normal);
+  const V3 p0 = p + t * normal;
+  bool inside = false;
+  if (0.5 * (v1 - v0).cross(v2 - v0).norm() >= min_area) {
+    // BarycentricCoords3Forward
+    const V3 a = v1 - v0, b = v2 - v0, c = p0 - v0;
+    const double d00 = a.dot(a), d01 = a.dot(b), d11 = b.dot(b), d20 = c.dot(a), d21 = c.dot(b);
+    const double denom = d00 * d11 - d01 * d01 + kEpsilon;
+    const double w1 = (d11 * d20 - d01 * d21) / denom, w2 = (d00 * d21 - d01 * d20) / denom;
+    const double w0 = 1.0 - w1 - w2;
+    inside = 0.0 <= w0 && w0 <= 1.0 && 0.0 <= w1 && w1 <= 1.0 && 0.0 <= w2 && w2 <= 1.0;
+  }
+  if (inside && norm_normal > kEpsilon) return t * t;
+  return std::min(
+      {point_segment2(p, v0, v1), point_segment2(p, v0, v2), point_segment2(p, v1, v2)});
+}
+
+/// Mean over the columns of `from` of the squared distance to the nearest column of `to`, and
+/// the largest such squared distance. Nearest by the kd-tree (float), measured in double.
+std::pair<double, double> nearest2(const Eigen::Matrix3Xd& from, const Eigen::Matrix3Xd& to) {
+  const Eigen::Matrix3Xf tf = to.cast<float>();
+  const KdTree tree(tf);
+  std::vector<double> d(static_cast<std::size_t>(from.cols()));
+  tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, from.cols(), 1024),
+                    [&](const tbb::blocked_range<Eigen::Index>& r) {
+                      for (Eigen::Index i = r.begin(); i < r.end(); ++i) {
+                        const Eigen::Index j = tree.nearest(from.col(i).cast<float>());
+                        d[static_cast<std::size_t>(i)] = (from.col(i) - to.col(j)).squaredNorm();
+                      }
+                    });
+  double sum = 0.0, mx = 0.0;
+  for (double v : d) {
+    sum += v;
+    mx = std::max(mx, v);
+  }
+  return {sum / static_cast<double>(d.size()), mx};
+}
+
+/// A relative slack on kd-tree radii, for the float tree against double distances.
+float search_radius(double r) {
+  return static_cast<float>(r * (1.0 + 1e-5) + 1e-7);
+}
+
+}  // namespace
+
+ScoreDenoiseScores scoredenoise_scores(const Eigen::Matrix3Xf& gen, const Eigen::Matrix3Xf& ref,
+                                       const TriangleMesh& mesh, double min_triangle_area) {
+  if (gen.cols() == 0 || ref.cols() == 0)
+    throw InputError("convention.scoredenoise: an empty point cloud");
+  if (mesh.num_faces() == 0) throw InputError("convention.scoredenoise: a mesh without faces");
+  ScoreDenoiseScores s;
+  {  // cd_sph and hd_sph: both clouds in the reference's unit sphere.
+    const Sphere n = normalize_sphere(ref);
+    const Eigen::Matrix3Xd g = normalized(gen, n), r = normalized(ref, n);
+    const auto [ab_mean, ab_max] = nearest2(g, r);
+    const auto [ba_mean, ba_max] = nearest2(r, g);
+    s.cd_sph = ab_mean + ba_mean;
+    s.hd_sph = std::max(ab_max, ba_max);
+  }
+  // p2f: both in the unit sphere of the mesh's vertices.
+  const Sphere n = normalize_sphere(mesh.vertices);
+  const Eigen::Matrix3Xd p = normalized(gen, n), v = normalized(mesh.vertices, n);
+  const Eigen::Index nf = mesh.num_faces();
+  Eigen::Matrix3Xf centroid(3, nf);
+  std::vector<double> reach(static_cast<std::size_t>(nf));  // farthest corner from the centroid
+  double reach_max = 0.0;
+  for (Eigen::Index f = 0; f < nf; ++f) {
+    const V3 c =
+        (v.col(mesh.faces(0, f)) + v.col(mesh.faces(1, f)) + v.col(mesh.faces(2, f))) / 3.0;
+    centroid.col(f) = c.cast<float>();
+    double r = 0.0;
+    for (int k = 0; k < 3; ++k)
+      r = std::max(r, (v.col(mesh.faces(k, f)) - c).norm());
+    reach[static_cast<std::size_t>(f)] = r;
+    reach_max = std::max(reach_max, r);
+  }
+  const auto face_distance = [&](const V3& q, Eigen::Index f) {
+    return point_triangle2(q, v.col(mesh.faces(0, f)), v.col(mesh.faces(1, f)),
+                           v.col(mesh.faces(2, f)), min_triangle_area);
+  };
+  // A face's distance is at least (|q - centroid| - reach)^2, so once one face gives U every
+  // face that can do better has its centroid within sqrt(U) + reach of q.
+  const KdTree faces(centroid);
+  std::vector<double> point_to_face(static_cast<std::size_t>(p.cols()));
+  tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, p.cols(), 256),
+                    [&](const tbb::blocked_range<Eigen::Index>& r) {
+                      std::vector<std::pair<Eigen::Index, float>> near;
+                      for (Eigen::Index i = r.begin(); i < r.end(); ++i) {
+                        const V3 q = p.col(i);
+                        double best = face_distance(q, faces.nearest(q.cast<float>()));
+                        faces.radius(q.cast<float>(), search_radius(std::sqrt(best) + reach_max),
+                                     near);
+                        for (const auto& [f, d2] : near)
+                          best = std::min(best, face_distance(q, f));
+                        point_to_face[static_cast<std::size_t>(i)] = best;
+                      }
+                    });
+  const Eigen::Matrix3Xf pf = p.cast<float>();
+  const KdTree points(pf);
+  std::vector<double> face_to_point(static_cast<std::size_t>(nf));
+  tbb::parallel_for(
+      tbb::blocked_range<Eigen::Index>(0, nf, 256), [&](const tbb::blocked_range<Eigen::Index>& r) {
+        std::vector<std::pair<Eigen::Index, float>> near;
+        for (Eigen::Index f = r.begin(); f < r.end(); ++f) {
+          const Eigen::Vector3f c = centroid.col(f);
+          double best = face_distance(p.col(points.nearest(c)), f);
+          points.radius(c, search_radius(std::sqrt(best) + reach[static_cast<std::size_t>(f)]),
+                        near);
+          for (const auto& [i, d2] : near)
+            best = std::min(best, face_distance(p.col(i), f));
+          face_to_point[static_cast<std::size_t>(f)] = best;
+        }
+      });
+  double a = 0.0, b = 0.0;
+  for (double d : point_to_face)
+    a += d;
+  for (double d : face_to_point)
+    b += d;
+  s.p2f = a / static_cast<double>(point_to_face.size()) + b / static_cast<double>(nf);
+  return s;
+}
+
+Json scoredenoise_metric(const MetricInput& in, const ScoreDenoiseParams& p) {
+  const Eigen::Index n = p.reference_points > 0 ? p.reference_points : in.output.size();
+  const PointCloud& ref = in.truth.surface_samples(n);
+  const ScoreDenoiseScores s =
+      scoredenoise_scores(in.output.positions, ref.positions, in.truth.mesh(), p.min_triangle_area);
+  Json j = Json::object();
+  j["sd_cd_sph_x1e4"] = s.cd_sph * 1e4;
+  j["sd_p2f_x1e4"] = s.p2f * 1e4;
+  j["sd_hd_sph"] = s.hd_sph;
+  j["sd_reference_points"] = n;
+  return j;
+}
+
+}  // namespace scanbench::metrics
