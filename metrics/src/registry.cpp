@@ -111,7 +111,13 @@ Keys chamfer_keys() {
       .plain("fscore", kHigher)
       .length("fscore_tau", kNone)
       .plain("chamfer_samples", kNone)
-      .plain("chamfer_field_fallbacks", kNone);
+      .plain("chamfer_field_fallbacks", kNone)
+      .length("completeness_observed", kLower)
+      .length("chamfer_observed", kLower)
+      .plain("recall_observed", kHigher)
+      .plain("fscore_observed", kHigher)
+      .plain("observed_share", kNone)
+      .length("observed_radius", kNone);
 }
 
 Keys normal_keys() {
@@ -173,7 +179,8 @@ const MetricRegistry& registry() {
             "accuracy (mean output->mesh), completeness (mean seeded surface samples->output), "
             "chamfer = sum of the two means, hausdorff = max of both, precision/recall/fscore at "
             "tau "
-            "(Tanks and Temples); lengths also as _rel",
+            "(Tanks and Temples); lengths also as _rel; _observed: completeness, chamfer, recall "
+            "and fscore over the samples within observed_radius of a noise-free scan hit",
             Scores::Points, chamfer_keys(), closest, chamfer_metric),
         point_truth_chamfer));
     // The mean spacing depends on the point count: informational. Its spread (variance, and the

@@ -42,7 +42,9 @@ Json surface_chamfer_metric(const MetricInput& in, const ChamferParams& p) {
   const Eigen::VectorXf acc = accuracy_distances(in, p, &fallbacks);
   const PointCloud& samples = in.truth.surface_samples(p.samples);
   const Eigen::VectorXf comp = out.distances(samples.positions, DistancePath::Exact);
-  return chamfer_scores(acc, comp, in.truth.diagonal(), p, fallbacks);
+  const auto observed = observed_samples(in, samples, p.observed_radius * in.truth.diagonal());
+  return chamfer_scores(acc, comp, in.truth.diagonal(), p, fallbacks,
+                        observed ? &*observed : nullptr);
 }
 
 Json surface_normals_metric(const MetricInput& in, const NormalAngleParams& p) {

@@ -8,10 +8,12 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 
 #include "scanbench/core/datasets.h"
 #include "scanbench/core/io.h"
 #include "scanbench/core/run_context.h"
+#include "scanbench/core/stage_data.h"
 #include "scanbench/metrics/closest_point.h"
 #include "scanbench/metrics/distance_field.h"
 #include "scanbench/metrics/ground_truth.h"
@@ -156,6 +158,76 @@ TEST_F(EvalCli, MetricsMatchBruteForceAndFilesOpen) {
   const VdbInfo v = read_vdb_info(dir_ / "vdb" / "ground_truth.vdb");
   EXPECT_EQ(v.name, "ground_truth");
   EXPECT_GT(v.active_voxels, 0u);
+}
+
+TEST_F(EvalCli, ObservedScoresEqualThePlainOnesOnlyWhenEverySideWasScanned) {
+  // Real scans (the clean scanner, Embree) of the sphere, scored as a method's output: from a
+  // Fibonacci spiral of 24 views every sample is observed and the _observed scores equal the
+  // plain ones bit for bit; from four sensors above, the lower half was never seen, and the
+  // _observed scores leave it out (a smaller completeness, a higher recall). The observed share
+  // and completeness against a brute-force oracle (every sample against every clean hit).
+  const auto scan_and_eval = [&](const std::string& name, const std::string& scanner_args) {
+    const fs::path scan = dir_ / (name + ".ply"), m = dir_ / (name + ".json");
+    EXPECT_EQ(run("scan --dataset sphere --preset clean " + scanner_args + " --seed 3 -o " +
+                      scan.string(),
+                  dir_ / "log.txt"),
+              0)
+        << std::ifstream(dir_ / "log.txt").rdbuf();
+    EXPECT_EQ(run("eval --dataset sphere --points " + scan.string() + " --scan " + scan.string() +
+                      " --metrics accuracy.chamfer --set accuracy.chamfer.samples=3000 --seed 2 "
+                      "-o " +
+                      m.string(),
+                  dir_ / "log.txt"),
+              0)
+        << std::ifstream(dir_ / "log.txt").rdbuf();
+    return read_json(m);
+  };
+  const Json all = scan_and_eval("all", "--set views=24 --set resolution=128");
+  ASSERT_TRUE(all.contains("observed_share")) << all.dump();
+  EXPECT_EQ(all["observed_share"].get<double>(), 1.0);
+  for (const char* k : {"completeness", "chamfer", "recall", "fscore"})
+    EXPECT_EQ(all[std::string(k) + "_observed"], all[k]) << k;
+
+  const Json top =
+      scan_and_eval("top",
+                    "--set views=4 --set resolution=128 --set \"poses=0.6 0 0.8; -0.6 0 0.8; 0 0.6 "
+                    "0.8; 0 -0.6 0.8\"");
+  const double share = top["observed_share"].get<double>();
+  EXPECT_GT(share, 0.3);
+  EXPECT_LT(share, 0.8);
+  EXPECT_LT(top["completeness_observed"].get<double>(), top["completeness"].get<double>() / 2);
+  EXPECT_GT(top["recall_observed"].get<double>(), top["recall"].get<double>());
+  EXPECT_EQ(top["chamfer_observed"].get<double>(),
+            top["accuracy"].get<double>() + top["completeness_observed"].get<double>());
+
+  // The oracle: the same 3,000 ground-truth samples (the recorded seed), every one against
+  // every clean hit of the scan's inliers and every point of the output (here the scan).
+  TriangleMesh mesh = load_dataset("sphere");
+  const GroundTruth gt(mesh, top["scoring"]["ground_truth_samples_seed"].get<std::uint64_t>());
+  const PointCloud& samples = gt.surface_samples(3000);
+  PointCloud scan = read_point_cloud(dir_ / "top.ply");
+  rebase(scan, mesh.origin);
+  const double radius = top["observed_radius"].get<double>();
+  const auto& cx = scan.properties.at("clean_x");
+  const auto& cy = scan.properties.at("clean_y");
+  const auto& cz = scan.properties.at("clean_z");
+  Eigen::Index seen = 0;
+  double sum = 0.0;
+  for (Eigen::Index i = 0; i < samples.size(); ++i) {
+    const Eigen::Vector3f s = samples.positions.col(i);
+    bool observed = false;
+    for (Eigen::Index j = 0; j < scan.size() && !observed; ++j)
+      observed = (Eigen::Vector3f(cx[j], cy[j], cz[j]) - s).norm() <= radius;
+    if (!observed) continue;
+    ++seen;
+    float best = std::numeric_limits<float>::infinity();
+    for (Eigen::Index j = 0; j < scan.size(); ++j)
+      best = std::min(best, (scan.positions.col(j) - s).norm());
+    sum += best;
+  }
+  EXPECT_NEAR(share, static_cast<double>(seen) / 3000.0, 2.0 / 3000.0);
+  EXPECT_NEAR(top["completeness_observed"].get<double>(), sum / static_cast<double>(seen),
+              1e-3 * sum / static_cast<double>(seen));
 }
 
 TEST_F(EvalCli, BadInputExitsWithOneLine) {
