@@ -48,6 +48,7 @@ MeshFacts polygon_facts(Eigen::Index nv, const std::vector<int>& offsets,
       ++j;
     if (j - i == 1) ++f.boundary_edges;
     if (j - i > 2) ++f.nonmanifold_edges;
+    ++f.edges;
     i = j;
   }
   for (Eigen::Index v = 0; v < nv; ++v) {
@@ -58,6 +59,7 @@ MeshFacts polygon_facts(Eigen::Index nv, const std::vector<int>& offsets,
     }
   }
   f.closed = f.faces > 0 && f.boundary_edges == 0 && f.nonmanifold_edges == 0;
+  f.euler = (f.vertices - f.unreferenced_vertices) - f.edges + f.faces;
   f.bytes = 12 * f.vertices + 4 * static_cast<std::int64_t>(corners.size());
   return f;
 }
@@ -99,6 +101,14 @@ Json mesh_facts_metric(const MetricInput& in, const MeshFactsParams&) {
   j["mesh_nonmanifold_edges"] = f.nonmanifold_edges;
   j["mesh_components"] = f.components;
   j["mesh_closed"] = f.closed;
+  j["mesh_edges"] = f.edges;
+  j["mesh_euler"] = f.euler;
+  // Closed components (orientable: every closed surface embedded in 3-space is) have
+  // chi = sum (2 - 2 g_i), so the total genus is (2 C - chi) / 2; null for an open mesh, and
+  // when 2 C - chi is odd or negative (vertices where sheets touch).
+  const std::int64_t twice_genus = 2 * f.components - f.euler;
+  j["mesh_genus"] =
+      f.closed && twice_genus >= 0 && twice_genus % 2 == 0 ? Json(twice_genus / 2) : Json(nullptr);
   j["mesh_bytes"] = f.bytes;
   return j;
 }

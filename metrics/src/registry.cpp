@@ -285,7 +285,8 @@ const MetricRegistry& registry() {
     reg.add(make_metric<MeshFactsParams>(
         "mesh.facts",
         "the output mesh's facts: vertices, faces, unreferenced vertices, degenerate faces, "
-        "boundary and non-manifold edges, components, closed, bytes (float32 positions + int32 "
+        "boundary and non-manifold edges, components, closed, edges, Euler characteristic, genus "
+        "(closed meshes), bytes (float32 positions + int32 "
         "corners; a covariance mesh + 6 float32 per vertex, GPS sec. 7.2)",
         Scores::Mesh,
         Keys{}
@@ -297,6 +298,9 @@ const MetricRegistry& registry() {
             .plain("mesh_nonmanifold_edges", kLower)
             .plain("mesh_components", kNone)
             .plain("mesh_closed", kNone)
+            .plain("mesh_edges", kNone)
+            .plain("mesh_euler", kNone)
+            .plain("mesh_genus", kNone)
             .plain("mesh_bytes", kNone),
         Needs{}, mesh_facts_metric));
     // Published evaluators' conventions (conventions.h, docs/metrics.md "Conventions").

@@ -234,6 +234,35 @@ TEST(MeshFacts, KnownMeshes) {
   EXPECT_EQ(two.components, 2);
   EXPECT_TRUE(two.closed);
 
+  // Euler characteristic and genus, known answers: a sphere 2 (genus 0), a torus 0 (genus 1),
+  // two disjoint spheres 4 (genus 0), a cube with one face removed (a hole) 1 (a disk; open, no
+  // genus).
+  EXPECT_EQ(c.edges, 480);
+  EXPECT_EQ(c.euler, 2);
+  EXPECT_EQ(two.euler, 4);
+  TorusParams tp;
+  tp.major_segments = 24;
+  tp.minor_segments = 12;
+  const MeshFacts torus = mesh_facts(make_torus(tp));
+  EXPECT_TRUE(torus.closed);
+  EXPECT_EQ(torus.euler, 0);
+  EXPECT_EQ(torus.faces, 2 * 24 * 12);
+  const TriangleMesh box = make_cube({});
+  EXPECT_EQ(mesh_facts(box).euler, 2);
+  const MeshFacts holed = mesh_facts(without_face(box, 0));
+  EXPECT_EQ(holed.euler, 1);
+  EXPECT_EQ(holed.boundary_edges, 3);
+  // The genus as the metric reports it.
+  const auto genus = [](const TriangleMesh& mesh) {
+    GroundTruth g(icosphere(1), 1, kCoarseSurface);
+    RunContext ctx(1);
+    return evaluate_mesh(g, mesh, nullptr, {"mesh.facts"}, Json::object(), ctx, 100)["mesh_genus"];
+  };
+  EXPECT_EQ(genus(s), 0);
+  EXPECT_EQ(genus(make_torus(tp)), 1);
+  EXPECT_EQ(genus(two_of(s, shifted)), 0);
+  EXPECT_TRUE(genus(without_face(box, 0)).is_null());
+
   // Non-manifold: three triangles on one edge (0, 1).
   TriangleMesh fan;
   fan.vertices.resize(3, 5);

@@ -9,6 +9,15 @@
 //   mesh_components                      connected components of the faces, two faces being
 //                                        connected when they share a vertex;
 //   mesh_closed                          every edge used by exactly two faces (and faces exist);
+//   mesh_edges                           undirected edges;
+//   mesh_euler                           Euler characteristic V - E + F, V counting the
+//                                        referenced vertices (2 for a sphere, 0 for a torus, 1
+//                                        for a disk, summed over components);
+//   mesh_genus                           (2 C - chi) / 2 for a closed mesh (C components: the
+//                                        number of handles; every closed surface embedded in
+//                                        3-space is orientable); null for an open mesh, and
+//                                        when 2 C - chi is odd or negative (sheets touching at
+//                                        a vertex);
 //   mesh_bytes                           bytes of the mesh representation, counted as the GPS
 //                                        paper's table counts it (sec. 7.2, Fig. 13c): float32
 //                                        x, y, z per vertex (12 B) and one int32 per face corner
@@ -27,7 +36,7 @@ namespace scanbench::metrics {
 
 struct MeshFacts {
   std::int64_t vertices = 0, faces = 0, unreferenced_vertices = 0, degenerate_faces = 0;
-  std::int64_t boundary_edges = 0, nonmanifold_edges = 0, components = 0;
+  std::int64_t boundary_edges = 0, nonmanifold_edges = 0, components = 0, edges = 0, euler = 0;
   bool closed = false;
   std::int64_t bytes = 0;
 };
