@@ -190,4 +190,92 @@ Json scoredenoise_metric(const MetricInput& in, const ScoreDenoiseParams& p) {
   return j;
 }
 
+namespace {
+
+/// For every column of `from`, the Euclidean distance to its nearest column of `to` (double) and
+/// that column's index: the kd-tree's nearest (float), then its distance in double, and any
+/// point within that distance (plus float slack) checked too, so the nearest is exact.
+void nearest_points(const Eigen::Matrix3Xf& from, const Eigen::Matrix3Xf& to,
+                    std::vector<double>& dist, std::vector<Eigen::Index>& index) {
+  const KdTree tree(to);
+  dist.assign(static_cast<std::size_t>(from.cols()), 0.0);
+  index.assign(static_cast<std::size_t>(from.cols()), 0);
+  tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, from.cols(), 1024),
+                    [&](const tbb::blocked_range<Eigen::Index>& r) {
+                      std::vector<std::pair<Eigen::Index, float>> near;
+                      for (Eigen::Index i = r.begin(); i < r.end(); ++i) {
+                        const V3 q = from.col(i).cast<double>();
+                        Eigen::Index best = tree.nearest(from.col(i));
+                        double d = (to.col(best).cast<double>() - q).norm();
+                        tree.radius(from.col(i), search_radius(d), near);
+                        for (const auto& [j, d2] : near) {
+                          const double dj = (to.col(j).cast<double>() - q).norm();
+                          if (dj < d || (dj == d && j < best)) {
+                            d = dj;
+                            best = j;
+                          }
+                        }
+                        dist[static_cast<std::size_t>(i)] = d;
+                        index[static_cast<std::size_t>(i)] = best;
+                      }
+                    });
+}
+
+/// Mean of |n_from . n_to(nearest)| with both normals normalised (eval.py's distance_p2p).
+double normal_dot_mean(const Eigen::Matrix3Xf& from, const Eigen::Matrix3Xf& to,
+                       const std::vector<Eigen::Index>& index) {
+  double sum = 0.0;
+  for (Eigen::Index i = 0; i < from.cols(); ++i) {
+    const V3 a = from.col(i).cast<double>().normalized();
+    const V3 b = to.col(index[static_cast<std::size_t>(i)]).cast<double>().normalized();
+    sum += std::abs(a.dot(b));
+  }
+  return sum / static_cast<double>(from.cols());
+}
+
+}  // namespace
+
+DsrScores dsr_scores(const PointCloud& output, const PointCloud& truth) {
+  if (output.empty() || truth.empty()) throw InputError("convention.dsr: an empty point cloud");
+  if (!output.has_normals() || !truth.has_normals())
+    throw InputError("convention.dsr: the output samples and the ground-truth points need normals");
+  std::vector<double> comp, acc;
+  std::vector<Eigen::Index> comp_index, acc_index;
+  nearest_points(truth.positions, output.positions, comp, comp_index);  // completeness
+  nearest_points(output.positions, truth.positions, acc, acc_index);    // accuracy
+  const auto mean = [](const std::vector<double>& v) {
+    double s = 0.0;
+    for (double x : v)
+      s += x;
+    return s / static_cast<double>(v.size());
+  };
+  DsrScores s;
+  s.cd_gt_r = mean(comp);
+  s.cd_r_gt = mean(acc);
+  s.chamfer = 0.5 * (s.cd_gt_r + s.cd_r_gt);
+  s.hd_gt_r = *std::max_element(comp.begin(), comp.end());
+  s.hd_r_gt = *std::max_element(acc.begin(), acc.end());
+  s.hausdorff = std::max(s.hd_gt_r, s.hd_r_gt);
+  s.normal_consistency = 0.5 * normal_dot_mean(truth.normals, output.normals, comp_index) +
+                         0.5 * normal_dot_mean(output.normals, truth.normals, acc_index);
+  const Eigen::Matrix3Xd t = truth.positions.cast<double>();
+  s.diag = (t.rowwise().maxCoeff() - t.rowwise().minCoeff()).norm();
+  return s;
+}
+
+Json dsr_metric(const MetricInput& in, const DsrParams& p) {
+  if (!in.output_mesh) throw NotApplicable("convention.dsr: scores mesh outputs");
+  const DsrScores s = dsr_scores(in.output, in.truth.surface_samples(p.reference_points));
+  const double scale = s.diag / 100.0;  // eval.py: scale_with_diag, "(x10^2)"
+  Json j = Json::object();
+  j["dsr_chamfer_x1e2"] = s.chamfer / scale;
+  j["dsr_cd_gt_r_x1e2"] = s.cd_gt_r / scale;
+  j["dsr_cd_r_gt_x1e2"] = s.cd_r_gt / scale;
+  j["dsr_hausdorff_x1e2"] = s.hausdorff / scale;
+  j["dsr_hd_gt_r_x1e2"] = s.hd_gt_r / scale;
+  j["dsr_hd_r_gt_x1e2"] = s.hd_r_gt / scale;
+  j["dsr_normal_consistency"] = s.normal_consistency;
+  return j;
+}
+
 }  // namespace scanbench::metrics

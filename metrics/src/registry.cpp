@@ -318,6 +318,23 @@ const MetricRegistry& registry() {
             .plain("sd_hd_sph", kLower)
             .plain("sd_reference_points", kNone),
         Needs{}, scoredenoise_metric));
+    reg.add(make_metric<DsrParams>(
+        "convention.dsr",
+        "the dsr-benchmark's evaluator (raphaelsulzer/dsr-benchmark dsrb/eval.py) for mesh "
+        "outputs: point-to-point distances between the output's surface samples and the ground "
+        "truth's points, dsr_chamfer_x1e2 = 0.5 x (mean gt->r + mean r->gt), dsr_hausdorff_x1e2 "
+        "= max of both maxima, each over diag/100 of the ground-truth points (the tables' "
+        "x10^2), the one-sided means and maxima, dsr_normal_consistency",
+        Scores::Mesh,
+        Keys{}
+            .plain("dsr_chamfer_x1e2", kLower)
+            .plain("dsr_cd_gt_r_x1e2", kLower)
+            .plain("dsr_cd_r_gt_x1e2", kLower)
+            .plain("dsr_hausdorff_x1e2", kLower)
+            .plain("dsr_hd_gt_r_x1e2", kLower)
+            .plain("dsr_hd_r_gt_x1e2", kLower)
+            .plain("dsr_normal_consistency", kHigher),
+        Needs{}, dsr_metric));
     return reg;
   }();
   return r;

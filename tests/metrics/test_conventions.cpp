@@ -3,13 +3,16 @@
 // port of score-denoise's models/utils.py and PyTorch3D 0.5.0's chamfer_distance and
 // point_mesh_face_distance (brute force), on three shapes and both of PyTorch3D's triangle-area
 // thresholds; the identities the convention implies (invariance to where and how large the
-// shape is; the larger threshold never lowers p2f); the metric through the registry.
+// shape is; the larger threshold never lowers p2f); the dsr-benchmark's point scores against
+// tests/reference/dsr_eval.py (its dsrb/eval.py, brute force); the metrics through the registry.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <vector>
 
 #include "scanbench/core/procedural.h"
 #include "scanbench/core/rng.h"
@@ -47,23 +50,19 @@ void write_rows(const fs::path& f, const Eigen::MatrixXd& m) {
   }
 }
 
-struct Reference {
-  double cd_sph = 0, hd_sph = 0, p2f = 0;
-};
-
-/// The numpy port's three scores on the same inputs (float32 values written exactly).
-Reference reference(const Eigen::Matrix3Xf& gen, const Eigen::Matrix3Xf& ref,
-                    const TriangleMesh& mesh, double area) {
+/// Runs tests/reference/SCRIPT (Debian's python3 with numpy) on the matrices, written as text
+/// files with every float32 value exact, and the extra arguments; its JSON output.
+Json run_reference(const std::string& script, const std::vector<Eigen::MatrixXd>& inputs,
+                   const std::string& extra = "") {
   const test::TempDir dir("conventions");
-  write_rows(dir / "gen.txt", gen.cast<double>());
-  write_rows(dir / "ref.txt", ref.cast<double>());
-  write_rows(dir / "verts.txt", mesh.vertices.cast<double>());
-  write_rows(dir / "faces.txt", mesh.faces.cast<double>());
-  const std::string script =
-      std::string(SCANBENCH_TEST_DATA) + "/../reference/scoredenoise_eval.py";
-  const std::string cmd = "/usr/bin/python3 " + script + " " + (dir / "gen.txt").string() + " " +
-                          (dir / "ref.txt").string() + " " + (dir / "verts.txt").string() + " " +
-                          (dir / "faces.txt").string() + " " + std::to_string(area) + " 2>&1";
+  std::string cmd =
+      "/usr/bin/python3 " + std::string(SCANBENCH_TEST_DATA) + "/../reference/" + script;
+  for (std::size_t k = 0; k < inputs.size(); ++k) {
+    const fs::path f = dir / ("in" + std::to_string(k) + ".txt");
+    write_rows(f, inputs[k]);
+    cmd += " " + f.string();
+  }
+  cmd += " " + extra + " 2>&1";
   std::string out;
   if (FILE* p = popen(cmd.c_str(), "r")) {
     char buf[4096];
@@ -72,9 +71,22 @@ Reference reference(const Eigen::Matrix3Xf& gen, const Eigen::Matrix3Xf& ref,
     pclose(p);
   }
   const Json j = Json::parse(out, nullptr, false);
-  EXPECT_TRUE(j.is_object()) << "the numpy reference failed (python3-numpy, scripts/setup.sh): "
-                             << out;
-  if (!j.is_object()) return {};
+  EXPECT_TRUE(j.is_object()) << script << " failed (python3-numpy, scripts/setup.sh): " << out;
+  return j.is_object() ? j : Json::object();
+}
+
+struct Reference {
+  double cd_sph = 0, hd_sph = 0, p2f = 0;
+};
+
+/// The numpy port's three scores on the same inputs.
+Reference reference(const Eigen::Matrix3Xf& gen, const Eigen::Matrix3Xf& ref,
+                    const TriangleMesh& mesh, double area) {
+  const Json j = run_reference("scoredenoise_eval.py",
+                               {gen.cast<double>(), ref.cast<double>(),
+                                mesh.vertices.cast<double>(), mesh.faces.cast<double>()},
+                               std::to_string(area));
+  if (!j.contains("p2f")) return {};
   return {j["cd_sph"].get<double>(), j["hd_sph"].get<double>(), j["p2f"].get<double>()};
 }
 
@@ -142,6 +154,72 @@ TEST(ConventionScoreDenoise, TheMetricPrintsTheScaleOfThePapers) {
   const Json r2 = evaluate(gt, out, nullptr, {"convention.scoredenoise"},
                            Json{{"convention.scoredenoise", {{"reference_points", 300}}}}, ctx);
   EXPECT_EQ(r2["sd_reference_points"].get<long>(), 300);
+}
+
+TEST(ConventionDsr, EqualsTheNumpyPortOfItsEvaluator) {
+  // A "reconstruction" per shape: its vertices moved by N(0, 0.01); its surface samples with
+  // their face normals against the shape's own samples with theirs.
+  TorusParams torus;
+  torus.major_segments = 32;
+  torus.minor_segments = 16;
+  CubeParams cube;
+  cube.resolution = 4;
+  const std::pair<const char*, TriangleMesh> shapes[] = {
+      {"icosphere(3)", icosphere(3)}, {"torus", make_torus(torus)}, {"cube", make_cube(cube)}};
+  std::uint64_t seed = 5;
+  for (const auto& [name, mesh] : shapes) {
+    TriangleMesh rec = mesh;
+    Rng rng(seed);
+    for (Eigen::Index i = 0; i < rec.vertices.size(); ++i)
+      rec.vertices.data()[i] += static_cast<float>(rng.normal(0.0, 0.01));
+    const PointCloud pred = sample_surface(rec, 1500, seed + 1),
+                     tgt = sample_surface(mesh, 1200, seed + 2);
+    seed += 10;
+    const DsrScores s = dsr_scores(pred, tgt);
+    const Json r =
+        run_reference("dsr_eval.py", {pred.positions.cast<double>(), pred.normals.cast<double>(),
+                                      tgt.positions.cast<double>(), tgt.normals.cast<double>()});
+    ASSERT_TRUE(r.contains("Chamfer")) << name;
+    const double scale = s.diag / 100.0;
+    const std::pair<double, const char*> pairs[] = {
+        {s.chamfer, "Chamfer"},     {s.cd_gt_r, "CD_gt->r"}, {s.cd_r_gt, "CD_r->gt"},
+        {s.hausdorff, "Hausdorff"}, {s.hd_gt_r, "HD_gt->r"}, {s.hd_r_gt, "HD_r->gt"}};
+    for (const auto& [mine, key] : pairs)
+      EXPECT_NEAR(mine / scale, r[key].get<double>(), 1e-6 * r[key].get<double>())
+          << name << " " << key;
+    EXPECT_NEAR(s.normal_consistency, r["Normal Consistency"].get<double>(), 1e-9) << name;
+    EXPECT_GT(s.chamfer, 0.0);
+    EXPECT_LT(s.normal_consistency, 1.0);
+  }
+}
+
+TEST(ConventionDsr, TheMetricScoresMeshOutputsAtTheTablesScale) {
+  const TriangleMesh mesh = icosphere(3);
+  GroundTruth gt(mesh, 3);
+  RunContext ctx(1);
+  const Json params = {{"convention.dsr", {{"reference_points", 2000}}}};
+  // The ground truth itself as the output: a small Chamfer (sampling only), normals agreeing.
+  const Json same = evaluate_mesh(gt, mesh, nullptr, {"convention.dsr"}, params, ctx, 2000);
+  EXPECT_LT(same["dsr_chamfer_x1e2"].get<double>(), 2.0) << same.dump();
+  EXPECT_GT(same["dsr_normal_consistency"].get<double>(), 0.99);
+  EXPECT_EQ(
+      same["dsr_hausdorff_x1e2"].get<double>(),
+      std::max(same["dsr_hd_gt_r_x1e2"].get<double>(), same["dsr_hd_r_gt_x1e2"].get<double>()));
+  EXPECT_NEAR(
+      same["dsr_chamfer_x1e2"].get<double>(),
+      0.5 * (same["dsr_cd_gt_r_x1e2"].get<double>() + same["dsr_cd_r_gt_x1e2"].get<double>()),
+      1e-12);
+  // A sphere of radius 1.05 against the unit sphere with dense ground-truth points (100,000: a
+  // mean lateral spacing of about 0.006): output samples lie about 0.05 from the nearest, over
+  // diag / 100 = 2 sqrt(3) / 100 (the samples' box is all but the unit sphere's).
+  const Json big =
+      evaluate_mesh(gt, icosphere(3, 1.05f), nullptr, {"convention.dsr"},
+                    Json{{"convention.dsr", {{"reference_points", 100000}}}}, ctx, 2000);
+  EXPECT_NEAR(big["dsr_cd_r_gt_x1e2"].get<double>(), 0.05 / (2 * std::sqrt(3.0) / 100), 0.03);
+  // Point outputs are not its kind.
+  PointCloud pts = sample_surface(mesh, 500, 1);
+  const Json r = evaluate(gt, pts, nullptr, {}, params, ctx);
+  EXPECT_TRUE(r["skipped"].contains("convention.dsr"));
 }
 
 }  // namespace
