@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "scanbench/core/kdtree.h"
+#include "scanbench/metrics/outlier_residue.h"
 #include "stats.h"
 
 namespace scanbench::metrics {
@@ -30,25 +31,11 @@ Eigen::VectorXf accuracy_distances(const MetricInput& in, const ChamferParams& p
 std::optional<std::vector<std::uint8_t>> observed_samples(const MetricInput& in,
                                                           const PointCloud& samples,
                                                           double radius) {
-  if (!in.scan || !in.scan->has_property("clean_x") || !in.scan->has_property("clean_y") ||
-      !in.scan->has_property("clean_z"))
-    return std::nullopt;
-  const PointCloud& scan = *in.scan;
-  const Eigen::VectorXf* outlier =
-      scan.has_property("outlier") ? &scan.properties.at("outlier") : nullptr;
-  Eigen::Index n = 0;
-  for (Eigen::Index i = 0; i < scan.size(); ++i)
-    n += !(outlier && (*outlier)[i] != 0.0f);
-  if (n == 0) return std::nullopt;
-  Eigen::Matrix3Xf hits(3, n);
-  for (Eigen::Index i = 0, k = 0; i < scan.size(); ++i) {
-    if (outlier && (*outlier)[i] != 0.0f) continue;
-    hits.col(k++) << scan.properties.at("clean_x")[i], scan.properties.at("clean_y")[i],
-        scan.properties.at("clean_z")[i];
-  }
-  if (!hits.allFinite())
+  const auto hits = in.scan ? clean_hits(*in.scan) : std::nullopt;
+  if (!hits || hits->index.empty()) return std::nullopt;
+  if (!hits->clean.allFinite())
     throw InputError("accuracy.chamfer: the scan has a non-finite clean_x/y/z");
-  const KdTree tree(hits);
+  const KdTree tree(hits->clean);
   const auto r2 = static_cast<float>(radius * radius);
   std::vector<std::uint8_t> seen(static_cast<std::size_t>(samples.size()));
   tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, samples.size(), 1024),

@@ -49,8 +49,7 @@ double point_segment2(const V3& p, const V3& v0, const V3& v1) {
   return (p - (v0 + t * e)).squaredNorm();
 }
 
-/// PointTriangle3DistanceForward with IsInsideTriangle's area threshold (AreaOfTriangle =
-/// |(v1 - v0) x (v2 - v0)| / 2).
+/// PointTriangle3DistanceForward with IsInsideTriangle's area threshold.
 double point_triangle2(const V3& p, const V3& v0, const V3& v1, const V3& v2, double min_area) {
   V3 normal = (v2 - v0).cross(v1 - v0);
   const double norm_normal = normal.norm();
@@ -58,7 +57,7 @@ double point_triangle2(const V3& p, const V3& v0, const V3& v1, const V3& v2, do
   const double t = (v0 - p).dot(normal);
   const V3 p0 = p + t * normal;
   bool inside = false;
-  if (0.5 * (v1 - v0).cross(v2 - v0).norm() >= min_area) {
+  if (0.5 * norm_normal >= min_area) {  // AreaOfTriangle: the same cross product's length / 2
     // BarycentricCoords3Forward
     const V3 a = v1 - v0, b = v2 - v0, c = p0 - v0;
     const double d00 = a.dot(a), d01 = a.dot(b), d11 = b.dot(b), d20 = c.dot(a), d21 = c.dot(b);
@@ -72,30 +71,47 @@ double point_triangle2(const V3& p, const V3& v0, const V3& v1, const V3& v2, do
       {point_segment2(p, v0, v1), point_segment2(p, v0, v2), point_segment2(p, v1, v2)});
 }
 
-/// Mean over the columns of `from` of the squared distance to the nearest column of `to`, and
-/// the largest such squared distance. Nearest by the kd-tree (float), measured in double.
-std::pair<double, double> nearest2(const Eigen::Matrix3Xd& from, const Eigen::Matrix3Xd& to) {
-  const Eigen::Matrix3Xf tf = to.cast<float>();
-  const KdTree tree(tf);
-  std::vector<double> d(static_cast<std::size_t>(from.cols()));
-  tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, from.cols(), 1024),
-                    [&](const tbb::blocked_range<Eigen::Index>& r) {
-                      for (Eigen::Index i = r.begin(); i < r.end(); ++i) {
-                        const Eigen::Index j = tree.nearest(from.col(i).cast<float>());
-                        d[static_cast<std::size_t>(i)] = (from.col(i) - to.col(j)).squaredNorm();
-                      }
-                    });
-  double sum = 0.0, mx = 0.0;
-  for (double v : d) {
-    sum += v;
-    mx = std::max(mx, v);
-  }
-  return {sum / static_cast<double>(d.size()), mx};
-}
-
 /// A relative slack on kd-tree radii, for the float tree against double distances.
 float search_radius(double r) {
   return static_cast<float>(r * (1.0 + 1e-5) + 1e-7);
+}
+
+double mean(const std::vector<double>& v) {
+  double s = 0.0;
+  for (double x : v)
+    s += x;
+  return s / static_cast<double>(v.size());
+}
+
+/// For every column of `from`, the squared distance to its nearest column of `to`, in double,
+/// and that column's index (the lower on a tie): the float kd-tree's nearest, then every column
+/// within its distance (plus float slack) measured in double, so the nearest is exact.
+void nearest_points(const Eigen::Matrix3Xd& from, const Eigen::Matrix3Xd& to,
+                    std::vector<double>& dist2, std::vector<Eigen::Index>& index) {
+  const Eigen::Matrix3Xf tf = to.cast<float>();
+  const KdTree tree(tf);
+  dist2.assign(static_cast<std::size_t>(from.cols()), 0.0);
+  index.assign(static_cast<std::size_t>(from.cols()), 0);
+  tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, from.cols(), 1024),
+                    [&](const tbb::blocked_range<Eigen::Index>& r) {
+                      std::vector<std::pair<Eigen::Index, float>> near;
+                      for (Eigen::Index i = r.begin(); i < r.end(); ++i) {
+                        const V3 q = from.col(i);
+                        const Eigen::Vector3f qf = q.cast<float>();
+                        Eigen::Index best = tree.nearest(qf);
+                        double d = (to.col(best) - q).squaredNorm();
+                        tree.radius(qf, search_radius(std::sqrt(d)), near);
+                        for (const auto& [j, unused] : near) {
+                          const double dj = (to.col(j) - q).squaredNorm();
+                          if (dj < d || (dj == d && j < best)) {
+                            d = dj;
+                            best = j;
+                          }
+                        }
+                        dist2[static_cast<std::size_t>(i)] = d;
+                        index[static_cast<std::size_t>(i)] = best;
+                      }
+                    });
 }
 
 }  // namespace
@@ -109,10 +125,13 @@ ScoreDenoiseScores scoredenoise_scores(const Eigen::Matrix3Xf& gen, const Eigen:
   {  // cd_sph and hd_sph: both clouds in the reference's unit sphere.
     const Sphere n = normalize_sphere(ref);
     const Eigen::Matrix3Xd g = normalized(gen, n), r = normalized(ref, n);
-    const auto [ab_mean, ab_max] = nearest2(g, r);
-    const auto [ba_mean, ba_max] = nearest2(r, g);
-    s.cd_sph = ab_mean + ba_mean;
-    s.hd_sph = std::max(ab_max, ba_max);
+    std::vector<double> ab, ba;
+    std::vector<Eigen::Index> unused;
+    nearest_points(g, r, ab, unused);
+    nearest_points(r, g, ba, unused);
+    s.cd_sph = mean(ab) + mean(ba);
+    s.hd_sph =
+        std::max(*std::max_element(ab.begin(), ab.end()), *std::max_element(ba.begin(), ba.end()));
   }
   // p2f: both in the unit sphere of the mesh's vertices.
   const Sphere n = normalize_sphere(mesh.vertices);
@@ -168,12 +187,7 @@ ScoreDenoiseScores scoredenoise_scores(const Eigen::Matrix3Xf& gen, const Eigen:
           face_to_point[static_cast<std::size_t>(f)] = best;
         }
       });
-  double a = 0.0, b = 0.0;
-  for (double d : point_to_face)
-    a += d;
-  for (double d : face_to_point)
-    b += d;
-  s.p2f = a / static_cast<double>(point_to_face.size()) + b / static_cast<double>(nf);
+  s.p2f = mean(point_to_face) + mean(face_to_point);
   return s;
 }
 
@@ -191,35 +205,6 @@ Json scoredenoise_metric(const MetricInput& in, const ScoreDenoiseParams& p) {
 }
 
 namespace {
-
-/// For every column of `from`, the Euclidean distance to its nearest column of `to` (double) and
-/// that column's index: the kd-tree's nearest (float), then its distance in double, and any
-/// point within that distance (plus float slack) checked too, so the nearest is exact.
-void nearest_points(const Eigen::Matrix3Xf& from, const Eigen::Matrix3Xf& to,
-                    std::vector<double>& dist, std::vector<Eigen::Index>& index) {
-  const KdTree tree(to);
-  dist.assign(static_cast<std::size_t>(from.cols()), 0.0);
-  index.assign(static_cast<std::size_t>(from.cols()), 0);
-  tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, from.cols(), 1024),
-                    [&](const tbb::blocked_range<Eigen::Index>& r) {
-                      std::vector<std::pair<Eigen::Index, float>> near;
-                      for (Eigen::Index i = r.begin(); i < r.end(); ++i) {
-                        const V3 q = from.col(i).cast<double>();
-                        Eigen::Index best = tree.nearest(from.col(i));
-                        double d = (to.col(best).cast<double>() - q).norm();
-                        tree.radius(from.col(i), search_radius(d), near);
-                        for (const auto& [j, d2] : near) {
-                          const double dj = (to.col(j).cast<double>() - q).norm();
-                          if (dj < d || (dj == d && j < best)) {
-                            d = dj;
-                            best = j;
-                          }
-                        }
-                        dist[static_cast<std::size_t>(i)] = d;
-                        index[static_cast<std::size_t>(i)] = best;
-                      }
-                    });
-}
 
 /// Mean of |n_from . n_to(nearest)| with both normals normalised (eval.py's distance_p2p).
 double normal_dot_mean(const Eigen::Matrix3Xf& from, const Eigen::Matrix3Xf& to,
@@ -239,16 +224,14 @@ DsrScores dsr_scores(const PointCloud& output, const PointCloud& truth) {
   if (output.empty() || truth.empty()) throw InputError("convention.dsr: an empty point cloud");
   if (!output.has_normals() || !truth.has_normals())
     throw InputError("convention.dsr: the output samples and the ground-truth points need normals");
-  std::vector<double> comp, acc;
+  const Eigen::Matrix3Xd t = truth.positions.cast<double>(), o = output.positions.cast<double>();
+  std::vector<double> comp, acc;  // squared, then Euclidean (cKDTree's distances)
   std::vector<Eigen::Index> comp_index, acc_index;
-  nearest_points(truth.positions, output.positions, comp, comp_index);  // completeness
-  nearest_points(output.positions, truth.positions, acc, acc_index);    // accuracy
-  const auto mean = [](const std::vector<double>& v) {
-    double s = 0.0;
-    for (double x : v)
-      s += x;
-    return s / static_cast<double>(v.size());
-  };
+  nearest_points(t, o, comp, comp_index);  // completeness
+  nearest_points(o, t, acc, acc_index);    // accuracy
+  for (auto* v : {&comp, &acc})
+    for (double& d : *v)
+      d = std::sqrt(d);
   DsrScores s;
   s.cd_gt_r = mean(comp);
   s.cd_r_gt = mean(acc);
@@ -258,7 +241,6 @@ DsrScores dsr_scores(const PointCloud& output, const PointCloud& truth) {
   s.hausdorff = std::max(s.hd_gt_r, s.hd_r_gt);
   s.normal_consistency = 0.5 * normal_dot_mean(truth.normals, output.normals, comp_index) +
                          0.5 * normal_dot_mean(output.normals, truth.normals, acc_index);
-  const Eigen::Matrix3Xd t = truth.positions.cast<double>();
   s.diag = (t.rowwise().maxCoeff() - t.rowwise().minCoeff()).norm();
   return s;
 }

@@ -337,6 +337,14 @@ const float (&diverging_table())[256][3] {
   return diverging().rgb;
 }
 
+Eigen::Vector3f map_color(float t, ErrorScale scale) {
+  return scale == ErrorScale::Signed ? diverging_color(t) : viridis_color(t);
+}
+
+double bar_value(double f, double top, ErrorScale scale) {
+  return scale == ErrorScale::Signed ? (2.0 * f - 1.0) * top : f * top;
+}
+
 Eigen::Vector3f error_color(float e, float range, ErrorScale scale) {
   if (scale == ErrorScale::Signed)
     return diverging_color(0.5f + 0.5f * std::clamp(e / range, -1.0f, 1.0f));
@@ -421,17 +429,16 @@ struct ColourBar {
 };
 
 void draw_colour_bar(OIIO::ImageBuf& img, const ColourBar& b) {
-  const bool sgn = b.scale == ErrorScale::Signed;
   for (int y = 0; y < b.y1 - b.y0; ++y) {
     const float t = 1.0f - static_cast<float>(y) / static_cast<float>(b.y1 - b.y0 - 1);
-    const Eigen::Vector3f c = sgn ? diverging_color(t) : viridis_color(t);
+    const Eigen::Vector3f c = map_color(t, b.scale);
     IBA::fill(img, c.data(), OIIO::ROI(b.x, b.x + 24, b.y0 + y, b.y0 + y + 1));
   }
   for (int k = 0; k <= 4; ++k) {
     const double frac = k / 4.0;
     const int y = b.y1 - static_cast<int>(frac * (b.y1 - b.y0 - 1));
-    const double value = sgn ? (2.0 * frac - 1.0) * b.top : frac * b.top;
-    text(img, b.x + 28, y + 4, fmt::format("{:.{}g}", value, b.precision), b.tick_size);
+    text(img, b.x + 28, y + 4, fmt::format("{:.{}g}", bar_value(frac, b.top, b.scale), b.precision),
+         b.tick_size);
   }
   text(img, b.x, b.y0 - 6, b.heading, b.heading_size);
   text(img, b.x, b.y1 + 16, b.footnote, b.footnote_size);

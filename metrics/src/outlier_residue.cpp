@@ -7,25 +7,37 @@
 
 namespace scanbench::metrics {
 
-double scan_noise_rms(const PointCloud& scan) {
+std::optional<CleanHits> clean_hits(const PointCloud& scan) {
   if (!scan.has_property("clean_x") || !scan.has_property("clean_y") ||
       !scan.has_property("clean_z"))
-    return std::nan("");
+    return std::nullopt;
   const auto& cx = scan.properties.at("clean_x");
   const auto& cy = scan.properties.at("clean_y");
   const auto& cz = scan.properties.at("clean_z");
   const Eigen::VectorXf* outlier =
       scan.has_property("outlier") ? &scan.properties.at("outlier") : nullptr;
-  double sum = 0.0;
-  std::int64_t count = 0;
-  for (Eigen::Index i = 0; i < scan.size(); ++i) {
-    if (outlier && (*outlier)[i] != 0.0f) continue;
-    const Eigen::Vector3d d =
-        scan.positions.col(i).cast<double>() - Eigen::Vector3d(cx[i], cy[i], cz[i]);
-    sum += d.squaredNorm();
-    ++count;
+  CleanHits h;
+  for (Eigen::Index i = 0; i < scan.size(); ++i)
+    if (!(outlier && (*outlier)[i] != 0.0f)) h.index.push_back(i);
+  h.clean.resize(3, static_cast<Eigen::Index>(h.index.size()));
+  for (Eigen::Index k = 0; k < h.clean.cols(); ++k) {
+    const Eigen::Index i = h.index[static_cast<std::size_t>(k)];
+    h.clean.col(k) << cx[i], cy[i], cz[i];
   }
-  return count > 0 ? std::sqrt(sum / count) : std::nan("");
+  return h;
+}
+
+double scan_noise_rms(const PointCloud& scan) {
+  const auto hits = clean_hits(scan);
+  if (!hits || hits->index.empty()) return std::nan("");
+  double sum = 0.0;
+  for (Eigen::Index k = 0; k < hits->clean.cols(); ++k) {
+    const Eigen::Vector3d d =
+        scan.positions.col(hits->index[static_cast<std::size_t>(k)]).cast<double>() -
+        hits->clean.col(k).cast<double>();
+    sum += d.squaredNorm();
+  }
+  return std::sqrt(sum / static_cast<double>(hits->clean.cols()));
 }
 
 Json outlier_residue_metric(const MetricInput& in, const OutlierResidueParams& p) {

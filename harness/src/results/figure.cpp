@@ -43,16 +43,6 @@ std::string rgb_hex(const Eigen::Vector3f& c) {
                      std::lround(c[2] * 255));
 }
 
-Eigen::Vector3f bar_colour(float t, metrics::ErrorScale scale) {
-  return scale == metrics::ErrorScale::Signed ? metrics::diverging_color(t)
-                                              : metrics::viridis_color(t);
-}
-
-/// The colour bar's tick k of 0..4: from 0 to the saturation, or (signed) from -s to +s.
-double bar_tick(int k, double saturation, metrics::ErrorScale scale) {
-  return scale == metrics::ErrorScale::Signed ? (k / 2.0 - 1.0) * saturation : k / 4.0 * saturation;
-}
-
 std::string svg(const std::vector<metrics::SplatImage>& cells, const FigureSummary& s,
                 const std::string& title, const std::string& unit, int width, int height,
                 metrics::ErrorScale scale) {
@@ -92,14 +82,14 @@ std::string svg(const std::vector<metrics::SplatImage>& cells, const FigureSumma
   o += "<defs><linearGradient id=\"viridis\" x1=\"0\" y1=\"1\" x2=\"0\" y2=\"0\">";
   for (int k = 0; k <= 16; ++k)
     o += fmt::format("<stop offset=\"{:.4g}\" stop-color=\"{}\"/>", k / 16.0,
-                     rgb_hex(bar_colour(std::min(1.0f, k / 16.0f), scale)));
+                     rgb_hex(metrics::map_color(std::min(1.0f, k / 16.0f), scale)));
   o += "</linearGradient></defs>\n";
   o += fmt::format("<rect x=\"{}\" y=\"{}\" width=\"24\" height=\"{}\" fill=\"url(#viridis)\"/>\n",
                    bx, by0, by1 - by0);
   for (int k = 0; k <= 4; ++k) {
     const int y = by1 - static_cast<int>(k / 4.0 * (by1 - by0 - 1));
     o += fmt::format("<text x=\"{}\" y=\"{}\" font-size=\"11\">{:.3g}</text>\n", bx + 28, y + 4,
-                     bar_tick(k, s.saturation, scale));
+                     metrics::bar_value(k / 4.0, s.saturation, scale));
   }
   o += fmt::format("<text x=\"{}\" y=\"{}\" font-size=\"11\">{}</text>\n", bx, by0 - 6,
                    html_escape(unit));
@@ -206,7 +196,7 @@ std::string pdf(const std::vector<metrics::SplatImage>& cells, const FigureSumma
   const int bx = l.bar_x + 12, by0 = y0 + 20, by1 = height - 30;
   std::vector<unsigned char> bar;
   for (int r = 0; r < 256; ++r) {
-    const Eigen::Vector3f c = bar_colour((255 - r) / 255.0f, scale);
+    const Eigen::Vector3f c = metrics::map_color((255 - r) / 255.0f, scale);
     for (int ch = 0; ch < 3; ++ch)
       bar.push_back(static_cast<unsigned char>(std::lround(c[ch] * 255.0f)));
   }
@@ -214,7 +204,8 @@ std::string pdf(const std::vector<metrics::SplatImage>& cells, const FigureSumma
                       image(1, 256, bar));
   for (int k = 0; k <= 4; ++k) {
     const int y = by1 - static_cast<int>(k / 4.0 * (by1 - by0 - 1));
-    page += text(bx + 28, y + 4, 11, fmt::format("{:.3g}", bar_tick(k, s.saturation, scale)), what);
+    page += text(bx + 28, y + 4, 11,
+                 fmt::format("{:.3g}", metrics::bar_value(k / 4.0, s.saturation, scale)), what);
   }
   page += text(bx, by0 - 6, 11, unit, what);
   page += text(bx, by1 + 16, 10,

@@ -254,15 +254,14 @@ std::string script_safe(std::string s) {
   return s;
 }
 
-/// The colour bars (SVG, static: readable without the script): |E| in viridis from 0 to the
-/// saturation (shown), and the signed error in the diverging map from -saturation to
+/// A colour bar (SVG, static: readable without the script): Magnitude, |E| in viridis from 0 to
+/// the saturation (shown); Signed, the signed error in the diverging map from -saturation to
 /// +saturation (shown when the viewer's colour choice is "signed").
-std::string colour_bar(std::size_t group, double saturation_abs, bool signed_scale) {
+std::string colour_bar(std::size_t group, double saturation_abs, metrics::ErrorScale scale) {
+  const bool sgn = scale == metrics::ErrorScale::Signed;
   std::string stops;
   for (int i = 0; i <= 16; ++i) {
-    const float t = std::min(1.0f, static_cast<float>(i) / 16);
-    const Eigen::Vector3f c =
-        signed_scale ? metrics::diverging_color(t) : metrics::viridis_color(t);
+    const Eigen::Vector3f c = metrics::map_color(std::min(1.0f, static_cast<float>(i) / 16), scale);
     stops +=
         fmt::format("<stop offset=\"{:.4f}\" stop-color=\"rgb({},{},{})\"/>", i / 16.0,
                     std::lround(c.x() * 255), std::lround(c.y() * 255), std::lround(c.z() * 255));
@@ -270,29 +269,23 @@ std::string colour_bar(std::size_t group, double saturation_abs, bool signed_sca
   std::string ticks;
   for (int k = 0; k <= 4; ++k) {
     const double x = 24 + k * 70.0;
-    const double v = (signed_scale ? k / 2.0 - 1.0 : k / 4.0) * kViewerSaturationRel;
     ticks += fmt::format(
         "<line x1=\"{0}\" x2=\"{0}\" y1=\"26\" y2=\"30\" stroke=\"#333\"/><text x=\"{0}\" y=\"42\" "
         "text-anchor=\"middle\">{1}</text>",
-        x, format_number(v));
+        x, format_number(metrics::bar_value(k / 4.0, kViewerSaturationRel, scale)));
   }
-  if (signed_scale) {
-    return fmt::format(
-        "<svg class=\"colour-bar signed\" style=\"display:none\" width=\"560\" height=\"62\" "
-        "font-family=\"sans-serif\" font-size=\"11\"><defs><linearGradient "
-        "id=\"coolwarm-{0}\">{1}</linearGradient></defs><rect x=\"24\" y=\"8\" width=\"280\" "
-        "height=\"18\" fill=\"url(#coolwarm-{0})\"/>{2}<text x=\"314\" y=\"21\">signed E / "
-        "diagonal (- inside, + outside)</text><text x=\"24\" y=\"58\">saturates at &#177;{3} x "
-        "diagonal = &#177;{4} (mesh units); larger errors take the end colours</text></svg>",
-        group, stops, ticks, format_number(kViewerSaturationRel), format_number(saturation_abs));
-  }
+  const std::string pm = sgn ? "&#177;" : "";
   return fmt::format(
-      "<svg class=\"colour-bar magnitude\" width=\"560\" height=\"62\" font-family=\"sans-serif\" "
-      "font-size=\"11\"><defs><linearGradient id=\"viridis-{0}\">{1}</linearGradient></defs>"
-      "<rect x=\"24\" y=\"8\" width=\"280\" height=\"18\" fill=\"url(#viridis-{0})\"/>{2}"
-      "<text x=\"314\" y=\"21\">|E| / diagonal</text><text x=\"24\" y=\"58\">saturates at {3} "
-      "x diagonal = {4} (mesh units); larger errors are yellow</text></svg>",
-      group, stops, ticks, format_number(kViewerSaturationRel), format_number(saturation_abs));
+      "<svg class=\"colour-bar {0}\"{1} width=\"560\" height=\"62\" font-family=\"sans-serif\" "
+      "font-size=\"11\"><defs><linearGradient id=\"{2}-{3}\">{4}</linearGradient></defs>"
+      "<rect x=\"24\" y=\"8\" width=\"280\" height=\"18\" fill=\"url(#{2}-{3})\"/>{5}"
+      "<text x=\"314\" y=\"21\">{6}</text><text x=\"24\" y=\"58\">saturates at {7}{8} x "
+      "diagonal = {7}{9} (mesh units); {10}</text></svg>",
+      sgn ? "signed" : "magnitude", sgn ? " style=\"display:none\"" : "",
+      sgn ? "coolwarm" : "viridis", group, stops, ticks,
+      sgn ? "signed E / diagonal (- inside, + outside)" : "|E| / diagonal", pm,
+      format_number(kViewerSaturationRel), format_number(saturation_abs),
+      sgn ? "larger errors take the end colours" : "larger errors are yellow");
 }
 
 }  // namespace
@@ -442,8 +435,8 @@ std::string viewer_section(const fs::path& dir, const std::vector<const Json*>& 
           "{2}<div class=\"sb-pick\">Click a point to see its error and coordinates.</div>"
           "</div>\n",
           gi, html_escape(g.label),
-          colour_bar(gi, kViewerSaturationRel * diag, false) +
-              colour_bar(gi, kViewerSaturationRel * diag, true));
+          colour_bar(gi, kViewerSaturationRel * diag, metrics::ErrorScale::Magnitude) +
+              colour_bar(gi, kViewerSaturationRel * diag, metrics::ErrorScale::Signed));
       groups_json.push_back(std::move(gj));
     } catch (const Error& e) {
       notes += "<li>" + html_escape(g.label) + ": " + html_escape(e.what()) + "</li>\n";

@@ -69,6 +69,14 @@ enum class ErrorScale { Magnitude, Signed };
 /// The colour of error e under `scale` with saturation `range` (> 0).
 Eigen::Vector3f error_color(float e, float range, ErrorScale scale);
 
+/// The colour at t in [0, 1] of `scale`'s map (viridis_color or diverging_color): a colour
+/// bar's row at fraction t of its height.
+Eigen::Vector3f map_color(float t, ErrorScale scale);
+
+/// The value a colour bar that saturates at `top` shows at fraction f of its height (0 bottom,
+/// 1 top): f x top, or for Signed (2 f - 1) x top.
+double bar_value(double f, double top, ErrorScale scale);
+
 /// Splats `positions` (errors per point, their colour error_color(e, range, colours)) into one
 /// width x height view
 /// framing `frame` exactly as write_heatmap does (same projection, disc splats, depth test, ties

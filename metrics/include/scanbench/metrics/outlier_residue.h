@@ -7,6 +7,9 @@
 // outlier_threshold and scan_noise (lengths) and scan_outlier_share, the same share for the scan
 // itself (what the algorithm started from). NotApplicable when noise = 0 and there is no scan
 // with clean positions.
+#include <optional>
+#include <vector>
+
 #include "scanbench/metrics/metric_input.h"
 
 namespace scanbench::metrics {
@@ -21,6 +24,16 @@ struct OutlierResidueParams {
            "scan noise sigma; 0 estimates it from the scan's clean_x/y/z properties");
   }
 };
+
+/// The scan's inliers (points with outlier == 0; every point without that property) and their
+/// noise-free hits: index[k] is the point, clean.col(k) its (clean_x, clean_y, clean_z). Nothing
+/// when the scan lacks clean_x/y/z. Shared by the noise estimate and the observed samples
+/// (chamfer.h).
+struct CleanHits {
+  std::vector<Eigen::Index> index;
+  Eigen::Matrix3Xf clean;
+};
+std::optional<CleanHits> clean_hits(const PointCloud& scan);
 
 /// The scan noise sigma estimated from the scan: RMS |p - clean| over its points with
 /// outlier == 0 (all points without the property); NaN when the scan lacks clean_x/y/z or has no
