@@ -4,12 +4,19 @@
 
 #include <Eigen/Geometry>
 
+#include <fmt/format.h>
+
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <limits>
+#include <map>
 #include <vector>
 
 #include "scanbench/core/kdtree.h"
+#include "scanbench/core/rng.h"
 #include "scanbench/metrics/ground_truth.h"
+#include "stats.h"
 
 namespace scanbench::metrics {
 
@@ -257,6 +264,227 @@ Json dsr_metric(const MetricInput& in, const DsrParams& p) {
   j["dsr_hd_gt_r_x1e2"] = s.hd_gt_r / scale;
   j["dsr_hd_r_gt_x1e2"] = s.hd_r_gt / scale;
   j["dsr_normal_consistency"] = s.normal_consistency;
+  return j;
+}
+
+}  // namespace scanbench::metrics
+
+namespace scanbench::metrics {
+
+namespace {
+
+double max_of(const std::vector<double>& v) {
+  return *std::max_element(v.begin(), v.end());
+}
+
+/// Euclidean nearest distances (nearest_points, then the square root).
+std::vector<double> nearest_distances(const Eigen::Matrix3Xd& from, const Eigen::Matrix3Xd& to) {
+  std::vector<double> d;
+  std::vector<Eigen::Index> unused;
+  nearest_points(from, to, d, unused);
+  for (double& x : d)
+    x = std::sqrt(x);
+  return d;
+}
+
+}  // namespace
+
+PdflowScores pdflow_scores(const Eigen::Matrix3Xf& pred, const PointCloud& gt) {
+  if (pred.cols() == 0 || gt.empty()) throw InputError("convention.pdflow: an empty point cloud");
+  if (!gt.has_normals())
+    throw InputError("convention.pdflow: the ground-truth points need normals");
+  const Eigen::Matrix3Xd p = pred.cast<double>(), g = gt.positions.cast<double>();
+  const std::vector<double> pg = nearest_distances(p, g), gp = nearest_distances(g, p);
+  PdflowScores s;
+  s.cd = mean(pg) + mean(gp);  // chamfer_distance: the two means summed
+  s.hd = std::max(max_of(pg), max_of(gp));
+  // point2surface_distance: the 16 nearest gt points (exact in double: the float tree's 16, then
+  // every point within the 16th distance plus slack, sorted in double, lower index on a tie).
+  const int k = static_cast<int>(std::min<Eigen::Index>(16, g.cols()));
+  const KdTree tree(gt.positions);
+  std::vector<double> p2s(static_cast<std::size_t>(p.cols()));
+  tbb::parallel_for(
+      tbb::blocked_range<Eigen::Index>(0, p.cols(), 512),
+      [&](const tbb::blocked_range<Eigen::Index>& r) {
+        std::vector<Eigen::Index> knn;
+        std::vector<float> knn_d2;
+        std::vector<std::pair<Eigen::Index, float>> near;
+        std::vector<std::pair<double, Eigen::Index>> cand;
+        for (Eigen::Index i = r.begin(); i < r.end(); ++i) {
+          const V3 q = p.col(i);
+          const Eigen::Vector3f qf = pred.col(i);
+          tree.knn(qf, k, knn, knn_d2);
+          double far = 0.0;
+          for (Eigen::Index j : knn)
+            far = std::max(far, (g.col(j) - q).norm());
+          tree.radius(qf, search_radius(far), near);
+          cand.clear();
+          for (const auto& [j, unused] : near)
+            cand.emplace_back((g.col(j) - q).squaredNorm(), j);
+          std::partial_sort(cand.begin(), cand.begin() + std::min<std::size_t>(k, cand.size()),
+                            cand.end());
+          double best = std::numeric_limits<double>::infinity();
+          for (std::size_t m = 0; m < cand.size() && m < static_cast<std::size_t>(k); ++m) {
+            const Eigen::Index j = cand[m].second;
+            const V3 n = gt.normals.col(j).cast<double>();
+            best = std::min(best, std::abs(q.dot(n) - g.col(j).dot(n)) / n.norm());
+          }
+          p2s[static_cast<std::size_t>(i)] = best;
+        }
+      });
+  s.p2s = mean(p2s);
+  return s;
+}
+
+Json pdflow_metric(const MetricInput& in, const PdflowParams& p) {
+  const Eigen::Index n = p.reference_points > 0 ? p.reference_points : in.output.size();
+  PointCloud gt = in.truth.surface_samples(n);
+  Eigen::Matrix3Xf pred = in.output.positions;
+  if (p.normalize) {
+    const Sphere s = normalize_sphere(gt.positions);
+    gt.positions = normalized(gt.positions, s).cast<float>();
+    pred = normalized(pred, s).cast<float>();
+  }
+  const PdflowScores s = pdflow_scores(pred, gt);
+  Json j = Json::object();
+  j["pdflow_cd"] = s.cd;
+  j["pdflow_p2s"] = s.p2s;
+  j["pdflow_hd"] = s.hd;
+  j["pdflow_reference_points"] = n;
+  return j;
+}
+
+Eigen::Matrix3Xd voxel_down_sample(const Eigen::Matrix3Xd& points, double voxel) {
+  if (points.cols() == 0) return points;
+  const V3 origin = points.rowwise().minCoeff().array() - voxel * 0.5;
+  std::map<std::array<int, 3>, std::pair<V3, int>> cells;
+  for (Eigen::Index i = 0; i < points.cols(); ++i) {
+    const V3 ref = (points.col(i) - origin) / voxel;
+    const std::array<int, 3> key{static_cast<int>(std::floor(ref(0))),
+                                 static_cast<int>(std::floor(ref(1))),
+                                 static_cast<int>(std::floor(ref(2)))};
+    auto& [sum, count] = cells.try_emplace(key, V3::Zero(), 0).first->second;
+    sum += points.col(i);
+    ++count;
+  }
+  Eigen::Matrix3Xd out(3, static_cast<Eigen::Index>(cells.size()));
+  Eigen::Index c = 0;
+  for (const auto& [key, acc] : cells)
+    out.col(c++) = acc.first / static_cast<double>(acc.second);
+  return out;
+}
+
+TntScores tnt_scores(const Eigen::Matrix3Xf& output, const Eigen::Matrix3Xf& truth, double tau,
+                     double voxel) {
+  const Eigen::Matrix3Xd s = voxel_down_sample(output.cast<double>(), voxel),
+                         t = voxel_down_sample(truth.cast<double>(), voxel);
+  TntScores r;
+  if (s.cols() == 0 || t.cols() == 0) return r;  // get_f1_score_histo2: all 0
+  r.precision_distances = nearest_distances(s, t);
+  r.recall_distances = nearest_distances(t, s);
+  const auto share_below = [tau](const std::vector<double>& d) {
+    return static_cast<double>(
+               std::count_if(d.begin(), d.end(), [tau](double x) { return x < tau; })) /
+           static_cast<double>(d.size());
+  };
+  r.precision = share_below(r.precision_distances);
+  r.recall = share_below(r.recall_distances);
+  // eval: 2 R P / (R + P), NaN (0 / 0) when neither has a point below tau; here 0.
+  r.fscore =
+      r.precision + r.recall > 0.0 ? 2.0 * r.recall * r.precision / (r.recall + r.precision) : 0.0;
+  return r;
+}
+
+Json tnt_metric(const MetricInput& in, const TntParams& p) {
+  const double diag = in.truth.diagonal();
+  const double tau = p.tau * diag;
+  const TntScores s =
+      tnt_scores(in.output.positions, in.truth.surface_samples(p.reference_points).positions, tau,
+                 p.voxel * tau);
+  Json j = Json::object();
+  j["tnt_precision"] = s.precision;
+  j["tnt_recall"] = s.recall;
+  j["tnt_fscore"] = s.fscore;
+  detail::put_length(j, "tnt_tau", tau, diag);
+  j["tnt_output_points"] = s.precision_distances.size();
+  j["tnt_reference_points"] = s.recall_distances.size();
+  // The curves of the benchmark's plots (plot_stretch 5, bins of tau / 100), in tau.
+  const auto in_tau = [tau](const std::vector<double>& d) {
+    Eigen::VectorXf v(static_cast<Eigen::Index>(d.size()));
+    for (std::size_t i = 0; i < d.size(); ++i)
+      v(static_cast<Eigen::Index>(i)) = static_cast<float>(d[i] / tau);
+    return v;
+  };
+  j["histograms"]["tnt_precision"] =
+      detail::histogram(in_tau(s.precision_distances), 0.0, 5.0, 500, "tau");
+  j["histograms"]["tnt_recall"] =
+      detail::histogram(in_tau(s.recall_distances), 0.0, 5.0, 500, "tau");
+  return j;
+}
+
+std::vector<Eigen::Index> dtu_thin(const Eigen::Matrix3Xd& points, double density) {
+  const Eigen::Matrix3Xf pf = points.cast<float>();
+  const KdTree tree(pf);
+  std::vector<char> dropped(static_cast<std::size_t>(points.cols()), 0);
+  std::vector<Eigen::Index> kept;
+  std::vector<std::pair<Eigen::Index, float>> near;
+  for (Eigen::Index i = 0; i < points.cols(); ++i) {
+    if (dropped[static_cast<std::size_t>(i)]) continue;
+    kept.push_back(i);
+    tree.radius(pf.col(i), search_radius(density), near);
+    for (const auto& [j, unused] : near)
+      if ((points.col(j) - points.col(i)).norm() <= density)
+        dropped[static_cast<std::size_t>(j)] = 1;
+  }
+  return kept;
+}
+
+DtuScores dtu_scores(const Eigen::Matrix3Xf& output, const Eigen::Matrix3Xf& truth, double density,
+                     double max_dist) {
+  if (output.cols() == 0 || truth.cols() == 0)
+    throw InputError("convention.dtu: an empty point cloud");
+  const Eigen::Matrix3Xd o = output.cast<double>(), t = truth.cast<double>();
+  const std::vector<Eigen::Index> kept = dtu_thin(o, density);
+  Eigen::Matrix3Xd down(3, static_cast<Eigen::Index>(kept.size()));
+  for (std::size_t i = 0; i < kept.size(); ++i)
+    down.col(static_cast<Eigen::Index>(i)) = o.col(kept[i]);
+  const auto mean_below = [max_dist](const std::vector<double>& d, const char* what) {
+    double sum = 0.0;
+    std::size_t n = 0;
+    for (double x : d)
+      if (x < max_dist) {
+        sum += x;
+        ++n;
+      }
+    if (n == 0)
+      throw NotApplicable(fmt::format(
+          "convention.dtu: no {} distance is below max_dist (DTU's mean is undefined)", what));
+    return sum / static_cast<double>(n);
+  };
+  DtuScores s;
+  s.accuracy = mean_below(nearest_distances(down, t), "accuracy");
+  s.completeness = mean_below(nearest_distances(t, down), "completeness");
+  s.overall = 0.5 * (s.accuracy + s.completeness);
+  s.thinned_points = down.cols();
+  return s;
+}
+
+Json dtu_metric(const MetricInput& in, const DtuParams& p, RunContext& ctx) {
+  const double diag = in.truth.diagonal();
+  // eval.py shuffles before thinning (unseeded); here the run's stream "metric.dtu".
+  Eigen::Matrix3Xf shuffled = in.output.positions;
+  Rng rng = ctx.rng("metric.dtu");
+  for (Eigen::Index i = shuffled.cols() - 1; i > 0; --i) {
+    const auto j = static_cast<Eigen::Index>(rng.below(static_cast<std::uint64_t>(i) + 1));
+    shuffled.col(i).swap(shuffled.col(j));
+  }
+  const DtuScores s = dtu_scores(shuffled, in.truth.surface_samples(p.reference_points).positions,
+                                 p.downsample_density * diag, p.max_dist * diag);
+  Json j = Json::object();
+  detail::put_length(j, "dtu_accuracy", s.accuracy, diag);
+  detail::put_length(j, "dtu_completeness", s.completeness, diag);
+  detail::put_length(j, "dtu_overall", s.overall, diag);
+  j["dtu_points"] = s.thinned_points;
   return j;
 }
 

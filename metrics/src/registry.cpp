@@ -1,5 +1,9 @@
 #include "scanbench/metrics/registry.h"
 
+#include <fmt/format.h>
+
+#include <type_traits>
+
 #include "scanbench/metrics/chamfer.h"
 #include "scanbench/metrics/conventions.h"
 #include "scanbench/metrics/ground_truth.h"
@@ -43,12 +47,45 @@ const MetricKey* Metric::find_key(std::string_view key) const {
   return nullptr;
 }
 
+const std::vector<Convention>& conventions() {
+  static const std::vector<Convention> c = {
+      {"scanbench", "scanbench",
+       "this harness (docs/metrics.md): lengths in the ground truth's units and as _rel, a "
+       "fraction of its bounding-box diagonal; chamfer = the sum of two mean unsquared "
+       "distances"},
+      {"scoredenoise", "ScoreDenoise",
+       "github.com/luost26/score-denoise bdf0eab, utils/evaluate.py and models/utils.py "
+       "(PyTorch3D 0.5.0 chamfer_distance, point_mesh_face_distance)"},
+      {"pdflow", "PD-Flow",
+       "github.com/unknownue/pdflow 78c4a67, eval/evaluation.py: evaluation, "
+       "point2surface_distance (point-cloud-utils chamfer_distance, hausdorff_distance)"},
+      {"tnt", "Tanks and Temples",
+       "github.com/isl-org/TanksAndTemples 3c2c212, python_toolbox/evaluation/evaluation.py: "
+       "EvaluateHisto, get_f1_score_histo2"},
+      {"dtu", "DTU", "github.com/jzhangbs/DTUeval-python 45b4fec, eval.py (mode pcd)"},
+      {"dsr", "dsr-benchmark",
+       "github.com/raphaelsulzer/dsr-benchmark ffbc98a, dsrb/eval.py: MeshEvaluator"},
+  };
+  return c;
+}
+
+const Convention& convention(std::string_view name) {
+  for (const auto& c : conventions())
+    if (c.name == name) return c;
+  throw Error(fmt::format("unknown metric convention '{}'", name));
+}
+
 void Metric::describe(Json& j) const {
   j["scores"] = scores_name(scores);
-  Json k = Json::object();
-  for (const auto& mk : keys)
+  Json k = Json::object(), kc = Json::object();
+  for (const auto& mk : keys) {
     k[mk.key] = better_name(mk.better);
+    kc[mk.key] = convention;
+  }
   j["keys"] = k;
+  const Convention& c = metrics::convention(convention);
+  j["convention"] = {{"name", c.name}, {"title", c.title}, {"source", c.source}};
+  j["key_conventions"] = kc;
   j["point_truth"] = static_cast<bool>(run_point_truth);
 }
 
@@ -88,9 +125,19 @@ MetricRegistry::Entry make_metric(std::string name, std::string doc, Scores scor
   e.fn.keys = std::move(keys.v);
   e.fn.needs_closest = needs.closest;
   e.fn.needs_output_oracle = needs.output_oracle;
-  e.fn.run = [f, name](const MetricInput& in, const Json& params, RunContext&) {
-    return f(in, params_from_json<P>(params, "metric " + name));
+  e.fn.run = [f, name](const MetricInput& in, const Json& params, RunContext& ctx) {
+    if constexpr (std::is_invocable_v<F, const MetricInput&, const P&, RunContext&>)
+      return f(in, params_from_json<P>(params, "metric " + name), ctx);
+    else
+      return f(in, params_from_json<P>(params, "metric " + name));
   };
+  return e;
+}
+
+// A metric following a published evaluator's definitions (conventions.h).
+MetricRegistry::Entry following(std::string convention, MetricRegistry::Entry e) {
+  metrics::convention(convention);  // a known name
+  e.fn.convention = std::move(convention);
   return e;
 }
 
@@ -142,6 +189,14 @@ const std::vector<MetricKey>& record_keys() {
                                            {"output_mesh_samples", kNone},
                                            {"gt_points", kNone}};
   return k;
+}
+
+std::optional<std::string> key_convention(std::string_view key) {
+  for (const auto& e : registry().entries())
+    if (e.fn.find_key(key)) return e.fn.convention;
+  for (const auto& k : record_keys())
+    if (k.key == key) return std::string("scanbench");
+  return std::nullopt;
 }
 
 std::optional<Better> key_direction(std::string_view key) {
@@ -304,37 +359,89 @@ const MetricRegistry& registry() {
             .plain("mesh_bytes", kNone),
         Needs{}, mesh_facts_metric));
     // Published evaluators' conventions (conventions.h, docs/metrics.md "Conventions").
-    reg.add(make_metric<ScoreDenoiseParams>(
-        "convention.scoredenoise",
-        "ScoreDenoise's evaluator (luost26/score-denoise utils/evaluate.py, PyTorch3D 0.5.0; "
-        "also IterativePFN, StraightPCF): clouds in the unit sphere (bbox centre, max radius), "
-        "sd_cd_sph_x1e4 = 1e4 x (mean squared nearest distance output->reference + "
-        "reference->output), sd_p2f_x1e4 = 1e4 x (mean squared point->face + face->point, "
-        "PyTorch3D's point_mesh_face_distance), sd_hd_sph (squared); as the papers print them",
-        Scores::Points,
-        Keys{}
-            .plain("sd_cd_sph_x1e4", kLower)
-            .plain("sd_p2f_x1e4", kLower)
-            .plain("sd_hd_sph", kLower)
-            .plain("sd_reference_points", kNone),
-        Needs{}, scoredenoise_metric));
-    reg.add(make_metric<DsrParams>(
-        "convention.dsr",
-        "the dsr-benchmark's evaluator (raphaelsulzer/dsr-benchmark dsrb/eval.py) for mesh "
-        "outputs: point-to-point distances between the output's surface samples and the ground "
-        "truth's points, dsr_chamfer_x1e2 = 0.5 x (mean gt->r + mean r->gt), dsr_hausdorff_x1e2 "
-        "= max of both maxima, each over diag/100 of the ground-truth points (the tables' "
-        "x10^2), the one-sided means and maxima, dsr_normal_consistency",
-        Scores::Mesh,
-        Keys{}
-            .plain("dsr_chamfer_x1e2", kLower)
-            .plain("dsr_cd_gt_r_x1e2", kLower)
-            .plain("dsr_cd_r_gt_x1e2", kLower)
-            .plain("dsr_hausdorff_x1e2", kLower)
-            .plain("dsr_hd_gt_r_x1e2", kLower)
-            .plain("dsr_hd_r_gt_x1e2", kLower)
-            .plain("dsr_normal_consistency", kHigher),
-        Needs{}, dsr_metric));
+    reg.add(following(
+        "scoredenoise",
+        make_metric<ScoreDenoiseParams>(
+            "convention.scoredenoise",
+            "ScoreDenoise's evaluator (luost26/score-denoise utils/evaluate.py, PyTorch3D 0.5.0; "
+            "also IterativePFN, StraightPCF): clouds in the unit sphere (bbox centre, max radius), "
+            "sd_cd_sph_x1e4 = 1e4 x (mean squared nearest distance output->reference + "
+            "reference->output), sd_p2f_x1e4 = 1e4 x (mean squared point->face + face->point, "
+            "PyTorch3D's point_mesh_face_distance), sd_hd_sph (squared); as the papers print them",
+            Scores::Points,
+            Keys{}
+                .plain("sd_cd_sph_x1e4", kLower)
+                .plain("sd_p2f_x1e4", kLower)
+                .plain("sd_hd_sph", kLower)
+                .plain("sd_reference_points", kNone),
+            Needs{}, scoredenoise_metric)));
+    reg.add(following(
+        "dsr",
+        make_metric<DsrParams>(
+            "convention.dsr",
+            "the dsr-benchmark's evaluator (raphaelsulzer/dsr-benchmark dsrb/eval.py) for mesh "
+            "outputs: point-to-point distances between the output's surface samples and the ground "
+            "truth's points, dsr_chamfer_x1e2 = 0.5 x (mean gt->r + mean r->gt), "
+            "dsr_hausdorff_x1e2 "
+            "= max of both maxima, each over diag/100 of the ground-truth points (the tables' "
+            "x10^2), the one-sided means and maxima, dsr_normal_consistency",
+            Scores::Mesh,
+            Keys{}
+                .plain("dsr_chamfer_x1e2", kLower)
+                .plain("dsr_cd_gt_r_x1e2", kLower)
+                .plain("dsr_cd_r_gt_x1e2", kLower)
+                .plain("dsr_hausdorff_x1e2", kLower)
+                .plain("dsr_hd_gt_r_x1e2", kLower)
+                .plain("dsr_hd_r_gt_x1e2", kLower)
+                .plain("dsr_normal_consistency", kHigher),
+            Needs{}, dsr_metric)));
+    reg.add(following(
+        "pdflow",
+        make_metric<PdflowParams>(
+            "convention.pdflow",
+            "PD-Flow's evaluator (unknownue/pdflow eval/evaluation.py) in the ground-truth points' "
+            "unit sphere: pdflow_cd = mean nearest distance output->gt + gt->output (unsquared, "
+            "point-cloud-utils), pdflow_hd = the larger directed maximum, pdflow_p2s = mean "
+            "distance to the nearest of the 16 nearest ground-truth points' tangent planes",
+            Scores::Points,
+            Keys{}
+                .plain("pdflow_cd", kLower)
+                .plain("pdflow_p2s", kLower)
+                .plain("pdflow_hd", kLower)
+                .plain("pdflow_reference_points", kNone),
+            Needs{}, pdflow_metric)));
+    reg.add(following(
+        "tnt",
+        make_metric<TntParams>(
+            "convention.tnt",
+            "the Tanks and Temples evaluation (isl-org/TanksAndTemples python_toolbox/evaluation): "
+            "both clouds voxel-downsampled at voxel x tau (Open3D), tnt_precision and tnt_recall = "
+            "shares of point-to-point distances below tau, tnt_fscore = 2PR/(P+R); histograms of "
+            "both distances in tau for the curves",
+            Scores::Points,
+            Keys{}
+                .plain("tnt_precision", kHigher)
+                .plain("tnt_recall", kHigher)
+                .plain("tnt_fscore", kHigher)
+                .length("tnt_tau", kNone)
+                .plain("tnt_output_points", kNone)
+                .plain("tnt_reference_points", kNone),
+            Needs{}, tnt_metric)));
+    reg.add(following(
+        "dtu",
+        make_metric<DtuParams>(
+            "convention.dtu",
+            "DTU's evaluation as DTUeval-python computes it (jzhangbs/DTUeval-python eval.py): the "
+            "output shuffled (seeded) and thinned to downsample_density, dtu_accuracy and "
+            "dtu_completeness = means of the nearest distances below max_dist each way, "
+            "dtu_overall = their mean (+ _rel); no observation mask",
+            Scores::Points,
+            Keys{}
+                .length("dtu_accuracy", kLower)
+                .length("dtu_completeness", kLower)
+                .length("dtu_overall", kLower)
+                .plain("dtu_points", kNone),
+            Needs{}, dtu_metric)));
     return reg;
   }();
   return r;

@@ -369,6 +369,47 @@ TEST_F(HonestTables, CountsPrintAsIntegers) {
   EXPECT_EQ(html.find("e+0", jobs), std::string::npos);
 }
 
+// A key that follows a published evaluator says whose convention in every table header, and
+// `list metrics --json` marks every key's convention (docs/metrics.md "Conventions").
+TEST(HonestTablesConventions, HeadersAndTheListNameEachKeysConvention) {
+  const fs::path dir = make_temp_dir("honest-conventions");
+  write(dir / "conv.json", R"({
+    "scanbench_experiment": 1, "name": "conv", "seed": 3, "save_outputs": false,
+    "datasets": [{"name": "sphere"}],
+    "scanners": [{"preset": "moderate", "params": {"views": 2, "resolution": 40}}],
+    "variants": [{"label": "sub", "algorithm": "test.subsample", "params": {"stride": 2}}],
+    "metrics": ["accuracy.chamfer", "convention.scoredenoise", "convention.tnt"]
+  })");
+  const fs::path out = dir / "out";
+  const auto run =
+      sh(sb() + " run " + (dir / "conv.json").string() + " -o " + out.string() + " -q");
+  ASSERT_EQ(run.code, 0) << run.out;
+  const auto sd = sh(sb() + " table " + out.string() + " --metric sd_cd_sph_x1e4");
+  ASSERT_EQ(sd.code, 0) << sd.out;
+  EXPECT_NE(sd.out.find("**sd_cd_sph_x1e4 [ScoreDenoise convention] (lower is better)**"),
+            std::string::npos)
+      << sd.out;
+  const auto tnt = sh(sb() + " table " + out.string() + " --metric tnt_fscore --format tex");
+  EXPECT_NE(tnt.out.find("% tnt_fscore [Tanks and Temples convention] (higher is better)"),
+            std::string::npos)
+      << tnt.out;
+  const auto own = sh(sb() + " table " + out.string() + " --metric chamfer_rel");
+  EXPECT_NE(own.out.find("**chamfer_rel (lower is better)**"), std::string::npos) << own.out;
+  const auto list = sh(sb() + " list metrics --json");
+  ASSERT_EQ(list.code, 0);
+  const Json j = Json::parse(list.out);
+  bool seen = false;
+  for (const Json& m : j["metrics"]) {
+    if (m["name"] != "convention.dtu") continue;
+    seen = true;
+    EXPECT_EQ(m["convention"]["title"], "DTU");
+    EXPECT_NE(m["convention"]["source"].get<std::string>().find("DTUeval-python"),
+              std::string::npos);
+    EXPECT_EQ(m["key_conventions"]["dtu_overall_rel"], "dtu");
+  }
+  EXPECT_TRUE(seen) << list.out.substr(0, 400);
+}
+
 TEST(HonestTablesMesh, MeshAndPointOutputsFlaggedOnChamferKeys) {
   const fs::path dir = make_temp_dir("honest-mesh");
   write(dir / "mesh.json", R"({

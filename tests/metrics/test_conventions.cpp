@@ -4,7 +4,12 @@
 // point_mesh_face_distance (brute force), on three shapes and both of PyTorch3D's triangle-area
 // thresholds; the identities the convention implies (invariance to where and how large the
 // shape is; the larger threshold never lowers p2f); the dsr-benchmark's point scores against
-// tests/reference/dsr_eval.py (its dsrb/eval.py, brute force); the metrics through the registry.
+// tests/reference/dsr_eval.py (its dsrb/eval.py, brute force); PD-Flow's against
+// tests/reference/pdflow_eval.py (its eval/evaluation.py with sklearn); Tanks and Temples' against
+// tests/reference/tnt_eval.py (the toolbox's steps on Debian's python3-open3d); DTU's against
+// tests/reference/dtu_eval.py (DTUeval-python's eval.py with sklearn); the metrics through the
+// registry and every metric's convention mark.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -20,6 +25,7 @@
 #include "scanbench/metrics/conventions.h"
 #include "scanbench/metrics/evaluate.h"
 #include "scanbench/metrics/ground_truth.h"
+#include "scanbench/metrics/registry.h"
 #include "scanbench/metrics/surface_sampling.h"
 #include "temp_dir.h"
 #include "test_meshes.h"
@@ -220,6 +226,174 @@ TEST(ConventionDsr, TheMetricScoresMeshOutputsAtTheTablesScale) {
   PointCloud pts = sample_surface(mesh, 500, 1);
   const Json r = evaluate(gt, pts, nullptr, {}, params, ctx);
   EXPECT_TRUE(r["skipped"].contains("convention.dsr"));
+}
+
+/// Three shapes for the reference comparisons: a sphere, a torus and a cube.
+std::vector<std::pair<const char*, TriangleMesh>> three_shapes() {
+  TorusParams torus;
+  torus.major_segments = 48;
+  torus.minor_segments = 24;
+  CubeParams cube;
+  cube.resolution = 6;
+  return {{"icosphere(4)", icosphere(4)}, {"torus", make_torus(torus)}, {"cube", make_cube(cube)}};
+}
+
+TEST(ConventionPdflow, EqualsThePortOfItsEvaluator) {
+  std::uint64_t seed = 31;
+  for (const auto& [name, mesh] : three_shapes()) {
+    const Eigen::Matrix3Xf pred = noisy(mesh, 1500, seed, 0.01);
+    const PointCloud gt = sample_surface(mesh, 1200, seed + 3);
+    seed += 100;
+    const PdflowScores s = pdflow_scores(pred, gt);
+    const Json r = run_reference(
+        "pdflow_eval.py",
+        {pred.cast<double>(), gt.positions.cast<double>(), gt.normals.cast<double>()});
+    ASSERT_TRUE(r.contains("P2S")) << name;
+    EXPECT_NEAR(s.cd, r["CD"].get<double>(), 1e-6 * r["CD"].get<double>()) << name;
+    EXPECT_NEAR(s.hd, r["HD"].get<double>(), 1e-6 * r["HD"].get<double>()) << name;
+    EXPECT_NEAR(s.p2s, r["P2S"].get<double>(), 1e-6 * r["P2S"].get<double>()) << name;
+    // The nearest of 16 planes is never farther than the nearest point.
+    EXPECT_GT(s.p2s, 0.0);
+    EXPECT_LT(s.p2s, s.cd);
+  }
+}
+
+TEST(ConventionPdflow, TheMetricScoresInTheUnitSphereUnlessAskedNot) {
+  const TriangleMesh mesh = icosphere(3, 2.0f);  // radius 2: the unit sphere halves lengths
+  GroundTruth gt(mesh, 3);
+  PointCloud out;
+  out.positions = noisy(mesh, 800, 41, 0.02);
+  RunContext ctx(1);
+  const Json unit = evaluate(gt, out, nullptr, {"convention.pdflow"}, Json::object(), ctx);
+  const Json raw = evaluate(gt, out, nullptr, {"convention.pdflow"},
+                            Json{{"convention.pdflow", {{"normalize", false}}}}, ctx);
+  const PdflowScores s = pdflow_scores(out.positions, gt.surface_samples(800));
+  EXPECT_EQ(raw["pdflow_cd"].get<double>(), s.cd);
+  EXPECT_EQ(raw["pdflow_p2s"].get<double>(), s.p2s);
+  EXPECT_EQ(raw["pdflow_hd"].get<double>(), s.hd);
+  EXPECT_NEAR(unit["pdflow_cd"].get<double>(), raw["pdflow_cd"].get<double>() / 2.0,
+              0.01 * unit["pdflow_cd"].get<double>());
+  EXPECT_EQ(unit["pdflow_reference_points"].get<long>(), 800);
+}
+
+TEST(ConventionTnt, EqualsTheToolboxOnOpen3d) {
+  std::uint64_t seed = 51;
+  for (const auto& [name, mesh] : three_shapes()) {
+    const Eigen::Matrix3Xf out = noisy(mesh, 3000, seed, 0.01),
+                           truth = noisy(mesh, 4000, seed + 5, 0.0);
+    seed += 100;
+    const double tau = 0.015, voxel = 0.0075;
+    const TntScores s = tnt_scores(out, truth, tau, voxel);
+    const Json r = run_reference("tnt_eval.py", {out.cast<double>(), truth.cast<double>()},
+                                 fmt::format("{:.17g} {:.17g}", tau, voxel));
+    ASSERT_TRUE(r.contains("fscore")) << name << " (python3-open3d, scripts/setup.sh)";
+    // The downsampling merges points, and the same cells as Open3D's.
+    EXPECT_LT(s.precision_distances.size(), 3000u) << name;
+    EXPECT_EQ(s.precision_distances.size(), r["source_points"].get<std::size_t>()) << name;
+    EXPECT_EQ(s.recall_distances.size(), r["target_points"].get<std::size_t>()) << name;
+    EXPECT_NEAR(s.precision, r["precision"].get<double>(), 1e-12) << name;
+    EXPECT_NEAR(s.recall, r["recall"].get<double>(), 1e-12) << name;
+    EXPECT_NEAR(s.fscore, r["fscore"].get<double>(), 1e-12) << name;
+    EXPECT_GT(s.precision, 0.05) << name;
+    EXPECT_LT(s.precision, 0.95) << name;
+  }
+}
+
+TEST(ConventionTnt, VoxelMeansAndTheMetricsKeys) {
+  // Two points in one cell average; a third in its own cell stays.
+  Eigen::Matrix3Xd p(3, 3);
+  p << 0.0, 0.2, 1.0,  //
+      0.0, 0.1, 1.0,   //
+      0.0, 0.2, 1.0;
+  const Eigen::Matrix3Xd d = voxel_down_sample(p, 0.5);
+  ASSERT_EQ(d.cols(), 2);
+  EXPECT_EQ(d.col(0), Eigen::Vector3d(0.1, 0.05, 0.1));
+  EXPECT_EQ(d.col(1), Eigen::Vector3d(1.0, 1.0, 1.0));
+  const TriangleMesh mesh = icosphere(3);
+  GroundTruth gt(mesh, 3);
+  PointCloud out = sample_surface(mesh, 2000, 3);
+  RunContext ctx(1);
+  const Json r = evaluate(gt, out, nullptr, {"convention.tnt"},
+                          Json{{"convention.tnt", {{"reference_points", 20000}}}}, ctx);
+  EXPECT_NEAR(r["tnt_tau_rel"].get<double>(), 0.005, 1e-12);
+  EXPECT_GT(r["tnt_precision"].get<double>(), 0.99);  // samples on the surface itself
+  const Json& h = r["histograms"]["tnt_precision"];
+  EXPECT_EQ(h["bins"].get<int>(), 500);
+  EXPECT_EQ(h["unit"].get<std::string>(), "tau");
+}
+
+TEST(ConventionDtu, EqualsThePortOfItsEvaluator) {
+  std::uint64_t seed = 71;
+  for (const auto& [name, mesh] : three_shapes()) {
+    const Eigen::Matrix3Xf out = noisy(mesh, 2500, seed, 0.01),
+                           truth = noisy(mesh, 3000, seed + 5, 0.0);
+    seed += 100;
+    const double density = 0.04, max_dist = 0.02;
+    const DtuScores s = dtu_scores(out, truth, density, max_dist);
+    const Json r = run_reference("dtu_eval.py", {out.cast<double>(), truth.cast<double>()},
+                                 fmt::format("{:.17g} {:.17g}", density, max_dist));
+    ASSERT_TRUE(r.contains("over_all")) << name << " (python3-sklearn, scripts/setup.sh)";
+    EXPECT_LT(s.thinned_points, 2500) << name;
+    EXPECT_EQ(s.thinned_points, r["down_points"].get<Eigen::Index>()) << name;
+    EXPECT_NEAR(s.accuracy, r["mean_d2s"].get<double>(), 1e-6 * s.accuracy) << name;
+    EXPECT_NEAR(s.completeness, r["mean_s2d"].get<double>(), 1e-6 * s.completeness) << name;
+    EXPECT_NEAR(s.overall, r["over_all"].get<double>(), 1e-6 * s.overall) << name;
+  }
+}
+
+TEST(ConventionDtu, ThinningKeepsNoTwoPointsWithinTheDensityAndTheMetricIsSeeded) {
+  const TriangleMesh mesh = icosphere(3);
+  const Eigen::Matrix3Xd p = noisy(mesh, 3000, 3, 0.005).cast<double>();
+  const std::vector<Eigen::Index> kept = dtu_thin(p, 0.05);
+  for (std::size_t a = 0; a < kept.size(); ++a)
+    for (std::size_t b = a + 1; b < kept.size(); ++b)
+      ASSERT_GT((p.col(kept[a]) - p.col(kept[b])).norm(), 0.05);
+  // Every dropped point has a kept point before it within the density.
+  std::vector<char> is_kept(3000, 0);
+  for (Eigen::Index k : kept)
+    is_kept[static_cast<std::size_t>(k)] = 1;
+  for (Eigen::Index i = 0; i < 3000; ++i) {
+    if (is_kept[static_cast<std::size_t>(i)]) continue;
+    bool covered = false;
+    for (Eigen::Index k : kept)
+      covered = covered || (k < i && (p.col(k) - p.col(i)).norm() <= 0.05);
+    ASSERT_TRUE(covered) << i;
+  }
+  GroundTruth gt(mesh, 3);
+  PointCloud out;
+  out.positions = p.cast<float>();
+  const Json params = {
+      {"convention.dtu", {{"reference_points", 5000}, {"downsample_density", 0.01}}}};
+  RunContext a(1), b(1), c(2);
+  const Json ra = evaluate(gt, out, nullptr, {"convention.dtu"}, params, a);
+  EXPECT_EQ(ra, evaluate(gt, out, nullptr, {"convention.dtu"}, params, b));
+  EXPECT_NE(ra["dtu_points"],
+            evaluate(gt, out, nullptr, {"convention.dtu"}, params, c)["dtu_points"]);
+  EXPECT_NEAR(ra["dtu_overall"].get<double>(),
+              0.5 * (ra["dtu_accuracy"].get<double>() + ra["dtu_completeness"].get<double>()),
+              1e-15);
+  // Nothing within max_dist: undefined, so not applicable (and said so).
+  PointCloud far;
+  far.positions = (p.cast<float>().array() + 10.0f).matrix();
+  EXPECT_THROW(evaluate(gt, far, nullptr, {"convention.dtu"}, params, a), NotApplicable);
+}
+
+TEST(Conventions, EveryMetricNamesAKnownConventionAndListsIt) {
+  for (const auto& e : registry().entries()) {
+    const Convention& c = convention(e.fn.convention);
+    EXPECT_FALSE(c.source.empty()) << e.name;
+    Json j = Json::object();
+    e.fn.describe(j);
+    EXPECT_EQ(j["convention"]["name"], c.name) << e.name;
+    for (const auto& k : e.fn.keys)
+      EXPECT_EQ(j["key_conventions"][k.key], c.name) << e.name << " " << k.key;
+    // A convention.* metric follows a published evaluator; the others scanbench's own.
+    EXPECT_EQ(e.name.rfind("convention.", 0) == 0, c.name != "scanbench") << e.name;
+  }
+  EXPECT_EQ(key_convention("sd_cd_sph_x1e4"), std::optional<std::string>("scoredenoise"));
+  EXPECT_EQ(key_convention("chamfer_rel"), std::optional<std::string>("scanbench"));
+  EXPECT_EQ(key_convention("no_such_key"), std::nullopt);
+  EXPECT_THROW(convention("nope"), Error);
 }
 
 }  // namespace

@@ -615,7 +615,8 @@ std::string winners_section(const std::vector<Json>& records,
   }
   h += "</p>\n<table id=\"winners\"><tr><th>dataset</th><th>compared</th>";
   for (const Column& c : cols)
-    h += fmt::format("<th>{} ({})</th>", html_escape(c.metric), c.better > 0 ? "higher" : "lower");
+    h += fmt::format("<th>{} ({})</th>", html_escape(metric_header(c.metric)),
+                     c.better > 0 ? "higher" : "lower");
   h += "</tr>\n" + body;
   return h + "</table>\n";
 }

@@ -251,6 +251,12 @@ std::string field_value(const Json& r, const std::string& f) {
   return "";
 }
 
+std::string metric_header(const std::string& quantity) {
+  const auto c = metrics::key_convention(quantity);
+  if (!c || *c == "scanbench") return quantity;
+  return fmt::format("{} [{} convention]", quantity, metrics::convention(*c).title);
+}
+
 std::string default_metric(const std::vector<Json>& records) {
   std::string first;
   for (const auto& r : records) {
@@ -500,9 +506,10 @@ std::string render_table(const Table& t, const std::string& format) {
     if (c.n > 1) s += " ± " + format_number(c.spread);
     return s + kind_mark(c);
   };
-  const std::string title = t.better == 0 ? fmt::format("{} (informational)", t.metric)
-                                          : fmt::format("{} ({} is better)", t.metric,
-                                                        t.higher_better ? "higher" : "lower");
+  const std::string title = t.better == 0
+                                ? fmt::format("{} (informational)", metric_header(t.metric))
+                                : fmt::format("{} ({} is better)", metric_header(t.metric),
+                                              t.higher_better ? "higher" : "lower");
   const std::string bold = t.better == 0 ? "" : "; best per row in bold";
   std::string out;
   if (format == "md") {

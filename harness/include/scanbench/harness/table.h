@@ -62,6 +62,9 @@ struct Table {
 /// Builds the table. Throws ParamError (one line, with a "did you mean" suggestion) for an
 /// unknown row/column field, a param:<key> no record has, or a metric no record has.
 Table build_table(const std::vector<Json>& records, const TableSpec& spec);
+/// How a header names a quantity: the key, with its published evaluator's convention when it
+/// follows one ("sd_cd_sph_x1e4 [ScoreDenoise convention]"); scanbench's own keys unmarked.
+std::string metric_header(const std::string& quantity);
 /// The default metric of a record set (see TableSpec::metric).
 std::string default_metric(const std::vector<Json>& records);
 /// Renders as "md", "csv" (long format: row,col,median,spread,n,best,status), "tex" or "html"

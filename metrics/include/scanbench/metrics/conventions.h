@@ -33,6 +33,49 @@
 //  - Normal Consistency = 0.5 (mean |n_gt . n_r(nearest)| + mean |n_r . n_gt(nearest)|), unit
 //    normals, unoriented.
 // Its IoU needs the dataset's precomputed occupancy queries and is not computed here.
+//
+// PD-Flow (A. Mao et al., "PD-Flow: A Point Cloud Denoising Framework with Normalizing Flows",
+// ECCV 2022; github.com/unknownue/pdflow at 78c4a67, eval/evaluation.py: evaluation and
+// point2surface_distance), on the point clouds as its script reads them:
+//  - CD = point-cloud-utils' chamfer_distance(pred, gt): mean over pred of the Euclidean
+//    (unsquared) distance to the nearest gt point PLUS the mean the other way (a sum of the two
+//    means, point-cloud-utils issue 89);
+//  - HD = point-cloud-utils' hausdorff_distance: the larger directed maximum, unsquared;
+//  - P2S = mean over pred of min over its 16 nearest gt points g (sklearn, ball tree) of
+//    |p . n_g - g . n_g| / |n_g|: the distance to the nearest of 16 tangent planes, n_g the gt
+//    point's normal.
+// Its script scores the files in whatever frame they are in; its test clouds are ScoreDenoise's
+// (PU-Net meshes' Poisson-disk samples). Here both clouds are first put in the ground-truth
+// points' unit sphere (normalize_sphere above), unless normalize = false.
+//
+// Tanks and Temples (A. Knapitsch et al., "Tanks and Temples: Benchmarking Large-Scale Scene
+// Reconstruction", SIGGRAPH 2017; github.com/isl-org/TanksAndTemples at 3c2c212,
+// python_toolbox/evaluation/evaluation.py: EvaluateHisto and get_f1_score_histo2, called by
+// run.py with voxel_size = tau / 2):
+//  - both clouds voxel-downsampled at tau / 2 by Open3D's VoxelDownSample (grid origin at the
+//    cloud's min bound - voxel / 2, cell = floor((p - origin) / voxel), the mean of a cell's
+//    points); the scene's crop volume and the alignment of the submission are not applied (the
+//    output is in the ground truth's frame, and the ground truth is the whole shape);
+//  - distances point to point (Open3D's compute_point_cloud_distance, nearest neighbour);
+//  - precision = share of output points with distance < tau, recall = share of ground-truth
+//    points with distance < tau (strict), F = 2 P R / (P + R), 0 when either cloud is empty;
+//  - tau is per scene in the benchmark (3 mm to 25 mm): here a fraction of the diagonal.
+//
+// DTU (R. Jensen et al., "Large Scale Multi-view Stereopsis Evaluation", CVPR 2014; the
+// community's Python evaluator github.com/jzhangbs/DTUeval-python at 45b4fec, eval.py, mode
+// pcd):
+//  - the output points shuffled (eval.py: an unseeded numpy shuffle, so its own accuracy moves
+//    from run to run; here seeded from the run), then thinned greedily in that order: a point
+//    is kept unless an earlier kept point lies within downsample_density of it (sklearn's
+//    radius_neighbors, distance <= density; DTU's 0.2 mm);
+//  - accuracy = mean over the thinned points of the distance to the nearest ground-truth point,
+//    over the distances below max_dist only (DTU's 20 mm); completeness = the same from the
+//    ground-truth points to the thinned points; overall = their mean;
+//  - DTU's observation mask (ObsMask*.mat) and ground plane have no counterpart on a shape
+//    scanned here: every thinned point and every ground-truth point counts;
+//  - DTU's lengths are absolute (mm): here fractions of the diagonal, by default DTU's 0.2 mm and
+//    20 mm on a shape of 400 mm diagonal.
+#include "scanbench/core/run_context.h"
 #include "scanbench/metrics/metric_input.h"
 
 namespace scanbench::metrics {
@@ -93,5 +136,100 @@ DsrScores dsr_scores(const PointCloud& output, const PointCloud& truth);
 /// Metric "convention.dsr" (mesh outputs): dsr_chamfer_x1e2, dsr_cd_gt_r_x1e2, dsr_cd_r_gt_x1e2,
 /// dsr_hausdorff_x1e2, dsr_hd_gt_r_x1e2, dsr_hd_r_gt_x1e2, dsr_normal_consistency.
 Json dsr_metric(const MetricInput& in, const DsrParams& p);
+
+struct PdflowParams {
+  std::int64_t reference_points = 0;  ///< gt cloud size; 0 = as many as the output points
+  bool normalize = true;              ///< score in the gt points' unit sphere
+  static void declare(ParamDeclarer<PdflowParams>& d) {
+    d.integer("reference_points", &PdflowParams::reference_points, Range::closed(0, 100000000), "",
+              "size of the clean ground-truth cloud with normals (the ground truth's seeded "
+              "area-uniform samples); 0 = as many as the output points");
+    d.flag("normalize", &PdflowParams::normalize,
+           "put both clouds in the ground-truth points' unit sphere first (ScoreDenoise's "
+           "normalize_sphere; PD-Flow's test clouds are in it); false: the dataset's own units");
+  }
+};
+
+struct PdflowScores {
+  double cd = 0.0;   ///< sum of the two mean nearest distances (unsquared)
+  double hd = 0.0;   ///< the larger directed maximum (unsquared)
+  double p2s = 0.0;  ///< mean distance to the nearest of 16 ground-truth tangent planes
+};
+
+/// PD-Flow's three scores of `pred` against the ground-truth points (with normals; InputError
+/// for empty clouds or missing normals), in the frame given. Exact neighbours in double.
+PdflowScores pdflow_scores(const Eigen::Matrix3Xf& pred, const PointCloud& gt);
+
+/// Metric "convention.pdflow": pdflow_cd, pdflow_p2s, pdflow_hd, pdflow_reference_points.
+Json pdflow_metric(const MetricInput& in, const PdflowParams& p);
+
+struct TntParams {
+  double tau = 0.005;                      ///< distance threshold, fraction of the diagonal
+  double voxel = 0.5;                      ///< voxel size as a fraction of tau (run.py: 1/2)
+  std::int64_t reference_points = 100000;  ///< ground-truth points before downsampling
+  static void declare(ParamDeclarer<TntParams>& d) {
+    d.real("tau", &TntParams::tau, Range::above(0.0), "diag",
+           "the precision/recall threshold (Tanks and Temples: per scene, 3 to 25 mm)");
+    d.real("voxel", &TntParams::voxel, Range::above(0.0), "tau",
+           "voxel size of the downsampling of both clouds, as a fraction of tau (run.py: 0.5)");
+    d.integer("reference_points", &TntParams::reference_points, Range::closed(1, 100000000), "",
+              "ground-truth points (the ground truth's seeded area-uniform samples; the "
+              "benchmark's are laser scans) before the voxel downsampling");
+  }
+};
+
+struct TntScores {
+  double precision = 0.0, recall = 0.0, fscore = 0.0;
+  std::vector<double> precision_distances;  ///< per downsampled output point
+  std::vector<double> recall_distances;     ///< per downsampled ground-truth point
+};
+
+/// Open3D's VoxelDownSample: the mean of the points in each cell of the grid anchored at the
+/// cloud's min bound - voxel / 2 (sums in input order, so the means are Open3D's to the bit);
+/// cells in lexicographic order of their index.
+Eigen::Matrix3Xd voxel_down_sample(const Eigen::Matrix3Xd& points, double voxel);
+
+/// The Tanks and Temples scores of `output` against `truth` at `tau` with voxel size `voxel`
+/// (both absolute), as EvaluateHisto computes them (no crop, no alignment).
+TntScores tnt_scores(const Eigen::Matrix3Xf& output, const Eigen::Matrix3Xf& truth, double tau,
+                     double voxel);
+
+/// Metric "convention.tnt": tnt_precision, tnt_recall, tnt_fscore, tnt_tau(_rel), point counts
+/// after downsampling, and the distance histograms behind the benchmark's curves.
+Json tnt_metric(const MetricInput& in, const TntParams& p);
+
+struct DtuParams {
+  double downsample_density = 0.0005;      ///< DTU's 0.2 mm, fraction of the diagonal
+  double max_dist = 0.05;                  ///< DTU's 20 mm, fraction of the diagonal
+  std::int64_t reference_points = 100000;  ///< ground-truth points (DTU: the STL scan)
+  static void declare(ParamDeclarer<DtuParams>& d) {
+    d.real("downsample_density", &DtuParams::downsample_density, Range::above(0.0), "diag",
+           "the output is thinned to points at least this far apart (DTU: 0.2 mm)");
+    d.real("max_dist", &DtuParams::max_dist, Range::above(0.0), "diag",
+           "distances from this on are left out of both means (DTU: 20 mm)");
+    d.integer("reference_points", &DtuParams::reference_points, Range::closed(1, 100000000), "",
+              "ground-truth points (the ground truth's seeded area-uniform samples; DTU's are "
+              "structured-light scans)");
+  }
+};
+
+struct DtuScores {
+  double accuracy = 0.0, completeness = 0.0, overall = 0.0;
+  Eigen::Index thinned_points = 0;
+};
+
+/// Greedy thinning in the order given: point i is kept unless a kept point j < i lies within
+/// `density` (distance <= density, in double). The kept indices, ascending.
+std::vector<Eigen::Index> dtu_thin(const Eigen::Matrix3Xd& points, double density);
+
+/// DTU's scores of `output` (already in the order the thinning visits) against `truth`, lengths
+/// absolute. NotApplicable when no distance either way is below max_dist (the mean is
+/// undefined; eval.py would print NaN).
+DtuScores dtu_scores(const Eigen::Matrix3Xf& output, const Eigen::Matrix3Xf& truth, double density,
+                     double max_dist);
+
+/// Metric "convention.dtu": dtu_accuracy, dtu_completeness, dtu_overall (lengths, + _rel),
+/// dtu_points (after thinning). The output is shuffled with the run's stream "metric.dtu".
+Json dtu_metric(const MetricInput& in, const DtuParams& p, RunContext& ctx);
 
 }  // namespace scanbench::metrics

@@ -57,9 +57,21 @@ struct MetricKey {
   Better better = Better::Lower;
 };
 
+/// A published evaluator whose definitions a metric follows (docs/metrics.md "Conventions").
+struct Convention {
+  std::string name;    ///< "scanbench" (the harness's own), "scoredenoise", "dsr", ...
+  std::string title;   ///< as a table header shows it, e.g. "ScoreDenoise"
+  std::string source;  ///< repository, commit, file and function
+};
+/// Every convention, scanbench's own first.
+const std::vector<Convention>& conventions();
+/// The convention of `name`; Error for an unknown name.
+const Convention& convention(std::string_view name);
+
 /// A registered metric: its function, what it scores, the keys it emits and what it needs.
 struct Metric {
   Scores scores = Scores::Points;
+  std::string convention = "scanbench";  ///< whose definitions every key of it follows
   std::vector<MetricKey> keys;
   bool needs_closest = false;        ///< uses in.closest (shared exact closest points)
   bool needs_output_oracle = false;  ///< uses in.output_oracle (mesh outputs)
@@ -74,7 +86,8 @@ struct Metric {
   }
   /// The declared key, or null.
   const MetricKey* find_key(std::string_view key) const;
-  /// Adds "scores" and "keys" ({key: lower|higher|none}) to a `scanbench list --json` entry.
+  /// Adds "scores", "keys" ({key: lower|higher|none}), "convention" ({name, title, source}) and
+  /// "key_conventions" ({key: convention name}) to a `scanbench list --json` entry.
   void describe(Json& j) const;
 };
 
@@ -95,6 +108,10 @@ const std::vector<MetricKey>& record_keys();
 /// nullopt for a key nothing declares. A key declared by several metrics (surface.chamfer reuses
 /// the accuracy.chamfer keys) has one direction (tested).
 std::optional<Better> key_direction(std::string_view key);
+
+/// The convention of a record metric key (its metric's; "scanbench" for record_keys()), or
+/// nullopt for a key nothing declares.
+std::optional<std::string> key_convention(std::string_view key);
 
 /// True when a metric scoring `s` applies to a mesh output (Scores::Mesh) or to points (the
 /// others).
