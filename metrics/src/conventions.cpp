@@ -252,8 +252,41 @@ DsrScores dsr_scores(const PointCloud& output, const PointCloud& truth) {
   return s;
 }
 
+Eigen::Matrix3Xf dsr_iou_queries(const GroundTruth& truth, const DsrParams& p) {
+  const Eigen::Index n = p.iou_points;
+  const auto n_uniform =
+      static_cast<Eigen::Index>(std::llround(static_cast<double>(n) * p.iou_uniform_share));
+  const BoundingBox box = truth.bbox();
+  const Eigen::Vector3d centre = 0.5 * (box.min + box.max).cast<double>(),
+                        half = 0.5 * (1.0 + p.iou_padding) * (box.max - box.min).cast<double>();
+  Rng rng(derive_seed(truth.sample_seed(), "dsr.iou"));
+  Eigen::Matrix3Xf q(3, n);
+  for (Eigen::Index i = 0; i < n_uniform; ++i)
+    for (int a = 0; a < 3; ++a)
+      q(a, i) = static_cast<float>(centre(a) + half(a) * (2.0 * rng.uniform() - 1.0));
+  const double sigma = p.iou_sigma * truth.diagonal();
+  if (n > n_uniform) {
+    const PointCloud& near = truth.surface_samples(n - n_uniform);
+    for (Eigen::Index i = n_uniform; i < n; ++i)
+      for (int a = 0; a < 3; ++a)
+        q(a, i) = static_cast<float>(near.positions(a, i - n_uniform) + rng.normal(0.0, sigma));
+  }
+  return q;
+}
+
+double occupancy_iou(const std::vector<std::uint8_t>& a, const std::vector<std::uint8_t>& b) {
+  std::size_t both = 0, either = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    both += a[i] && b[i];
+    either += a[i] || b[i];
+  }
+  return either ? static_cast<double>(both) / static_cast<double>(either)
+                : std::numeric_limits<double>::quiet_NaN();
+}
+
 Json dsr_metric(const MetricInput& in, const DsrParams& p) {
-  if (!in.output_mesh) throw NotApplicable("convention.dsr: scores mesh outputs");
+  if (!in.output_mesh || !in.output_oracle)
+    throw NotApplicable("convention.dsr: scores mesh outputs");
   const DsrScores s = dsr_scores(in.output, in.truth.surface_samples(p.reference_points));
   const double scale = s.diag / 100.0;  // eval.py: scale_with_diag, "(x10^2)"
   Json j = Json::object();
@@ -264,6 +297,13 @@ Json dsr_metric(const MetricInput& in, const DsrParams& p) {
   j["dsr_hd_gt_r_x1e2"] = s.hd_gt_r / scale;
   j["dsr_hd_r_gt_x1e2"] = s.hd_r_gt / scale;
   j["dsr_normal_consistency"] = s.normal_consistency;
+  if (in.truth.closed()) {
+    const Eigen::Matrix3Xf q = dsr_iou_queries(in.truth, p);
+    j["dsr_iou"] =
+        detail::number(occupancy_iou(in.output_oracle->contains(q), in.truth.contains(q)));
+  } else {
+    j["dsr_iou"] = nullptr;  // no inside to compare with
+  }
   return j;
 }
 

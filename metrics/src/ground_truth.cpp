@@ -118,7 +118,46 @@ struct GroundTruth::Impl {
   GroundTruthOptions options;
   RTCDevice device = nullptr;
   RTCScene scene = nullptr;
+  // For contains(): built on first use with RTC_SCENE_FLAG_ROBUST, so that a ray through an edge
+  // or a vertex meets the surface (Embree's default traversal may let it slip between the
+  // triangles); the closest-point queries keep the faster default scene.
+  std::once_flag robust_once;
+  RTCScene robust_scene = nullptr;
   std::unique_ptr<KdTree> vertex_tree;
+
+  /// A committed scene of the mesh (one triangle geometry, primID = face index).
+  RTCScene build_scene(RTCSceneFlags flags) const {
+    RTCScene sc = rtcNewScene(device);
+    rtcSetSceneFlags(sc, flags);
+    RTCGeometry geom = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
+    // Embree allocates (and pads) its own buffers, so the last vertex can be read as 16 bytes.
+    auto* vb = static_cast<float*>(
+        rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                                3 * sizeof(float), static_cast<size_t>(mesh.num_vertices())));
+    auto* ib = static_cast<unsigned*>(
+        rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                3 * sizeof(unsigned), static_cast<size_t>(mesh.num_faces())));
+    if (!vb || !ib) {
+      rtcReleaseGeometry(geom);
+      rtcReleaseScene(sc);
+      throw Error("ground truth: Embree buffer allocation failed");
+    }
+    for (Eigen::Index i = 0; i < mesh.num_vertices(); ++i)
+      for (int k = 0; k < 3; ++k)
+        vb[3 * i + k] = mesh.vertices(k, i);
+    for (Eigen::Index f = 0; f < mesh.num_faces(); ++f)
+      for (int k = 0; k < 3; ++k)
+        ib[3 * f + k] = static_cast<unsigned>(mesh.faces(k, f));
+    rtcCommitGeometry(geom);
+    rtcAttachGeometry(sc, geom);
+    rtcReleaseGeometry(geom);
+    rtcCommitScene(sc);
+    if (rtcGetDeviceError(device) != RTC_ERROR_NONE) {
+      rtcReleaseScene(sc);
+      throw Error("ground truth: Embree scene build failed");
+    }
+    return sc;
+  }
 
   std::once_flag field_once;
   std::unique_ptr<DistanceField> field;
@@ -148,6 +187,7 @@ struct GroundTruth::Impl {
   std::map<Eigen::Index, std::unique_ptr<PointCloud>> samples;
 
   ~Impl() {
+    if (robust_scene) rtcReleaseScene(robust_scene);
     if (scene) rtcReleaseScene(scene);
     if (device) rtcReleaseDevice(device);
   }
@@ -191,34 +231,64 @@ GroundTruth::GroundTruth(const TriangleMesh& mesh, std::uint64_t sample_seed,
 
   m.device = rtcNewDevice(nullptr);
   if (!m.device) throw Error("ground truth: cannot create Embree device");
-  m.scene = rtcNewScene(m.device);
-  RTCGeometry geom = rtcNewGeometry(m.device, RTC_GEOMETRY_TYPE_TRIANGLE);
-  // Embree allocates (and pads) its own buffers, so the last vertex can be read as 16 bytes.
-  auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0,
-                                                         RTC_FORMAT_FLOAT3, 3 * sizeof(float),
-                                                         static_cast<size_t>(mesh.num_vertices())));
-  auto* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0,
-                                                            RTC_FORMAT_UINT3, 3 * sizeof(unsigned),
-                                                            static_cast<size_t>(mesh.num_faces())));
-  if (!vb || !ib) {
-    rtcReleaseGeometry(geom);
-    throw Error("ground truth: Embree buffer allocation failed");
-  }
-  for (Eigen::Index i = 0; i < mesh.num_vertices(); ++i)
-    for (int k = 0; k < 3; ++k)
-      vb[3 * i + k] = mesh.vertices(k, i);
-  for (Eigen::Index f = 0; f < mesh.num_faces(); ++f)
-    for (int k = 0; k < 3; ++k)
-      ib[3 * f + k] = static_cast<unsigned>(mesh.faces(k, f));
-  rtcCommitGeometry(geom);
-  rtcAttachGeometry(m.scene, geom);
-  rtcReleaseGeometry(geom);
-  rtcCommitScene(m.scene);
-  if (rtcGetDeviceError(m.device) != RTC_ERROR_NONE)
-    throw Error("ground truth: Embree scene build failed");
+  m.scene = m.build_scene(RTC_SCENE_FLAG_NONE);
 }
 
 GroundTruth::~GroundTruth() = default;
+
+namespace {
+
+/// Crossings of the ray from o along d with the scene, hits at one distance counted once: the
+/// triangles around a vertex or an edge the ray passes through give distances a few ulp apart,
+/// so the next search starts `merge` beyond a hit (1e-6 of the diagonal and of the distance).
+int crossings(RTCScene scene, const Eigen::Vector3f& o, float dz, float merge) {
+  int n = 0;
+  float tnear = 0.0f;
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  for (;;) {
+    RTCRayHit rh;
+    rh.ray.org_x = o.x();
+    rh.ray.org_y = o.y();
+    rh.ray.org_z = o.z();
+    rh.ray.dir_x = 0.0f;
+    rh.ray.dir_y = 0.0f;
+    rh.ray.dir_z = dz;
+    rh.ray.tnear = tnear;
+    rh.ray.tfar = std::numeric_limits<float>::infinity();
+    rh.ray.time = 0.0f;
+    rh.ray.mask = 0xFFFFFFFFu;
+    rh.ray.id = 0;
+    rh.ray.flags = 0;
+    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    rtcIntersect1(scene, &context, &rh);
+    if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return n;
+    ++n;
+    tnear = rh.ray.tfar * (1.0f + 1e-6f) + merge;
+  }
+}
+
+}  // namespace
+
+std::vector<std::uint8_t> GroundTruth::contains(const Eigen::Matrix3Xf& q) const {
+  std::vector<std::uint8_t> inside(static_cast<std::size_t>(q.cols()), 0);
+  const float merge = 1e-6f * impl_->diagonal;
+  std::call_once(impl_->robust_once,
+                 [this] { impl_->robust_scene = impl_->build_scene(RTC_SCENE_FLAG_ROBUST); });
+  RTCScene scene = impl_->robust_scene;
+  const BoundingBox box = impl_->bbox;
+  tbb::parallel_for(
+      tbb::blocked_range<Eigen::Index>(0, q.cols(), 1024),
+      [&](const tbb::blocked_range<Eigen::Index>& r) {
+        for (Eigen::Index i = r.begin(); i < r.end(); ++i) {
+          const Eigen::Vector3f p = q.col(i);
+          if ((p.array() < box.min.array()).any() || (p.array() > box.max.array()).any()) continue;
+          inside[static_cast<std::size_t>(i)] = crossings(scene, p, 1.0f, merge) % 2 == 1 &&
+                                                crossings(scene, p, -1.0f, merge) % 2 == 1;
+        }
+      });
+  return inside;
+}
 
 const TriangleMesh& GroundTruth::mesh() const {
   return impl_->mesh;

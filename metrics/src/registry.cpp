@@ -382,9 +382,10 @@ const MetricRegistry& registry() {
             "the dsr-benchmark's evaluator (raphaelsulzer/dsr-benchmark dsrb/eval.py) for mesh "
             "outputs: point-to-point distances between the output's surface samples and the ground "
             "truth's points, dsr_chamfer_x1e2 = 0.5 x (mean gt->r + mean r->gt), "
-            "dsr_hausdorff_x1e2 "
-            "= max of both maxima, each over diag/100 of the ground-truth points (the tables' "
-            "x10^2), the one-sided means and maxima, dsr_normal_consistency",
+            "dsr_hausdorff_x1e2 = max of both maxima, each over diag/100 of the ground-truth "
+            "points (the tables' x10^2), the one-sided means and maxima, "
+            "dsr_normal_consistency, dsr_iou (occupancy by ray parity at queries uniform in the "
+            "padded box and near the surface; null when the ground truth is not closed)",
             Scores::Mesh,
             Keys{}
                 .plain("dsr_chamfer_x1e2", kLower)
@@ -393,8 +394,9 @@ const MetricRegistry& registry() {
                 .plain("dsr_hausdorff_x1e2", kLower)
                 .plain("dsr_hd_gt_r_x1e2", kLower)
                 .plain("dsr_hd_r_gt_x1e2", kLower)
-                .plain("dsr_normal_consistency", kHigher),
-            Needs{}, dsr_metric)));
+                .plain("dsr_normal_consistency", kHigher)
+                .plain("dsr_iou", kHigher),
+            Needs{false, true}, dsr_metric)));
     reg.add(following(
         "pdflow",
         make_metric<PdflowParams>(

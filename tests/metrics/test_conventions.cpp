@@ -12,6 +12,8 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
+
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -226,6 +228,115 @@ TEST(ConventionDsr, TheMetricScoresMeshOutputsAtTheTablesScale) {
   PointCloud pts = sample_surface(mesh, 500, 1);
   const Json r = evaluate(gt, pts, nullptr, {}, params, ctx);
   EXPECT_TRUE(r["skipped"].contains("convention.dsr"));
+}
+
+/// The generalized winding number of a closed mesh at q (van Oosterom and Strackee's solid
+/// angle of each face, summed, over 4 pi): about 1 inside, 0 outside. The oracle of contains().
+double winding_number(const TriangleMesh& m, const Eigen::Vector3d& q) {
+  double w = 0.0;
+  for (Eigen::Index f = 0; f < m.num_faces(); ++f) {
+    const Eigen::Vector3d a = m.vertices.col(m.faces(0, f)).cast<double>() - q,
+                          b = m.vertices.col(m.faces(1, f)).cast<double>() - q,
+                          c = m.vertices.col(m.faces(2, f)).cast<double>() - q;
+    const double la = a.norm(), lb = b.norm(), lc = c.norm();
+    w += 2.0 * std::atan2(a.dot(b.cross(c)),
+                          la * lb * lc + a.dot(b) * lc + b.dot(c) * la + c.dot(a) * lb);
+  }
+  return w / (4.0 * M_PI);
+}
+
+TEST(ConventionDsr, ContainsAgreesWithTheWindingNumber) {
+  TorusParams torus;
+  torus.major_segments = 32;
+  torus.minor_segments = 16;
+  CubeParams cube;
+  cube.resolution = 3;
+  const std::pair<const char*, TriangleMesh> shapes[] = {
+      {"icosphere(3)", icosphere(3)}, {"torus", make_torus(torus)}, {"cube", make_cube(cube)}};
+  for (const auto& [name, mesh] : shapes) {
+    GroundTruth gt(mesh, 3);
+    ASSERT_TRUE(gt.closed()) << name;
+    // Queries in the box grown by 20 %, and on grid lines through vertices (rays along z through
+    // shared edges and vertices).
+    const BoundingBox box = mesh.bbox();
+    Rng rng(7);
+    Eigen::Matrix3Xf q(3, 3000);
+    for (Eigen::Index i = 0; i < q.cols(); ++i)
+      for (int a = 0; a < 3; ++a)
+        q(a, i) = static_cast<float>(
+            rng.uniform(1.2 * box.min(a) - 0.2 * box.max(a), 1.2 * box.max(a) - 0.2 * box.min(a)));
+    for (Eigen::Index i = 0; i < 300 && i < mesh.num_vertices(); ++i) {
+      q.col(i) = mesh.vertices.col(i);
+      q(2, i) = static_cast<float>(rng.uniform(box.min(2), box.max(2)));
+    }
+    const std::vector<std::uint8_t> in = gt.contains(q);
+    int inside = 0, checked = 0;
+    for (Eigen::Index i = 0; i < q.cols(); ++i) {
+      const Eigen::Vector3d p = q.col(i).cast<double>();
+      if (gt.closest_point(q.col(i)).distance < 1e-4) continue;  // on the surface: either
+      const double w = winding_number(mesh, p);
+      ++checked;
+      inside += in[static_cast<std::size_t>(i)];
+      EXPECT_EQ(in[static_cast<std::size_t>(i)] != 0, w > 0.5)
+          << name << " at " << p.transpose() << " winding " << w;
+    }
+    EXPECT_GT(inside, checked / 10) << name;
+    EXPECT_LT(inside, checked) << name;
+  }
+}
+
+TEST(ConventionDsr, IouOfTheSameQueriesOnBothMeshes) {
+  const TriangleMesh mesh = icosphere(3);
+  GroundTruth gt(mesh, 3);
+  RunContext ctx(1);
+  const Json params = {{"convention.dsr", {{"reference_points", 2000}, {"iou_points", 20000}}}};
+  // Itself: 1. Moved out of the query box: 0. A larger sphere: the queries' own ratio.
+  EXPECT_EQ(evaluate_mesh(gt, mesh, nullptr, {"convention.dsr"}, params, ctx, 2000)["dsr_iou"],
+            1.0);
+  TriangleMesh away = mesh;
+  away.vertices.array() += 5.0f;
+  EXPECT_EQ(evaluate_mesh(gt, away, nullptr, {"convention.dsr"}, params, ctx, 2000)["dsr_iou"],
+            0.0);
+  const TriangleMesh big = icosphere(3, 1.1f);
+  const Json r = evaluate_mesh(gt, big, nullptr, {"convention.dsr"}, params, ctx, 2000);
+  DsrParams p;
+  p.iou_points = 20000;
+  const Eigen::Matrix3Xf q = dsr_iou_queries(gt, p);
+  ASSERT_EQ(q.cols(), 20000);
+  GroundTruth big_gt(big, 3);
+  const std::vector<std::uint8_t> a = big_gt.contains(q), b = gt.contains(q);
+  EXPECT_EQ(r["dsr_iou"].get<double>(), occupancy_iou(a, b));
+  std::size_t in_small = 0, in_big = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    in_small += b[i];
+    in_big += a[i];
+    EXPECT_TRUE(a[i] || !b[i]) << "the small sphere is inside the big one";
+  }
+  EXPECT_DOUBLE_EQ(r["dsr_iou"].get<double>(),
+                   static_cast<double>(in_small) / static_cast<double>(in_big));
+  // The queries: half in the box grown by 10 %, half within a few sigma of the surface; seeded by
+  // the ground truth, so the same for every output.
+  const BoundingBox box = mesh.bbox();
+  for (Eigen::Index i = 0; i < 10000; ++i)
+    for (int k = 0; k < 3; ++k) {
+      ASSERT_GE(q(k, i), 1.1f * box.min(k) - 1e-6f);
+      ASSERT_LE(q(k, i), 1.1f * box.max(k) + 1e-6f);
+    }
+  double sq = 0.0;
+  for (Eigen::Index i = 10000; i < 20000; ++i)
+    sq += std::pow(gt.closest_point(q.col(i)).distance, 2);
+  // E|offset|^2 = 3 sigma^2 for an offset N(0, sigma^2 I), sigma = 0.05 diag; the distance to
+  // the sphere is about the normal component only: E = sigma^2.
+  const double sigma = 0.05 * gt.diagonal();
+  EXPECT_NEAR(sq / 10000.0, sigma * sigma, 0.1 * sigma * sigma);
+  EXPECT_EQ(q, dsr_iou_queries(gt, p));
+  // An open ground truth has no inside: null.
+  TriangleMesh open = mesh;
+  open.faces.conservativeResize(3, open.faces.cols() - 1);
+  GroundTruth open_gt(open, 3);
+  EXPECT_TRUE(
+      evaluate_mesh(open_gt, mesh, nullptr, {"convention.dsr"}, params, ctx, 2000)["dsr_iou"]
+          .is_null());
 }
 
 /// Three shapes for the reference comparisons: a sphere, a torus and a cube.

@@ -32,7 +32,13 @@
 //    bounding-box diagonal (the tables' "(x10^2)");
 //  - Normal Consistency = 0.5 (mean |n_gt . n_r(nearest)| + mean |n_r . n_gt(nearest)|), unit
 //    normals, unoriented.
-// Its IoU needs the dataset's precomputed occupancy queries and is not computed here.
+//  - IoU (eval_geometry -> check_mesh_contains, compute_iou): occupancy of the output mesh by
+//    ray parity at the dataset's precomputed query points (points.npz, made by Occupancy
+//    Networks' sample_mesh.py: uniform in the padded bounding box and surface samples moved by
+//    Gaussian noise) against their stored ground-truth occupancy; here the queries are drawn
+//    (dsr_iou_queries) and both occupancies come from the same parity test. The reported row
+//    takes eval_geometry's IoU for every mesh: the "IoU 0 when not watertight" of
+//    eval_topology is never copied into it (mesh.facts' mesh_closed says whether it is).
 //
 // PD-Flow (A. Mao et al., "PD-Flow: A Point Cloud Denoising Framework with Normalizing Flows",
 // ECCV 2022; github.com/unknownue/pdflow at 78c4a67, eval/evaluation.py: evaluation and
@@ -79,6 +85,10 @@
 #include "scanbench/metrics/metric_input.h"
 
 namespace scanbench::metrics {
+class GroundTruth;
+}
+
+namespace scanbench::metrics {
 
 struct ScoreDenoiseParams {
   std::int64_t reference_points = 0;  ///< ref cloud size; 0 = as many as the output points
@@ -114,12 +124,36 @@ Json scoredenoise_metric(const MetricInput& in, const ScoreDenoiseParams& p);
 
 struct DsrParams {
   std::int64_t reference_points = 100000;  ///< ground-truth points (dsr: 100,000)
+  std::int64_t iou_points = 100000;        ///< occupancy queries
+  double iou_uniform_share = 0.5;          ///< share of them uniform in the padded box
+  double iou_padding = 0.1;                ///< the box grown by this share of each side
+  double iou_sigma = 0.05;                 ///< near-surface query offsets, fraction of diag
   static void declare(ParamDeclarer<DsrParams>& d) {
     d.integer("reference_points", &DsrParams::reference_points, Range::closed(1, 100000000), "",
               "ground-truth points with normals (the ground truth's seeded samples; the "
               "dsr-benchmark's evaluation clouds have 100,000)");
+    d.integer("iou_points", &DsrParams::iou_points, Range::closed(1, 100000000), "",
+              "occupancy queries of the volumetric IoU (seeded from the ground truth, the same "
+              "for every method on a dataset)");
+    d.real("iou_uniform_share", &DsrParams::iou_uniform_share, Range::closed(0.0, 1.0), "",
+           "share of the queries uniform in the ground truth's bounding box grown by "
+           "iou_padding; the rest are its surface samples moved by N(0, iou_sigma^2) per axis");
+    d.real("iou_padding", &DsrParams::iou_padding, Range::at_least(0.0), "",
+           "the uniform queries' box: the bounding box with each side grown by this share "
+           "about its centre (0.1: 1.1 x)");
+    d.real("iou_sigma", &DsrParams::iou_sigma, Range::at_least(0.0), "diag",
+           "standard deviation per axis of the near-surface queries' offsets");
   }
 };
+
+/// The occupancy queries of the dsr IoU: round(n x uniform_share) uniform in the ground truth's
+/// bounding box grown by `padding` (each side about the centre), then the first n - that many of
+/// its fixed surface samples moved by N(0, (sigma x diag)^2) per axis; seeded from the ground
+/// truth's sample seed (stream "dsr.iou"), so every method on a dataset meets the same queries.
+Eigen::Matrix3Xf dsr_iou_queries(const GroundTruth& truth, const DsrParams& p);
+
+/// |inside a and inside b| / |inside a or inside b| (eval.py compute_iou); NaN for an empty union.
+double occupancy_iou(const std::vector<std::uint8_t>& a, const std::vector<std::uint8_t>& b);
 
 struct DsrScores {
   double cd_gt_r = 0.0, cd_r_gt = 0.0, chamfer = 0.0;  ///< ground-truth units (not / diag)
@@ -134,7 +168,9 @@ struct DsrScores {
 DsrScores dsr_scores(const PointCloud& output, const PointCloud& truth);
 
 /// Metric "convention.dsr" (mesh outputs): dsr_chamfer_x1e2, dsr_cd_gt_r_x1e2, dsr_cd_r_gt_x1e2,
-/// dsr_hausdorff_x1e2, dsr_hd_gt_r_x1e2, dsr_hd_r_gt_x1e2, dsr_normal_consistency.
+/// dsr_hausdorff_x1e2, dsr_hd_gt_r_x1e2, dsr_hd_r_gt_x1e2, dsr_normal_consistency, and dsr_iou
+/// (GroundTruth::contains on both meshes at dsr_iou_queries; null when the ground truth is not
+/// closed: its inside is then undefined).
 Json dsr_metric(const MetricInput& in, const DsrParams& p);
 
 struct PdflowParams {

@@ -81,6 +81,15 @@ class GroundTruth {
   Eigen::VectorXf distances(const Eigen::Matrix3Xf& q, DistancePath path,
                             Eigen::Index* fallbacks = nullptr) const;
 
+  /// Inside or not, for every column of q, by ray parity as Occupancy Networks'
+  /// check_mesh_contains (im2mesh/utils/libmesh/inside_mesh.py, which the dsr-benchmark's IoU
+  /// calls): a point is inside when the rays from it along +z and along -z each cross the
+  /// surface an odd number of times (crossings within 1e-6 of the diagonal and of the distance
+  /// count once: a ray through a shared edge or vertex). Points outside the mesh's bounding box are outside. Meaningful for closed
+  /// meshes; on an open one it is what the parity gives. Exact in float (Embree's watertight
+  /// triangle test), in parallel, independent of the thread count.
+  std::vector<std::uint8_t> contains(const Eigen::Matrix3Xf& q) const;
+
   /// The distance field (built on first call).
   const DistanceField& field() const;
 
