@@ -16,6 +16,7 @@
 #include "scanbench/core/kdtree.h"
 #include "scanbench/core/rng.h"
 #include "scanbench/metrics/ground_truth.h"
+#include "scanbench/metrics/outlier_residue.h"
 #include "stats.h"
 
 namespace scanbench::metrics {
@@ -525,6 +526,189 @@ Json dtu_metric(const MetricInput& in, const DtuParams& p, RunContext& ctx) {
   detail::put_length(j, "dtu_completeness", s.completeness, diag);
   detail::put_length(j, "dtu_overall", s.overall, diag);
   j["dtu_points"] = s.thinned_points;
+  return j;
+}
+
+}  // namespace scanbench::metrics
+
+namespace scanbench::metrics {
+
+namespace {
+
+/// ETH3D's CalcCellCoordinates: floor(x / voxel + shift) per axis, in float.
+std::array<int, 3> eth3d_cell(const Eigen::Vector3f& p, float voxel_inv, float shift) {
+  std::array<int, 3> c{};
+  for (int a = 0; a < 3; ++a)
+    c[static_cast<std::size_t>(a)] = static_cast<int>(std::floor(p(a) * voxel_inv + shift));
+  return c;
+}
+
+constexpr float kEth3dShifts[2] = {0.0f, 0.5f};
+
+}  // namespace
+
+Eth3dScores eth3d_scores(const Eigen::Matrix3Xf& output, const std::vector<Eth3dScan>& truth,
+                         double tolerance, double voxel, double beam_radius,
+                         double beam_divergence_deg) {
+  const float tol2 = static_cast<float>(tolerance * tolerance);
+  const float voxel_inv = static_cast<float>(1.0 / voxel);
+  const float beam_start = static_cast<float>(beam_radius);
+  const float tan_div = static_cast<float>(std::tan(beam_divergence_deg * M_PI / 180.0));
+  // Per scan: the points relative to the scanner, their unit directions (in a kd-tree) and ranges.
+  struct Scan {
+    Eigen::Matrix3Xf rel, dir;
+    std::vector<float> range;
+    std::unique_ptr<KdTree> tree;
+  };
+  std::vector<Scan> scans(truth.size());
+  for (std::size_t s = 0; s < truth.size(); ++s) {
+    Scan& sc = scans[s];
+    sc.rel = truth[s].points.colwise() - truth[s].origin;
+    sc.dir.resize(3, sc.rel.cols());
+    sc.range.resize(static_cast<std::size_t>(sc.rel.cols()));
+    for (Eigen::Index j = 0; j < sc.rel.cols(); ++j) {
+      sc.range[static_cast<std::size_t>(j)] = sc.rel.col(j).norm();
+      sc.dir.col(j) = sc.rel.col(j).normalized();
+    }
+    sc.tree = std::make_unique<KdTree>(sc.dir);
+  }
+  // ClassifyPoint over every scan: 1 accurate, 2 inaccurate, 0 unobserved.
+  std::vector<std::uint8_t> cls(static_cast<std::size_t>(output.cols()), 0);
+  tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, output.cols(), 256),
+                    [&](const tbb::blocked_range<Eigen::Index>& r) {
+                      std::vector<std::pair<Eigen::Index, float>> near;
+                      for (Eigen::Index i = r.begin(); i < r.end(); ++i) {
+                        bool inaccurate = false, accurate = false;
+                        for (std::size_t s = 0; s < scans.size() && !accurate; ++s) {
+                          const Scan& sc = scans[s];
+                          const Eigen::Vector3f y = output.col(i) - truth[s].origin;
+                          const float ry = y.norm();
+                          const float b = beam_start + ry * tan_div;
+                          const float b2 = b * b;
+                          // The rays that can pass within b of y: directions within asin(b / ry) of y's.
+                          const auto visit = [&](Eigen::Index j) {
+                            const Eigen::Vector3f d = sc.dir.col(j);
+                            const float along = d.dot(y);
+                            if (along < 0.0f)
+                              return;  // the opposite side of the scanner: unobserved
+                            if ((y - along * d).squaredNorm() > b2) return;
+                            if ((sc.rel.col(j) - y).squaredNorm() <= tol2) {
+                              accurate = true;
+                              return;
+                            }
+                            if (along < sc.range[static_cast<std::size_t>(j)]) inaccurate = true;
+                          };
+                          if (b >= ry) {
+                            for (Eigen::Index j = 0; j < sc.dir.cols() && !accurate; ++j)
+                              visit(j);
+                          } else {
+                            const double angle = std::asin(static_cast<double>(b) / ry);
+                            sc.tree->radius(
+                                y / ry, search_radius(2.0 * std::sin(angle / 2.0)) * 1.001f, near);
+                            for (const auto& [j, unused] : near) {
+                              visit(j);
+                              if (accurate) break;
+                            }
+                          }
+                        }
+                        cls[static_cast<std::size_t>(i)] = accurate ? 1 : inaccurate ? 2 : 0;
+                      }
+                    });
+  Eth3dScores out;
+  std::map<std::array<int, 3>, std::pair<Eigen::Index, Eigen::Index>> acc_cells[2];
+  for (Eigen::Index i = 0; i < output.cols(); ++i) {
+    const std::uint8_t c = cls[static_cast<std::size_t>(i)];
+    if (c == 0) {
+      ++out.unobserved;
+      continue;
+    }
+    (c == 1 ? out.accurate : out.inaccurate) += 1;
+    for (int g = 0; g < 2; ++g) {
+      auto& cell = acc_cells[g][eth3d_cell(output.col(i), voxel_inv, kEth3dShifts[g])];
+      (c == 1 ? cell.first : cell.second) += 1;
+    }
+  }
+  double acc_sum = 0.0;
+  std::size_t acc_n = 0;
+  for (const auto& grid : acc_cells)
+    for (const auto& [key, counts] : grid) {
+      acc_sum += static_cast<double>(static_cast<float>(counts.first) /
+                                     static_cast<float>(counts.first + counts.second));
+      ++acc_n;
+    }
+  out.accuracy = acc_n ? acc_sum / static_cast<double>(acc_n) : 0.0;
+  // ComputeCompleteness: every ground-truth point, complete when an output point is within t.
+  if (output.cols() > 0) {
+    const KdTree tree(output);
+    std::map<std::array<int, 3>, std::pair<Eigen::Index, Eigen::Index>> comp_cells[2];
+    for (std::size_t s = 0; s < truth.size(); ++s)
+      for (Eigen::Index j = 0; j < truth[s].points.cols(); ++j) {
+        const Eigen::Vector3f p = truth[s].points.col(j);
+        const bool complete = (output.col(tree.nearest(p)) - p).squaredNorm() <= tol2;
+        for (int g = 0; g < 2; ++g) {
+          auto& cell = comp_cells[g][eth3d_cell(p, voxel_inv, kEth3dShifts[g])];
+          cell.first += complete;
+          cell.second += 1;
+        }
+      }
+    double comp_sum = 0.0;
+    std::size_t comp_n = 0;
+    for (const auto& grid : comp_cells)
+      for (const auto& [key, counts] : grid) {
+        comp_sum += static_cast<double>(counts.first) / static_cast<double>(counts.second);
+        ++comp_n;
+      }
+    out.completeness = comp_n ? comp_sum / static_cast<double>(comp_n) : 0.0;
+  }
+  out.f1 = out.accuracy <= 0.0 && out.completeness <= 0.0
+               ? 0.0
+               : 2.0 * out.accuracy * out.completeness / (out.accuracy + out.completeness);
+  return out;
+}
+
+Json eth3d_metric(const MetricInput& in, const Eth3dParams& p) {
+  if (!in.scan || !in.scan->has_scan_ids() || in.scan->sensor_origins.cols() == 0)
+    throw NotApplicable(
+        "convention.eth3d: needs the chain's scan with scan ids and sensor origins");
+  const std::optional<CleanHits> hits = clean_hits(*in.scan);
+  if (!hits || hits->index.empty())
+    throw NotApplicable("convention.eth3d: the scan has no noise-free hits (clean_x/y/z)");
+  std::vector<Eth3dScan> truth(static_cast<std::size_t>(in.scan->sensor_origins.cols()));
+  std::vector<std::vector<Eigen::Index>> members(truth.size());
+  for (std::size_t k = 0; k < hits->index.size(); ++k)
+    members[static_cast<std::size_t>(in.scan->scan_ids(hits->index[k]))].push_back(
+        static_cast<Eigen::Index>(k));
+  for (std::size_t s = 0; s < truth.size(); ++s) {
+    truth[s].origin = in.scan->sensor_origins.col(static_cast<Eigen::Index>(s));
+    truth[s].points.resize(3, static_cast<Eigen::Index>(members[s].size()));
+    for (std::size_t m = 0; m < members[s].size(); ++m)
+      truth[s].points.col(static_cast<Eigen::Index>(m)) = hits->clean.col(members[s][m]);
+  }
+  const double diag = in.truth.diagonal();
+  double beam = p.beam_radius * diag;
+  if (beam == 0.0) {  // half the median nearest-neighbour spacing of the ground-truth points
+    const KdTree tree(hits->clean);
+    std::vector<float> spacing(static_cast<std::size_t>(hits->clean.cols()));
+    std::vector<Eigen::Index> idx;
+    std::vector<float> d2;
+    for (Eigen::Index k = 0; k < hits->clean.cols(); ++k) {
+      tree.knn(hits->clean.col(k), 2, idx, d2);
+      spacing[static_cast<std::size_t>(k)] = d2.size() > 1 ? std::sqrt(d2[1]) : 0.0f;
+    }
+    std::nth_element(spacing.begin(), spacing.begin() + spacing.size() / 2, spacing.end());
+    beam = 0.5 * spacing[spacing.size() / 2];
+  }
+  const Eth3dScores s = eth3d_scores(in.output.positions, truth, p.tolerance * diag, p.voxel * diag,
+                                     beam, p.beam_divergence_deg);
+  Json j = Json::object();
+  j["eth3d_accuracy"] = s.accuracy;
+  j["eth3d_completeness"] = s.completeness;
+  j["eth3d_f1"] = s.f1;
+  detail::put_length(j, "eth3d_tolerance", p.tolerance * diag, diag);
+  detail::put_length(j, "eth3d_beam_radius", beam, diag);
+  j["eth3d_accurate_points"] = s.accurate;
+  j["eth3d_inaccurate_points"] = s.inaccurate;
+  j["eth3d_unobserved_points"] = s.unobserved;
   return j;
 }
 

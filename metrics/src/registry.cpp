@@ -63,6 +63,9 @@ const std::vector<Convention>& conventions() {
        "github.com/isl-org/TanksAndTemples 3c2c212, python_toolbox/evaluation/evaluation.py: "
        "EvaluateHisto, get_f1_score_histo2"},
       {"dtu", "DTU", "github.com/jzhangbs/DTUeval-python 45b4fec, eval.py (mode pcd)"},
+      {"eth3d", "ETH3D",
+       "github.com/ETH3D/multi-view-evaluation 0daa4f4, src/accuracy.cc ComputeAccuracy and "
+       "ClassifyPoint, src/completeness.cc ComputeCompleteness, src/main.cc"},
       {"dsr", "dsr-benchmark",
        "github.com/raphaelsulzer/dsr-benchmark ffbc98a, dsrb/eval.py: MeshEvaluator"},
   };
@@ -444,6 +447,26 @@ const MetricRegistry& registry() {
                 .length("dtu_overall", kLower)
                 .plain("dtu_points", kNone),
             Needs{}, dtu_metric)));
+    reg.add(following(
+        "eth3d",
+        make_metric<Eth3dParams>(
+            "convention.eth3d",
+            "ETH3D's multi-view evaluation (ETH3D/multi-view-evaluation src/accuracy.cc, "
+            "completeness.cc) at one tolerance, the scan's noise-free hits as its laser scans: "
+            "output points in observed free space (a ground-truth beam passes them and ends "
+            "behind) count against accuracy, unobserved ones not at all; eth3d_accuracy and "
+            "eth3d_completeness averaged over voxel cells, eth3d_f1",
+            Scores::Points,
+            Keys{}
+                .plain("eth3d_accuracy", kHigher)
+                .plain("eth3d_completeness", kHigher)
+                .plain("eth3d_f1", kHigher)
+                .length("eth3d_tolerance", kNone)
+                .length("eth3d_beam_radius", kNone)
+                .plain("eth3d_accurate_points", kNone)
+                .plain("eth3d_inaccurate_points", kNone)
+                .plain("eth3d_unobserved_points", kNone),
+            Needs{}, eth3d_metric)));
     return reg;
   }();
   return r;

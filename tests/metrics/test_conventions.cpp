@@ -489,6 +489,88 @@ TEST(ConventionDtu, ThinningKeepsNoTwoPointsWithinTheDensityAndTheMetricIsSeeded
   EXPECT_THROW(evaluate(gt, far, nullptr, {"convention.dtu"}, params, a), NotApplicable);
 }
 
+/// ETH3D-style ground truth: four scanners on a ring at distance 3, each with the surface samples
+/// facing it (a convex shape's visible side; on the torus, the side facing it).
+std::vector<Eth3dScan> ring_scans(const TriangleMesh& mesh, std::uint64_t seed) {
+  const PointCloud samples = sample_surface(mesh, 2400, seed);
+  std::vector<Eth3dScan> scans(4);
+  for (int s = 0; s < 4; ++s) {
+    const double a = M_PI / 2.0 * s + 0.3;
+    scans[static_cast<std::size_t>(s)].origin = Eigen::Vector3f(
+        static_cast<float>(3.0 * std::cos(a)), static_cast<float>(3.0 * std::sin(a)), 0.7f);
+    std::vector<Eigen::Index> keep;
+    for (Eigen::Index i = 0; i < samples.size(); ++i)
+      if (samples.normals.col(i).dot(scans[static_cast<std::size_t>(s)].origin -
+                                     samples.positions.col(i)) > 0.0f)
+        keep.push_back(i);
+    Eigen::Matrix3Xf& pts = scans[static_cast<std::size_t>(s)].points;
+    pts.resize(3, static_cast<Eigen::Index>(keep.size()));
+    for (std::size_t k = 0; k < keep.size(); ++k)
+      pts.col(static_cast<Eigen::Index>(k)) = samples.positions.col(keep[k]);
+  }
+  return scans;
+}
+
+TEST(ConventionEth3d, EqualsThePortOfItsEvaluator) {
+  std::uint64_t seed = 91;
+  for (const auto& [name, mesh] : three_shapes()) {
+    const std::vector<Eth3dScan> scans = ring_scans(mesh, seed);
+    // The output: noisy surface points, a few floating in front of the surface (observed free
+    // space: inaccurate) and a few deep inside (unobserved).
+    Eigen::Matrix3Xf out = noisy(mesh, 400, seed + 1, 0.015);
+    Rng rng(seed + 2);
+    for (Eigen::Index i = 0; i < 40; ++i)
+      out.col(i) *= static_cast<float>(1.25 + 0.1 * rng.uniform());
+    for (Eigen::Index i = 40; i < 60; ++i)
+      out.col(i) *= 0.3f;
+    seed += 100;
+    const double tol = 0.02, voxel = 0.1, beam = 0.03, div = 0.011;
+    const Eth3dScores s = eth3d_scores(out, scans, tol, voxel, beam, div);
+    Eigen::MatrixXd rows(4, 0), origins(3, 4);
+    for (std::size_t k = 0; k < scans.size(); ++k) {
+      const Eigen::Index n = rows.cols();
+      rows.conservativeResize(4, n + scans[k].points.cols());
+      rows.block(0, n, 1, scans[k].points.cols()).setConstant(static_cast<double>(k));
+      rows.block(1, n, 3, scans[k].points.cols()) = scans[k].points.cast<double>();
+      origins.col(static_cast<Eigen::Index>(k)) = scans[k].origin.cast<double>();
+    }
+    const Json r =
+        run_reference("eth3d_eval.py", {out.cast<double>(), rows, origins},
+                      fmt::format("{:.17g} {:.17g} {:.17g} {:.17g}", tol, voxel, beam, div));
+    ASSERT_TRUE(r.contains("f1")) << name;
+    EXPECT_EQ(s.accurate, r["accurate"].get<Eigen::Index>()) << name;
+    EXPECT_EQ(s.inaccurate, r["inaccurate"].get<Eigen::Index>()) << name;
+    EXPECT_EQ(s.unobserved, r["unobserved"].get<Eigen::Index>()) << name;
+    EXPECT_NEAR(s.accuracy, r["accuracy"].get<double>(), 1e-6 * s.accuracy) << name;
+    EXPECT_NEAR(s.completeness, r["completeness"].get<double>(), 1e-6 * s.completeness) << name;
+    EXPECT_NEAR(s.f1, r["f1"].get<double>(), 1e-6 * s.f1) << name;
+    // Every kind occurs: the floating points are seen through, the inner ones never seen.
+    EXPECT_GT(s.inaccurate, 20) << name;
+    EXPECT_GE(s.unobserved, 15) << name;
+    EXPECT_GT(s.accurate, 20) << name;
+  }
+}
+
+TEST(ConventionEth3d, UnobservedPointsCostNothing) {
+  const TriangleMesh mesh = icosphere(4);
+  const std::vector<Eth3dScan> scans = ring_scans(mesh, 5);
+  Eigen::Matrix3Xf out = sample_surface(mesh, 1500, 6).positions;
+  const Eth3dScores a = eth3d_scores(out, scans, 0.05, 0.1, 0.06, 0.011);
+  // Points deep inside the sphere: no beam reaches them, so accuracy is unchanged.
+  Eigen::Matrix3Xf more(3, out.cols() + 200);
+  more << out, 0.2f * sample_surface(mesh, 200, 7).positions;
+  const Eth3dScores b = eth3d_scores(more, scans, 0.05, 0.1, 0.06, 0.011);
+  EXPECT_EQ(b.unobserved, a.unobserved + 200);
+  EXPECT_EQ(b.accuracy, a.accuracy);
+  // The same points floating outside in front of the scanners: seen through, inaccurate.
+  more.rightCols(200) = 1.3f * sample_surface(mesh, 200, 7).positions;
+  const Eth3dScores c = eth3d_scores(more, scans, 0.05, 0.1, 0.06, 0.011);
+  EXPECT_LT(c.accuracy, a.accuracy);
+  EXPECT_GT(c.inaccurate, a.inaccurate + 50)
+      << a.accurate << " " << a.inaccurate << " " << a.unobserved << " | " << c.accurate << " "
+      << c.inaccurate << " " << c.unobserved;
+}
+
 TEST(Conventions, EveryMetricNamesAKnownConventionAndListsIt) {
   for (const auto& e : registry().entries()) {
     const Convention& c = convention(e.fn.convention);

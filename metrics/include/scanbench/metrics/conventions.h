@@ -81,6 +81,27 @@
 //    scanned here: every thinned point and every ground-truth point counts;
 //  - DTU's lengths are absolute (mm): here fractions of the diagonal, by default DTU's 0.2 mm and
 //    20 mm on a shape of 400 mm diagonal.
+//
+// ETH3D (T. Schoeps et al., "A Multi-View Stereo Benchmark with High-Resolution Images and
+// Multi-Camera Videos", CVPR 2017; github.com/ETH3D/multi-view-evaluation at 0daa4f4,
+// src/accuracy.cc ComputeAccuracy and ClassifyPoint, src/completeness.cc ComputeCompleteness,
+// src/main.cc), at one tolerance t (the program takes a list; each is independent):
+//  - the ground truth is laser scans with their scanner origins; here the scan's noise-free hits
+//    (clean_x/y/z of its inliers) with the sensor origin of their view;
+//  - a beam leaves each ground-truth point's scanner through the point, of radius beam_start +
+//    r tan(divergence) at the distance r of the tested point from the scanner. An output point x
+//    is accurate when some ground-truth point p whose beam contains x (x on the beam's side of the
+//    scanner) has |p - x| <= t; else inaccurate when some beam containing x ends behind it (the
+//    scanner saw through x: x is in observed free space); else unobserved, and left out;
+//  - accuracy = the mean over voxel cells (side `voxel`, two grids shifted by half a cell) holding
+//    accurate or inaccurate points of accurate / (accurate + inaccurate), 0 without such a cell;
+//    completeness = the mean over the cells of the ground-truth points of the share of them with
+//    an output point within t; F1 = 2 A C / (A + C), 0 when both are 0;
+//  - ETH3D's beam (1.125 mm at the scanner, 0.011 degrees divergence) is its Faro scanner's at
+//    its scans' density; a simulated scan is sparser, so the beam radius here is `beam_radius`
+//    (a fraction of the diagonal, default 0: half the median spacing of the ground-truth points,
+//    so the beams of neighbouring rays touch) plus the divergence term. A misaligned scan's
+//    beams start at its registered sensor origins.
 #include "scanbench/core/run_context.h"
 #include "scanbench/metrics/metric_input.h"
 
@@ -267,5 +288,45 @@ DtuScores dtu_scores(const Eigen::Matrix3Xf& output, const Eigen::Matrix3Xf& tru
 /// Metric "convention.dtu": dtu_accuracy, dtu_completeness, dtu_overall (lengths, + _rel),
 /// dtu_points (after thinning). The output is shuffled with the run's stream "metric.dtu".
 Json dtu_metric(const MetricInput& in, const DtuParams& p, RunContext& ctx);
+
+struct Eth3dParams {
+  double tolerance = 0.005;  ///< fraction of the diagonal
+  double voxel = 0.005;      ///< cell side of the averaging grids, fraction of the diagonal
+  double beam_radius = 0.0;  ///< at the scanner, fraction of the diagonal; 0 = from spacing
+  double beam_divergence_deg = 0.011;
+  static void declare(ParamDeclarer<Eth3dParams>& d) {
+    d.real("tolerance", &Eth3dParams::tolerance, Range::above(0.0), "diag",
+           "the evaluation tolerance (ETH3D's tables: 1, 2, 5, 10, 20, 50 cm on scenes of tens of "
+           "metres)");
+    d.real("voxel", &Eth3dParams::voxel, Range::above(0.0), "diag",
+           "cell side of the two averaging grids (ETH3D: 1 cm)");
+    d.real("beam_radius", &Eth3dParams::beam_radius, Range::at_least(0.0), "diag",
+           "beam radius at the scanner; 0 = half the median nearest-neighbour spacing of the "
+           "ground-truth points (ETH3D: 1.125 mm, its scanner at its density)");
+    d.real("beam_divergence_deg", &Eth3dParams::beam_divergence_deg, Range::closed(0.0, 45.0),
+           "deg", "beam divergence half-angle (ETH3D: 0.011)");
+  }
+};
+
+/// One ground-truth scan for ETH3D: its origin and its points.
+struct Eth3dScan {
+  Eigen::Vector3f origin = Eigen::Vector3f::Zero();
+  Eigen::Matrix3Xf points;
+};
+
+struct Eth3dScores {
+  double accuracy = 0.0, completeness = 0.0, f1 = 0.0;
+  Eigen::Index accurate = 0, inaccurate = 0, unobserved = 0;  ///< output points
+};
+
+/// ETH3D's scores at one tolerance (lengths absolute; beam_radius the radius at the scanner).
+Eth3dScores eth3d_scores(const Eigen::Matrix3Xf& output, const std::vector<Eth3dScan>& truth,
+                         double tolerance, double voxel, double beam_radius,
+                         double beam_divergence_deg);
+
+/// Metric "convention.eth3d": eth3d_accuracy, eth3d_completeness, eth3d_f1, eth3d_tolerance
+/// (+ _rel), eth3d_beam_radius (+ _rel), counts of accurate, inaccurate and unobserved output
+/// points. NotApplicable without a scan with clean hits, scan ids and sensor origins.
+Json eth3d_metric(const MetricInput& in, const Eth3dParams& p);
 
 }  // namespace scanbench::metrics
