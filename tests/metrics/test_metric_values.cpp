@@ -214,6 +214,16 @@ TEST(Metrics, EveryRegisteredMetricRunsByName) {
       PointCloud cpts = sample_surface(cube, 500, 5);
       cpts.properties.clear();
       r = evaluate(cgt, cpts, nullptr, {e.name}, params, ctx);
+    } else if (e.name == "convention.eth3d") {
+      // ETH3D's ground truth is a scan's noise-free hits with their scanner origins.
+      PointCloud scan = out;
+      scan.properties["clean_x"] = scan.positions.row(0).transpose();
+      scan.properties["clean_y"] = scan.positions.row(1).transpose();
+      scan.properties["clean_z"] = scan.positions.row(2).transpose();
+      scan.scan_ids = Eigen::VectorXi::Zero(scan.size());
+      scan.sensor_origins = Eigen::Matrix3Xf::Zero(3, 1);
+      scan.sensor_origins(0, 0) = 3.0f;
+      r = evaluate(gt, out, &scan, {e.name}, params, ctx);
     } else if (e.fn.scores == Scores::Mesh) {
       r = evaluate_mesh(gt, m, &out, {e.name}, params, ctx, 200);
     } else {

@@ -129,6 +129,9 @@ TEST(MetricDirections, EveryEmittedKeyIsDeclaredAndEveryDeclaredKeyEmitted) {
   scan.properties["clean_y"] = scan.positions.row(1).transpose();
   scan.properties["clean_z"] = scan.positions.row(2).transpose().array() + 1e-3f;
   scan.properties["outlier"] = Eigen::VectorXf::Zero(scan.size());
+  scan.scan_ids = Eigen::VectorXi::Zero(scan.size());  // one scanner (convention.eth3d)
+  scan.sensor_origins = Eigen::Matrix3Xf::Zero(3, 1);
+  scan.sensor_origins(0, 0) = 3.0f;
   RunContext ctx(1);
   const Json params = {{"accuracy.chamfer", {{"samples", 1000}}},
                        {"surface.chamfer", {{"samples", 1000}}}};
