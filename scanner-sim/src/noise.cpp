@@ -58,8 +58,8 @@ Eigen::Matrix3d parse_covariance(const std::string& text, const std::string& fie
   std::string rest;
   in.clear();
   if ((in >> rest) || v.size() != 9) {
-    throw ParamError(fmt::format("{}: expected 9 numbers (a 3 x 3 matrix, row-major), got '{}'",
-                                 field, text));
+    throw ParamError(
+        fmt::format("{}: expected 9 numbers (a 3 x 3 matrix, row-major), got '{}'", field, text));
   }
   Eigen::Matrix3d c;
   for (int i = 0; i < 9; ++i)
@@ -118,9 +118,9 @@ NoiseLaw noise_law(const ScannerParams& p, const std::string& where) {
         "{}.noise_model: expected ray_gauss, normal_gauss, ray_uniform or empty, got '{}'", where,
         p.noise_model));
   }
-  static const NoiseFamily families[] = {
-      NoiseFamily::kGaussian, NoiseFamily::kLaplace,     NoiseFamily::kUniform,
-      NoiseFamily::kDiscrete, NoiseFamily::kAnisotropic, NoiseFamily::kUnidirectional};
+  static const NoiseFamily families[] = {NoiseFamily::kGaussian,    NoiseFamily::kLaplace,
+                                         NoiseFamily::kUniform,     NoiseFamily::kDiscrete,
+                                         NoiseFamily::kAnisotropic, NoiseFamily::kUnidirectional};
   bool found = false;
   for (NoiseFamily f : families) {
     if (p.noise_family == family_name(f)) {

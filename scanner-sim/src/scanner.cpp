@@ -22,12 +22,12 @@
 #include <optional>
 #include <sstream>
 
+#include "noise.h"
 #include "photo.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/files.h"
 #include "scanbench/core/io.h"
 #include "scanbench/core/simd.h"
-#include "noise.h"
 #include "scanner_engine.h"
 #include "surface_samples.h"
 #include "ziggurat.h"
@@ -137,10 +137,11 @@ void ScannerParams::declare(ParamDeclarer<ScannerParams>& d) {
          "photo: time limit of each COLMAP step");
   d.integer("points", &P::points, Range::closed(1, 100000000), "",
             "surface_samples: number of Poisson-disk samples (ScoreDenoise: 10000 and 50000)");
-  d.choice("noise_scale", &P::noise_scale, {"diag", "sphere_radius"},
-           "surface_samples: the unit of noise_sigma: diag (bbox diagonal, as every other length) "
-           "or sphere_radius (the largest distance of a vertex from the bbox centre: ScoreDenoise's "
-           "unit sphere, where 1%, 2%, 3% noise is noise_sigma 0.01, 0.02, 0.03)");
+  d.choice(
+      "noise_scale", &P::noise_scale, {"diag", "sphere_radius"},
+      "surface_samples: the unit of noise_sigma: diag (bbox diagonal, as every other length) "
+      "or sphere_radius (the largest distance of a vertex from the bbox centre: ScoreDenoise's "
+      "unit sphere, where 1%, 2%, 3% noise is noise_sigma 0.01, 0.02, 0.03)");
 }
 
 namespace detail {
@@ -240,14 +241,14 @@ void validate(const ScannerParams& p, const std::string& where) {
           "{}.noise_direction: surface_samples has no rays; expected isotropic or normal", where));
     }
     if (!p.noise_model.empty() && p.noise_model != "normal_gauss") {
-      throw ParamError(fmt::format(
-          "{}.noise_model: surface_samples has no rays; '{}' displaces along them", where,
-          p.noise_model));
+      throw ParamError(
+          fmt::format("{}.noise_model: surface_samples has no rays; '{}' displaces along them",
+                      where, p.noise_model));
     }
     if (p.noise_range_slope != 0.0 || p.noise_incidence_slope != 0.0) {
-      throw ParamError(fmt::format(
-          "{}.{}: surface_samples has no range or incidence; expected 0", where,
-          p.noise_range_slope != 0.0 ? "noise_range_slope" : "noise_incidence_slope"));
+      throw ParamError(
+          fmt::format("{}.{}: surface_samples has no range or incidence; expected 0", where,
+                      p.noise_range_slope != 0.0 ? "noise_range_slope" : "noise_incidence_slope"));
     }
   }
   if (p.registration != "known" && p.registration != "mapper") {

@@ -37,8 +37,8 @@ Scan surface_samples_scan(const TriangleMesh& mesh, const ScannerParams& p, RunC
   double radius = 0;
   for (Eigen::Index f = 0; f < mesh.num_faces(); ++f) {
     for (int k = 0; k < 3; ++k) {
-      radius = std::max(radius,
-                        (mesh.vertices.col(mesh.faces(k, f)).cast<double>() - centre).norm());
+      radius =
+          std::max(radius, (mesh.vertices.col(mesh.faces(k, f)).cast<double>() - centre).norm());
     }
   }
   const double unit = p.noise_scale == "sphere_radius" ? radius : diag;
@@ -63,9 +63,9 @@ Scan surface_samples_scan(const TriangleMesh& mesh, const ScannerParams& p, RunC
     const Eigen::Vector3d q = s.points.col(i);
     Eigen::Vector3d e = Eigen::Vector3d::Zero();
     if (sigma > 0.0) {
-      e = law.direction == NoiseDirection::kNormal ? Eigen::Vector3d(law.along(rng, normal) *
-                                                                     s.normals.col(i))
-                                                   : law.spread(rng, normal);
+      e = law.direction == NoiseDirection::kNormal
+              ? Eigen::Vector3d(law.along(rng, normal) * s.normals.col(i))
+              : law.spread(rng, normal);
     }
     cloud.positions.col(i) = (q + sigma * e).cast<float>();
     cx[i] = static_cast<float>(q.x());
