@@ -925,7 +925,7 @@ TriangleMesh unit_cube() {
 // Surface samples: the exact count, on the mesh without noise, the noise std the stated share
 // of the bounding sphere's radius, along the face normal when asked, repeatable bit for bit at
 // any thread count, and another sample set for another seed.
-TEST(SurfaceSamples, CountOnTheMeshNoiseShareAndDeterminism) {
+TEST(ScannerSurfaceSamples, CountOnTheMeshNoiseShareAndDeterminism) {
   const TriangleMesh m = unit_cube();
   const double radius = std::sqrt(3.0) / 2.0;  // ScoreDenoise's unit-sphere scale of the cube
   ScannerParams p;
@@ -954,7 +954,7 @@ TEST(SurfaceSamples, CountOnTheMeshNoiseShareAndDeterminism) {
     }
     EXPECT_GT(nearest, 0.2 * std::sqrt(6.0 / 3000.0));
   }
-  p.points = 20000;
+  p.points = 10000;
   p.noise_sigma = 0.02;
   p.noise_scale = "sphere_radius";
   for (const char* family : {"gaussian", "laplace"}) {
@@ -1004,7 +1004,7 @@ TEST(SurfaceSamples, CountOnTheMeshNoiseShareAndDeterminism) {
   EXPECT_NE(scan(m, p, c7).cloud.positions, scan(m, p, c8).cloud.positions);
 }
 
-TEST(SurfaceSamples, BadParametersNameTheField) {
+TEST(ScannerSurfaceSamples, BadParametersNameTheField) {
   const TriangleMesh m = unit_cube();
   auto expect_names = [&](Json j, const std::string& field) {
     j["kind"] = "surface_samples";
