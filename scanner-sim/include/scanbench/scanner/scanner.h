@@ -192,7 +192,9 @@ struct Scan {
   /// stage_data.h) is scanned in its local frame: positions, sensor origins and clean_* are local,
   /// and cloud.origin is the mesh's (recorded as "origin" in the record).
   PointCloud cloud;
-  /// {"params", "seed", "mesh", "counts", "scans": [{"id", "sensor_origin", "registered_origin",
+  /// {"params", "noise" (the resolved law: family, direction, sigma_is, std_over_sigma,
+  ///  unit_covariance for anisotropic), "seed", "mesh", "counts",
+  ///  "scans": [{"id", "sensor_origin", "registered_origin",
   ///  "forward", "up", "fov_deg", "resolution", "points", "outliers", "misaligned",
   ///  "misalignment": {"center", "axis", "angle_deg", "shift", "rotation", "translation"}}]};
   /// rotation is row-major 3x3, p_registered = rotation * p + translation (identity for scans
