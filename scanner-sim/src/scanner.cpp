@@ -22,12 +22,14 @@
 #include <optional>
 #include <sstream>
 
+#include "noise.h"
 #include "photo.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/files.h"
 #include "scanbench/core/io.h"
 #include "scanbench/core/simd.h"
 #include "scanner_engine.h"
+#include "surface_samples.h"
 #include "ziggurat.h"
 
 namespace scanbench::scanner {
@@ -49,15 +51,32 @@ void ScannerParams::declare(ParamDeclarer<ScannerParams>& d) {
   d.real("range_max", &P::range_max, Range::open_min(0, 1000), "diag",
          "maximum measurable range (farther surfaces give no return)");
   d.real("noise_sigma", &P::noise_sigma, Range::closed(0, 1), "diag",
-         "standard deviation of Gaussian range noise along the ray (HELIOS++ accuracy)");
+         "standard deviation of the noise per displaced axis (HELIOS++ accuracy along the ray by "
+         "default; noise_family and noise_direction say which law and where; surface_samples: "
+         "in noise_scale units)");
   d.real("noise_range_slope", &P::noise_range_slope, Range::closed(0, 1), "",
          "noise growth with range: sigma += slope * range (diag per diag)");
   d.real("noise_incidence_slope", &P::noise_incidence_slope, Range::closed(0, 1), "diag",
          "noise growth with incidence: sigma += slope * (1/max(cos(incidence), 0.01) - 1)");
-  d.choice("noise_model", &P::noise_model, {"ray_gauss", "normal_gauss", "ray_uniform"},
-           "what the noise sigma is: ray_gauss N(0, sigma) along the ray; normal_gauss N(0, sigma) "
-           "along the surface normal; ray_uniform an amplitude, U[-sigma, sigma] along the ray "
-           "(std sigma/sqrt 3)");
+  d.choice("noise_family", &P::noise_family,
+           {"gaussian", "laplace", "uniform", "discrete", "anisotropic", "unidirectional"},
+           "the noise law, each with std sigma per displaced axis (PD-Flow's six families): "
+           "gaussian; laplace (scale sigma/sqrt 2); uniform U[-sqrt3 sigma, sqrt3 sigma]; "
+           "discrete (60% of points move one step, PD-Flow's; 1-D +-sigma/sqrt 0.6, isotropic "
+           "one of +-x, +-y, +-z by sqrt5 sigma); anisotropic N(0, sigma^2 3C/trace C) with "
+           "C = noise_covariance in the world frame; unidirectional N(0, sigma) along world x "
+           "(the last two need noise_direction isotropic)");
+  d.choice("noise_direction", &P::noise_direction, {"ray", "normal", "isotropic"},
+           "where the noise moves a point: ray (along its ray, as a range error), normal (along "
+           "the face normal at the clean point), isotropic (3-D, each world axis independently)");
+  d.text("noise_covariance", &P::noise_covariance,
+         "anisotropic family: the 3 x 3 covariance C (9 numbers, row-major, world frame, "
+         "symmetric positive definite), scaled to trace 3 so the mean per-axis std is sigma");
+  d.choice("noise_model", &P::noise_model, {"", "ray_gauss", "normal_gauss", "ray_uniform"},
+           "shorthand (the names before noise families; leave noise_family and noise_direction "
+           "at their defaults): ray_gauss = gaussian along the ray; normal_gauss = gaussian along "
+           "the normal; ray_uniform = uniform along the ray with sigma an amplitude, U[-sigma, "
+           "sigma] (std sigma/sqrt 3); empty = use noise_family and noise_direction");
   d.real("max_incidence_deg", &P::max_incidence_deg, Range::open_min(0, 90), "deg",
          "grazing-angle drop-out: hits whose incidence angle exceeds this are lost (90 = off)");
   d.real("beam_divergence_deg", &P::beam_divergence_deg, Range::closed(0, 10), "deg",
@@ -88,7 +107,9 @@ void ScannerParams::declare(ParamDeclarer<ScannerParams>& d) {
          "room for outliers off a flat model's plane");
   d.text("kind", &P::kind,
          "range (the range scanner), photo (rendered images through COLMAP's sparse "
-         "triangulation) or photo_dense (COLMAP's patch_match_stereo: needs a CUDA build)");
+         "triangulation), photo_dense (COLMAP's patch_match_stereo: needs a CUDA build) or "
+         "surface_samples (Poisson-disk samples of the mesh with noise, no sensor: the learning "
+         "literature's test sets, e.g. ScoreDenoise's)");
   d.integer("image_width", &P::image_width, Range::closed(16, 8192), "px",
             "photo: width of each rendered image");
   d.integer("image_height", &P::image_height, Range::closed(16, 8192), "px",
@@ -114,6 +135,13 @@ void ScannerParams::declare(ParamDeclarer<ScannerParams>& d) {
          "registration error)");
   d.real("colmap_timeout_s", &P::colmap_timeout_s, Range::open_min(0, 86400), "s",
          "photo: time limit of each COLMAP step");
+  d.integer("points", &P::points, Range::closed(1, 100000000), "",
+            "surface_samples: number of Poisson-disk samples (ScoreDenoise: 10000 and 50000)");
+  d.choice(
+      "noise_scale", &P::noise_scale, {"diag", "sphere_radius"},
+      "surface_samples: the unit of noise_sigma: diag (bbox diagonal, as every other length) "
+      "or sphere_radius (the largest distance of a vertex from the bbox centre: ScoreDenoise's "
+      "unit sphere, where 1%, 2%, 3% noise is noise_sigma 0.01, 0.02, 0.03)");
 }
 
 namespace detail {
@@ -201,9 +229,27 @@ void validate(const ScannerParams& p, const std::string& where) {
     throw ParamError(fmt::format("{}.range_max: expected more than range_min = {}, got {}", where,
                                  p.range_min, p.range_max));
   }
-  if (p.kind != "range" && p.kind != "photo" && p.kind != "photo_dense") {
-    throw ParamError(
-        fmt::format("{}.kind: expected range, photo or photo_dense, got '{}'", where, p.kind));
+  if (p.kind != "range" && p.kind != "photo" && p.kind != "photo_dense" &&
+      p.kind != "surface_samples") {
+    throw ParamError(fmt::format(
+        "{}.kind: expected range, photo, photo_dense or surface_samples, got '{}'", where, p.kind));
+  }
+  detail::noise_law(p, where);
+  if (p.kind == "surface_samples") {
+    if (p.noise_direction == "ray" && p.noise_model.empty()) {
+      throw ParamError(fmt::format(
+          "{}.noise_direction: surface_samples has no rays; expected isotropic or normal", where));
+    }
+    if (!p.noise_model.empty() && p.noise_model != "normal_gauss") {
+      throw ParamError(
+          fmt::format("{}.noise_model: surface_samples has no rays; '{}' displaces along them",
+                      where, p.noise_model));
+    }
+    if (p.noise_range_slope != 0.0 || p.noise_incidence_slope != 0.0) {
+      throw ParamError(
+          fmt::format("{}.{}: surface_samples has no range or incidence; expected 0", where,
+                      p.noise_range_slope != 0.0 ? "noise_range_slope" : "noise_incidence_slope"));
+    }
   }
   if (p.registration != "known" && p.registration != "mapper") {
     throw ParamError(
@@ -573,7 +619,7 @@ class ScannerEngine::Run {
   std::vector<char> misaligned_;
   // Noise sigma = a + b r + c (1 / max(cos, 0.01) - 1), in the mesh's units.
   double noise_a_ = 0, noise_b_ = 0, noise_c_ = 0;
-  enum class NoiseModel { RayGauss, NormalGauss, RayUniform } noise_model_ = NoiseModel::RayGauss;
+  NoiseLaw noise_;
 
   // Views are processed in groups that share one fork-join per pass (few synchronisation points,
   // bounded memory).
@@ -660,9 +706,7 @@ ScannerEngine::Run::Run(const ScannerEngine& engine, RunContext& ctx)
   noise_a_ = diag * p.noise_sigma;
   noise_b_ = p.noise_range_slope;
   noise_c_ = diag * p.noise_incidence_slope;
-  noise_model_ = p.noise_model == "normal_gauss"  ? NoiseModel::NormalGauss
-                 : p.noise_model == "ray_uniform" ? NoiseModel::RayUniform
-                                                  : NoiseModel::RayGauss;
+  noise_ = noise_law(p, "scanner");
   s_.cloud.resize(0);
 }
 
@@ -688,6 +732,7 @@ void ScannerEngine::Run::cast_tiles(int g0, const tbb::blocked_range<int>& r,
   const double f_out = f_out_, noise_a = noise_a_, noise_b = noise_b_, noise_c = noise_c_;
   const std::uint64_t out_threshold = out_threshold_;
   const ZigguratNormal& normal = ZigguratNormal::instance();
+  const NoiseLaw& noise = noise_;
   const int sub = e_.sub_rays_;
   std::int64_t c_miss = 0, c_grazing = 0, c_range = 0, c_mixed = 0;
   for (int gt = r.begin(); gt < r.end(); ++gt) {
@@ -777,22 +822,22 @@ void ScannerEngine::Run::cast_tiles(int g0, const tbb::blocked_range<int>& r,
         float noisy = raw;
         Eigen::Vector3f off_surface = Eigen::Vector3f::Zero();
         if (sigma > 0.0) {
-          switch (noise_model_) {
-            case NoiseModel::RayGauss:
-              noisy += static_cast<float>(sigma * normal(rng()));
-              break;
-            case NoiseModel::RayUniform:
-              noisy += static_cast<float>(sigma * rng().uniform(-1.0, 1.0));
-              break;
-            case NoiseModel::NormalGauss:
-              if (len > 0.0f) off_surface = static_cast<float>(sigma * normal(rng())) * (ng / len);
-              break;
+          // Along the ray the noise is a range error; otherwise an offset of the point (none
+          // where the face normal is degenerate).
+          if (noise.direction == NoiseDirection::kRay) {
+            noisy += static_cast<float>(sigma * noise.along(rng(), normal));
+          } else if (noise.direction == NoiseDirection::kNormal) {
+            if (len > 0.0f) {
+              off_surface = static_cast<float>(sigma * noise.along(rng(), normal)) * (ng / len);
+            }
+          } else {
+            off_surface = (sigma * noise.spread(rng(), normal)).cast<float>();
           }
         }
         // Along the beam axis: sub-ray 0.
         const Eigen::Vector3f axis(rh[0].ray.dir_x, rh[0].ray.dir_y, rh[0].ray.dir_z);
         position[i] = cam.origin + noisy * axis;
-        if (noise_model_ == NoiseModel::NormalGauss) position[i] += off_surface;
+        if (noise.direction != NoiseDirection::kRay) position[i] += off_surface;
         std::int32_t n_out = 0;
         if (f_out > 0.0) {
           while ((rng().next() >> 11) < out_threshold)  // rng.uniform() < f_out
@@ -1102,6 +1147,7 @@ Scan ScannerEngine::Run::finish() {
   Json& rec = s_.record;
   rec = Json::object();
   rec["params"] = params_to_json(e_.p_);
+  rec["noise"] = noise_.to_json();
   rec["seed"] = ctx_.seed();
   Json mesh = Json::object();
   mesh["vertices"] = e_.mesh_.num_vertices();
@@ -1144,7 +1190,8 @@ Scan ScannerEngine::run(RunContext& ctx) const {
 Scan scan(const TriangleMesh& mesh, const ScannerParams& p, RunContext& ctx) {
   if (p.kind != "range") {
     validate(p, "scanner");
-    Scan s = detail::photo_scan(mesh, p, ctx);
+    Scan s = p.kind == "surface_samples" ? detail::surface_samples_scan(mesh, p, ctx)
+                                         : detail::photo_scan(mesh, p, ctx);
     s.cloud.origin = mesh.origin;
     if (!mesh.origin.isZero(0.0)) {
       s.record["origin"] = {mesh.origin.x(), mesh.origin.y(), mesh.origin.z()};

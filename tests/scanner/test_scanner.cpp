@@ -682,5 +682,348 @@ TEST(ScannerThroughput, BareAndScannerCastTheSameRays) {
   EXPECT_NEAR(s.num_faces(), 1000, 100);
 }
 
+/// Sample moments of one displacement component, with the standard errors of the mean of x^2 and
+/// x^4 estimated from the sample itself (the tolerances below are 5 of them).
+struct Moments {
+  double n = 0, s1 = 0, s2 = 0, s4 = 0, s8 = 0;
+  void add(double x) {
+    const double x2 = x * x, x4 = x2 * x2;
+    n += 1;
+    s1 += x;
+    s2 += x2;
+    s4 += x4;
+    s8 += x4 * x4;
+  }
+  double mean() const { return s1 / n; }
+  double m2() const { return s2 / n; }
+  double m4() const { return s4 / n; }
+  double se_mean() const { return std::sqrt(m2() / n); }
+  double se_m2() const { return std::sqrt((m4() - m2() * m2()) / n); }
+  double se_m4() const { return std::sqrt((s8 / n - m4() * m4()) / n); }
+};
+
+/// Checks mean 0, variance sigma^2 and kurtosis k (E x^4 / sigma^4) to 5 standard errors.
+void expect_law(const Moments& m, double sigma, double k) {
+  EXPECT_NEAR(m.mean(), 0.0, 5 * m.se_mean());
+  EXPECT_NEAR(m.m2(), sigma * sigma, 5 * m.se_m2());
+  EXPECT_NEAR(m.m4() / std::pow(sigma, 4), k, 5 * m.se_m4() / std::pow(sigma, 4) + 0.02 * k);
+}
+
+// Every family along the ray, along the normal and isotropic on the plane z = 0 seen from
+// above: the displacement has the family's mean (0), std (sigma per displaced axis), kurtosis
+// (gaussian 3, laplace 6, uniform 1.8, discrete 1/0.6 along a direction and 5 per axis
+// isotropic) and support, and moves the point only where the direction says.
+TEST(Scanner, NoiseFamiliesHaveTheStatedLawInEveryDirection) {
+  const TriangleMesh m = squares({{0.0f, 1.0f}});
+  const double diag = m.bbox().diagonal();
+  ScannerParams p = small(1, 256);
+  p.poses = "0 0 0.6";
+  p.fov_deg = 50;
+  p.noise_sigma = 0.004;
+  const double sigma = p.noise_sigma * diag;
+  const std::map<std::string, double> kurtosis_1d = {
+      {"gaussian", 3.0}, {"laplace", 6.0}, {"uniform", 1.8}, {"discrete", 1.0 / 0.6}};
+  const std::map<std::string, double> kurtosis_3d = {
+      {"gaussian", 3.0}, {"laplace", 6.0}, {"uniform", 1.8}, {"discrete", 5.0}};
+  for (const char* family : {"gaussian", "laplace", "uniform", "discrete"}) {
+    for (const char* direction : {"ray", "normal", "isotropic"}) {
+      SCOPED_TRACE(std::string(family) + " " + direction);
+      p.noise_family = family;
+      p.noise_direction = direction;
+      RunContext ctx(11);
+      const Scan sc = scan(m, p, ctx);
+      const PointCloud& c = sc.cloud;
+      ASSERT_GT(c.size(), 40000);
+      EXPECT_EQ(sc.record["noise"]["family"], family);
+      EXPECT_EQ(sc.record["noise"]["direction"], direction);
+      const Eigen::Vector3d o = c.sensor_origins.col(0).cast<double>();
+      const std::string dir = direction;
+      Moments along, axis[3];
+      std::int64_t moved = 0, off_support = 0, two_axes = 0;
+      const double tol = 1e-5 * diag;
+      const double step = dir == "isotropic" ? std::sqrt(5.0) * sigma : sigma / std::sqrt(0.6);
+      for (Eigen::Index i = 0; i < c.size(); ++i) {
+        const Eigen::Vector3d q = clean_of(c, i);
+        const Eigen::Vector3d e = c.positions.col(i).cast<double>() - q;
+        if (dir == "ray") {
+          const Eigen::Vector3d d = (q - o).normalized();
+          ASSERT_LT((e - e.dot(d) * d).norm(), tol);  // along the ray only
+          along.add(e.dot(d));
+        } else if (dir == "normal") {
+          ASSERT_LT(e.head<2>().norm(), tol);  // along the face normal (z) only
+          along.add(e.z());
+        } else {
+          for (int k = 0; k < 3; ++k)
+            axis[k].add(e[k]);
+        }
+        if (std::string(family) == "discrete") {
+          const double len = e.norm();
+          moved += len > tol;
+          off_support += len > tol && std::abs(len - step) > 1e-4 * step + tol;
+          two_axes += (e.cwiseAbs().array() > tol).count() > 1 && dir == "isotropic";
+        }
+      }
+      if (dir == "isotropic") {
+        for (int k = 0; k < 3; ++k) {
+          SCOPED_TRACE(k);
+          expect_law(axis[k], sigma, kurtosis_3d.at(family));
+        }
+      } else {
+        expect_law(along, sigma, kurtosis_1d.at(family));
+      }
+      if (std::string(family) == "discrete") {
+        // 60% move (PD-Flow's six slots of ten), by exactly one step, along one axis at most.
+        const double n = static_cast<double>(c.size());
+        EXPECT_NEAR(static_cast<double>(moved) / n, 0.6, 5 * std::sqrt(0.24 / n));
+        EXPECT_EQ(off_support, 0);
+        EXPECT_EQ(two_axes, 0);
+      }
+    }
+  }
+}
+
+// The world-frame laws: anisotropic has covariance sigma^2 3C / trace C; unidirectional moves
+// along world x only, with std sigma.
+TEST(Scanner, AnisotropicAndUnidirectionalNoiseInTheWorldFrame) {
+  const TriangleMesh m = squares({{0.0f, 1.0f}});
+  const double diag = m.bbox().diagonal();
+  ScannerParams p = small(1, 256);
+  p.poses = "0 0 0.6";
+  p.fov_deg = 50;
+  p.noise_sigma = 0.004;
+  p.noise_direction = "isotropic";
+  const double sigma = p.noise_sigma * diag;
+  {
+    p.noise_family = "anisotropic";
+    p.noise_covariance = "4 1 0; 1 2 -0.5; 0 -0.5 1";
+    Eigen::Matrix3d cov;
+    cov << 4, 1, 0, 1, 2, -0.5, 0, -0.5, 1;
+    const Eigen::Matrix3d want = sigma * sigma * 3.0 / cov.trace() * cov;
+    RunContext ctx(12);
+    const Scan sc = scan(m, p, ctx);
+    const PointCloud& c = sc.cloud;
+    ASSERT_GT(c.size(), 40000);
+    const double n = static_cast<double>(c.size());
+    Eigen::Matrix3d sum = Eigen::Matrix3d::Zero(), sum2 = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+    for (Eigen::Index i = 0; i < c.size(); ++i) {
+      const Eigen::Vector3d e = c.positions.col(i).cast<double>() - clean_of(c, i);
+      const Eigen::Matrix3d outer = e * e.transpose();
+      sum += outer;
+      sum2 += outer.cwiseProduct(outer);
+      mean += e;
+    }
+    const Eigen::Matrix3d got = sum / n;
+    const Eigen::Matrix3d se = ((sum2 / n - got.cwiseProduct(got)) / n).cwiseSqrt();
+    for (int a = 0; a < 3; ++a) {
+      EXPECT_NEAR(mean[a] / n, 0.0, 5 * std::sqrt(got(a, a) / n));
+      for (int b = 0; b < 3; ++b)
+        EXPECT_NEAR(got(a, b), want(a, b), 5 * se(a, b)) << a << " " << b;
+    }
+    EXPECT_NEAR(got.trace() / 3.0, sigma * sigma, 0.03 * sigma * sigma);  // mean per-axis var
+    const Json& unit = sc.record["noise"]["unit_covariance"];
+    ASSERT_EQ(unit.size(), 9u);
+    EXPECT_NEAR(unit[0].get<double>(), 12.0 / 7.0, 1e-12);
+  }
+  {
+    p.noise_family = "unidirectional";
+    p.noise_covariance.clear();
+    RunContext ctx(13);
+    const PointCloud c = scan(m, p, ctx).cloud;
+    Moments x;
+    for (Eigen::Index i = 0; i < c.size(); ++i) {
+      const Eigen::Vector3d e = c.positions.col(i).cast<double>() - clean_of(c, i);
+      ASSERT_LT(e.tail<2>().norm(), 1e-5 * diag);  // world x only
+      x.add(e.x());
+    }
+    expect_law(x, sigma, 3.0);
+  }
+}
+
+// The shorthands are the same law as their (family, direction): identical scans.
+TEST(Scanner, NoiseModelShorthandsEqualTheirFamilyAndDirection) {
+  const TriangleMesh m = icosphere(2);
+  ScannerParams a = small(3, 48);
+  a.noise_sigma = 0.01;
+  ScannerParams b = a;
+  a.noise_model = "normal_gauss";
+  b.noise_direction = "normal";
+  RunContext ca(5), cb(5);
+  const Scan sa = scan(m, a, ca), sb = scan(m, b, cb);
+  EXPECT_EQ(sa.cloud.positions, sb.cloud.positions);
+  EXPECT_EQ(sa.record["noise"], sb.record["noise"]);
+  a.noise_model = "ray_gauss";
+  b.noise_direction = "ray";
+  RunContext cc(5), cd(5);
+  EXPECT_EQ(scan(m, a, cc).cloud.positions, scan(m, b, cd).cloud.positions);
+  // ray_uniform's sigma is the amplitude: the uniform family at sigma / sqrt 3 has its std.
+  a.noise_model = "ray_uniform";
+  RunContext ce(5);
+  const Scan su = scan(m, a, ce);
+  EXPECT_EQ(su.record["noise"]["sigma_is"], "half_width");
+  EXPECT_NEAR(su.record["noise"]["std_over_sigma"].get<double>(), 1.0 / std::sqrt(3.0), 1e-15);
+}
+
+// Bad noise parameters: one line naming the field.
+TEST(Scanner, BadNoiseParametersNameTheField) {
+  const TriangleMesh m = icosphere(1);
+  auto message = [&](const Json& j) -> std::string {
+    try {
+      const ScannerParams p = params_from_json<ScannerParams>(j, "scanner");
+      RunContext ctx(1);
+      scan(m, p, ctx);
+    } catch (const ParamError& e) {
+      return e.what();
+    }
+    return "";
+  };
+  auto expect_names = [&](const Json& j, const std::string& field) {
+    SCOPED_TRACE(j.dump());
+    const std::string what = message(j);
+    EXPECT_NE(what.find("scanner." + field), std::string::npos) << what;
+    EXPECT_EQ(what.find('\n'), std::string::npos) << what;
+  };
+  const Json base = {{"views", 2}, {"resolution", 16}, {"noise_sigma", 0.01}};
+  auto with = [&](Json extra) {
+    Json j = base;
+    j.update(extra);
+    return j;
+  };
+  expect_names(with({{"noise_family", "cauchy"}}), "noise_family");
+  expect_names(with({{"noise_direction", "sideways"}}), "noise_direction");
+  expect_names(with({{"noise_family", "anisotropic"}, {"noise_direction", "isotropic"}}),
+               "noise_covariance");  // missing
+  expect_names(with({{"noise_family", "anisotropic"},
+                     {"noise_direction", "isotropic"},
+                     {"noise_covariance", "1 0.5 0 0 1 0 0 0 1"}}),
+               "noise_covariance");  // not symmetric
+  expect_names(with({{"noise_family", "anisotropic"},
+                     {"noise_direction", "isotropic"},
+                     {"noise_covariance", "1 2 0 2 1 0 0 0 1"}}),
+               "noise_covariance");  // indefinite
+  expect_names(with({{"noise_family", "anisotropic"},
+                     {"noise_direction", "isotropic"},
+                     {"noise_covariance", "1 0 0 0 1 0 0 0"}}),
+               "noise_covariance");  // 8 numbers
+  expect_names(with({{"noise_family", "anisotropic"}, {"noise_covariance", "1 0 0 0 1 0 0 0 1"}}),
+               "noise_direction");  // a world-frame law along the ray
+  expect_names(with({{"noise_family", "unidirectional"}, {"noise_direction", "normal"}}),
+               "noise_direction");
+  expect_names(with({{"noise_covariance", "1 0 0 0 1 0 0 0 1"}}), "noise_covariance");
+  expect_names(with({{"noise_model", "ray_uniform"}, {"noise_family", "laplace"}}), "noise_model");
+  expect_names(with({{"noise_model", "ray_laplace"}}), "noise_model");
+}
+
+/// A closed cube of edge 1 at the origin, 2 x 2 cells per face.
+TriangleMesh unit_cube() {
+  CubeParams c;
+  c.size = 1.0;
+  c.resolution = 2;
+  return make_cube(c);
+}
+
+// Surface samples: the exact count, on the mesh without noise, the noise std the stated share
+// of the bounding sphere's radius, along the face normal when asked, repeatable bit for bit at
+// any thread count, and another sample set for another seed.
+TEST(ScannerSurfaceSamples, CountOnTheMeshNoiseShareAndDeterminism) {
+  const TriangleMesh m = unit_cube();
+  const double radius = std::sqrt(3.0) / 2.0;  // ScoreDenoise's unit-sphere scale of the cube
+  ScannerParams p;
+  p.kind = "surface_samples";
+  p.points = 3000;
+  p.noise_direction = "isotropic";
+  {
+    RunContext ctx(3);
+    const Scan s = scan(m, p, ctx);
+    ASSERT_EQ(s.cloud.size(), 3000);
+    EXPECT_EQ(s.cloud.sensor_origins.cols(), 0);
+    EXPECT_FALSE(s.cloud.has_scan_ids());
+    EXPECT_NEAR(s.record["mesh"]["sphere_radius"].get<double>(), radius, 1e-6);
+    for (Eigen::Index i = 0; i < s.cloud.size(); ++i) {
+      ASSERT_LT(mesh_distance(m, s.cloud.positions.col(i).cast<double>()), 1e-6) << i;
+      ASSERT_EQ(clean_of(s.cloud, i), s.cloud.positions.col(i).cast<double>());
+    }
+    // Poisson-disk: no two samples much closer than the mean spacing (uniform sampling of 3000
+    // points on area 6 would give pairs about 100 times closer).
+    double nearest = std::numeric_limits<double>::infinity();
+    for (Eigen::Index i = 0; i < s.cloud.size(); ++i) {
+      for (Eigen::Index j = i + 1; j < s.cloud.size(); ++j)
+        nearest = std::min(
+            nearest,
+            static_cast<double>((s.cloud.positions.col(i) - s.cloud.positions.col(j)).norm()));
+    }
+    EXPECT_GT(nearest, 0.2 * std::sqrt(6.0 / 3000.0));
+  }
+  p.points = 10000;
+  p.noise_sigma = 0.02;
+  p.noise_scale = "sphere_radius";
+  for (const char* family : {"gaussian", "laplace"}) {
+    SCOPED_TRACE(family);
+    p.noise_family = family;
+    RunContext ctx(4);
+    const Scan s = scan(m, p, ctx);
+    EXPECT_NEAR(s.record["noise"]["sigma"].get<double>(), 0.02 * radius, 1e-8);
+    Moments axis[3];
+    for (Eigen::Index i = 0; i < s.cloud.size(); ++i) {
+      const Eigen::Vector3d e = (s.cloud.positions.col(i).cast<double>() - clean_of(s.cloud, i));
+      for (int k = 0; k < 3; ++k)
+        axis[k].add(e[k] / radius);  // in the unit-sphere frame
+    }
+    for (int k = 0; k < 3; ++k)
+      expect_law(axis[k], 0.02, std::string(family) == "gaussian" ? 3.0 : 6.0);
+  }
+  // Along the face normal: the cube's normals are axes, so one component moves.
+  p.noise_family = "gaussian";
+  p.noise_direction = "normal";
+  p.points = 5000;
+  {
+    RunContext ctx(5);
+    const Scan s = scan(m, p, ctx);
+    Moments along;
+    for (Eigen::Index i = 0; i < s.cloud.size(); ++i) {
+      const Eigen::Vector3d e = s.cloud.positions.col(i).cast<double>() - clean_of(s.cloud, i);
+      ASSERT_LE((e.cwiseAbs().array() > 1e-6).count(), 1) << e.transpose();
+      along.add(e.cwiseAbs().maxCoeff() * (e.sum() < 0 ? -1.0 : 1.0) / radius);
+    }
+    EXPECT_NEAR(std::sqrt(along.m2()), 0.02, 5 * along.se_m2() / (2 * 0.02));
+  }
+  // Bit for bit at 1 and 2 threads; another seed, other samples.
+  p.noise_direction = "isotropic";
+  const test::TempDir tmp("surface_samples");
+  auto write = [&](std::uint64_t seed, int threads, const std::string& name) {
+    RunContext ctx(seed, threads);
+    write_scan(scan(m, p, ctx), tmp.path / name);
+    return read_bytes(tmp.path / name);
+  };
+  const std::string one = write(7, 1, "a.ply");
+  EXPECT_EQ(one, write(7, 2, "b.ply"));
+  EXPECT_EQ(one, write(7, 1, "c.ply"));
+  EXPECT_NE(one, write(8, 1, "d.ply"));
+  p.noise_sigma = 0;
+  RunContext c7(7), c8(8);
+  EXPECT_NE(scan(m, p, c7).cloud.positions, scan(m, p, c8).cloud.positions);
+}
+
+TEST(ScannerSurfaceSamples, BadParametersNameTheField) {
+  const TriangleMesh m = unit_cube();
+  auto expect_names = [&](Json j, const std::string& field) {
+    j["kind"] = "surface_samples";
+    SCOPED_TRACE(j.dump());
+    try {
+      const ScannerParams p = params_from_json<ScannerParams>(j, "scanner");
+      RunContext ctx(1);
+      scan(m, p, ctx);
+      FAIL() << "accepted";
+    } catch (const ParamError& e) {
+      EXPECT_NE(std::string(e.what()).find("scanner." + field), std::string::npos) << e.what();
+    }
+  };
+  expect_names({{"noise_direction", "ray"}}, "noise_direction");  // no rays
+  expect_names({{"noise_direction", "isotropic"}, {"points", 0}}, "points");
+  expect_names({{"noise_direction", "isotropic"}, {"noise_scale", "bbox"}}, "noise_scale");
+  expect_names({{"noise_direction", "isotropic"}, {"noise_range_slope", 0.1}}, "noise_range_slope");
+  expect_names({{"noise_model", "ray_gauss"}}, "noise_model");
+}
+
 }  // namespace
 }  // namespace scanbench::scanner

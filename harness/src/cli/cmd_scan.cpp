@@ -70,8 +70,10 @@ void add_scan_command(Cli& cli) {
       const double seconds =
           std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       const Json& c = s.record["counts"];
-      fmt::print("scan: {} points ({} outliers) from {} views of {} in {:.2f} s -> {}\n",
-                 c["points"].get<std::int64_t>(), c["outliers"].get<std::int64_t>(), p.views,
+      const std::string from = p.kind == "surface_samples" ? std::string("surface samples")
+                                                           : fmt::format("{} views", p.views);
+      fmt::print("scan: {} points ({} outliers) from {} of {} in {:.2f} s -> {}\n",
+                 c["points"].get<std::int64_t>(), c["outliers"].get<std::int64_t>(), from,
                  opts->mesh.empty() ? opts->dataset : opts->mesh, seconds, opts->output);
       return 0;
     };

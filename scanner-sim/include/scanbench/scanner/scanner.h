@@ -30,14 +30,32 @@
 //     than `flying_depth_jump` becomes, with probability `flying_pixel_prob`, a point on its own
 //     ray at a uniform depth between its range and the far neighbour's range (range +
 //     `flying_spread` behind a silhouette). Flagged outlier = 1; no range noise.
-//  5. Range noise along the ray, N(0, sigma) with
+//  5. Noise of standard deviation sigma per displaced axis, with
 //        sigma = diag * (noise_sigma + noise_range_slope * r / diag
 //                        + noise_incidence_slope * (1 / max(cos(incidence), 0.01) - 1)),
 //     i.e. constant accuracy (HELIOS++) growing linearly with range and with 1/cos(incidence).
-//     `noise_model` says what sigma is (papers say "x% noise" without saying which): ray_gauss
-//     (default) N(0, sigma) along the ray; normal_gauss N(0, sigma) along the unit face normal at
-//     the clean point (the surface-normal displacement of point-set denoising benchmarks); and
-//     ray_uniform, sigma an amplitude: U[-sigma, sigma] along the ray (std sigma / sqrt 3).
+//     Papers say "x% noise" without saying which law or where; two parameters state it.
+//     `noise_direction`: ray (default; a range error along the beam axis), normal (along the
+//     unit face normal at the clean point; none where that normal is degenerate) or isotropic
+//     (3-D, each world axis independently). `noise_family`, every one with std sigma per
+//     displaced axis (PD-Flow's six, Mao et al. 2022, unknownue/pdflow
+//     dataset/scoredenoise/transforms.py at 78c4a67, with the std held equal):
+//       gaussian (default) N(0, sigma^2), kurtosis 3;
+//       laplace, scale b = sigma / sqrt 2, kurtosis 6;
+//       uniform U[-sqrt3 sigma, sqrt3 sigma], kurtosis 1.8;
+//       discrete, PD-Flow's AddDiscreteNoise: 60% of the points move one step, 40% stay; along a
+//         direction +-sigma/sqrt(0.6) with probability 0.3 each (kurtosis 1/0.6); isotropic one of
+//         +-x, +-y, +-z with probability 0.1 each, length sqrt5 sigma (per axis kurtosis 5);
+//       anisotropic N(0, sigma^2 3 C / trace C), C = `noise_covariance` (3 x 3, symmetric
+//         positive definite, world frame, as PD-Flow's AddCovNoise; mean per-axis variance
+//         sigma^2);
+//       unidirectional N(0, sigma^2) along world x only (PD-Flow's AddUniDirectional).
+//     anisotropic and unidirectional are world-frame 3-D laws: noise_direction must be isotropic.
+//     `noise_model` is the older shorthand, kept for configs and records: ray_gauss = (gaussian,
+//     ray), normal_gauss = (gaussian, normal), ray_uniform = (uniform, ray) with sigma the
+//     amplitude, U[-sigma, sigma] (std sigma / sqrt 3); empty (the default) = the two parameters.
+//     One law per scan (recorded as "noise"); the deviates come from the tile's stream in the
+//     pixel order of the returned points (isotropic and anisotropic: x, y, z in turn).
 //  6. Uniform outliers: after each returned point, further points uniform in the bbox grown by
 //     `outlier_box_scale` about its centre (Berger et al.: 1.1), each side then widened about the
 //     centre to at least `outlier_box_min` * diag (room off a flat model's plane), follow with
@@ -81,6 +99,20 @@
 // for bit, so the scan does, whatever the run context's and COLMAP's thread counts
 // (docs/scanner.md, Determinism). kind = "photo_dense" asks for COLMAP's
 // patch_match_stereo, which needs CUDA: refused in one line when `colmap help` says "without CUDA".
+//
+// Surface samples (kind = "surface_samples"; surface_samples.cpp): the learning literature's test
+// sets on any mesh (ScoreDenoise, Luo and Hu 2021, luost26/score-denoise: Poisson-disk samples of
+// 10K and 50K points, isotropic Gaussian noise of 1, 2, 3% of the bounding sphere's radius).
+// Exactly `points` Poisson-disk samples (Open3D's TriangleMesh::SamplePointsPoissonDisk: Yuksel's
+// sample elimination from 5 x points uniform samples; its global engine seeded from stream
+// "scan.samples"), each displaced by sigma times the noise law (noise_direction isotropic or
+// normal: there are no rays; stream "scan.sample_noise", in sample order). sigma = noise_sigma
+// times the bbox diagonal, or with `noise_scale` = sphere_radius times the radius of
+// ScoreDenoise's normalize_sphere (centre = bbox centre, radius = the largest vertex distance
+// from it), so the noise is the stated share in the unit-sphere frame that convention.scoredenoise
+// scores in. No sensor: no sensor origins, no scan ids; "outlier" 0 and "clean_x/y/z" (the sample
+// before noise) as for ranges; the record says so and gives the sphere and sigma. The other
+// range and photo parameters are ignored; noise_range_slope and noise_incidence_slope must be 0.
 #include <cstdint>
 #include <filesystem>
 #include <memory>
@@ -112,7 +144,10 @@ struct ScannerParams {
   double noise_sigma = 0.0;
   double noise_range_slope = 0.0;
   double noise_incidence_slope = 0.0;
-  std::string noise_model = "ray_gauss";
+  std::string noise_family = "gaussian";
+  std::string noise_direction = "ray";
+  std::string noise_covariance;
+  std::string noise_model;
   double max_incidence_deg = 90.0;
   double beam_divergence_deg = 0.0;
   int sub_rays = 1;
@@ -137,6 +172,9 @@ struct ScannerParams {
   int colmap_threads = 2;
   std::string registration = "known";
   double colmap_timeout_s = 1800.0;
+  // Surface samples (kind "surface_samples"; see above). Ignored by the other kinds.
+  int points = 10000;
+  std::string noise_scale = "diag";
 
   static void declare(ParamDeclarer<ScannerParams>& d);
 };
@@ -154,7 +192,9 @@ struct Scan {
   /// stage_data.h) is scanned in its local frame: positions, sensor origins and clean_* are local,
   /// and cloud.origin is the mesh's (recorded as "origin" in the record).
   PointCloud cloud;
-  /// {"params", "seed", "mesh", "counts", "scans": [{"id", "sensor_origin", "registered_origin",
+  /// {"params", "noise" (the resolved law: family, direction, sigma_is, std_over_sigma,
+  ///  unit_covariance for anisotropic), "seed", "mesh", "counts",
+  ///  "scans": [{"id", "sensor_origin", "registered_origin",
   ///  "forward", "up", "fov_deg", "resolution", "points", "outliers", "misaligned",
   ///  "misalignment": {"center", "axis", "angle_deg", "shift", "rotation", "translation"}}]};
   /// rotation is row-major 3x3, p_registered = rotation * p + translation (identity for scans
@@ -168,8 +208,10 @@ struct Scan {
 /// Scans `mesh`. Throws InputError for an empty mesh, non-finite vertices, bad face indices or a
 /// mesh whose triangles are all degenerate (single degenerate triangles are legal geometry: they
 /// are never hit; their count is recorded), and ParamError for invalid parameters (zero views,
-/// range_max <= range_min, malformed poses). Random streams: "scan.pixels", "scan.flying",
-/// "scan.outliers", "scan.misalign" of ctx.
+/// range_max <= range_min, malformed poses, an unknown noise family, a noise covariance that is
+/// not symmetric positive definite). Random streams: "scan.pixels", "scan.flying",
+/// "scan.outliers", "scan.misalign" of ctx (surface samples: "scan.samples",
+/// "scan.sample_noise").
 Scan scan(const TriangleMesh& mesh, const ScannerParams& p, RunContext& ctx);
 
 /// Writes the cloud as binary PLY (core write_point_cloud; deterministic bytes) and the record as
