@@ -48,6 +48,16 @@ Eigen::Matrix3Xf noisy(const TriangleMesh& mesh, Eigen::Index n, std::uint64_t s
   return p;
 }
 
+/// Three shapes for the reference comparisons: a sphere, a torus and a cube.
+std::vector<std::pair<const char*, TriangleMesh>> three_shapes() {
+  TorusParams torus;
+  torus.major_segments = 48;
+  torus.minor_segments = 24;
+  CubeParams cube;
+  cube.resolution = 6;
+  return {{"icosphere(4)", icosphere(4)}, {"torus", make_torus(torus)}, {"cube", make_cube(cube)}};
+}
+
 void write_rows(const fs::path& f, const Eigen::MatrixXd& m) {
   std::ofstream out(f);
   out.precision(17);
@@ -99,15 +109,8 @@ Reference reference(const Eigen::Matrix3Xf& gen, const Eigen::Matrix3Xf& ref,
 }
 
 TEST(ConventionScoreDenoise, EqualsTheNumpyPortOfItsEvaluator) {
-  TorusParams torus;
-  torus.major_segments = 48;
-  torus.minor_segments = 24;
-  CubeParams cube;
-  cube.resolution = 6;
-  const std::pair<const char*, TriangleMesh> shapes[] = {
-      {"icosphere(4)", icosphere(4)}, {"torus", make_torus(torus)}, {"cube", make_cube(cube)}};
   std::uint64_t seed = 11;
-  for (const auto& [name, mesh] : shapes) {
+  for (const auto& [name, mesh] : three_shapes()) {
     const Eigen::Matrix3Xf gen = noisy(mesh, 1500, seed, 0.01),
                            ref = noisy(mesh, 1200, seed + 7, 0.0);
     seed += 100;
@@ -337,16 +340,6 @@ TEST(ConventionDsr, IouOfTheSameQueriesOnBothMeshes) {
   EXPECT_TRUE(
       evaluate_mesh(open_gt, mesh, nullptr, {"convention.dsr"}, params, ctx, 2000)["dsr_iou"]
           .is_null());
-}
-
-/// Three shapes for the reference comparisons: a sphere, a torus and a cube.
-std::vector<std::pair<const char*, TriangleMesh>> three_shapes() {
-  TorusParams torus;
-  torus.major_segments = 48;
-  torus.minor_segments = 24;
-  CubeParams cube;
-  cube.resolution = 6;
-  return {{"icosphere(4)", icosphere(4)}, {"torus", make_torus(torus)}, {"cube", make_cube(cube)}};
 }
 
 TEST(ConventionPdflow, EqualsThePortOfItsEvaluator) {
