@@ -268,6 +268,110 @@ TEST(Protocol, SensitivityJudgesTheClaimAtEachValueOfTheRange) {
   EXPECT_EQ(s2["params"][0]["rule_verdicts"]["4"], Json({"failed", "held"}));
 }
 
+// Scanner entries (issues 50, 52): the reading of "x% noise" declared once for every variant, the
+// other readings as its sensitivity; one source per parameter.
+TEST(ProtocolScanner, ScannerEntriesSetEveryScannerAndSweepEveryVariant) {
+  Json config = experiment_with_protocol();
+  config["scanners"][0]["params"]["noise_sigma"] = 0.004;
+  config["protocol"]["tuning"]["scanners"] = Json::array({"clean"});
+  config["protocol"]["scanner"] = {{"noise_family",
+                                    {{"source", "rule"},
+                                     {"value", "gaussian"},
+                                     {"rule", "std along the ray"},
+                                     {"sensitivity", {"laplace", "uniform"}}}}};
+  EXPECT_EQ(param_error(config), "");
+  Protocol p = parse_protocol(config["protocol"], "p");
+  ASSERT_EQ(p.scanner.size(), 1u);
+  EXPECT_EQ(p.scanner[0].key, "scanner.noise_family");
+  EXPECT_EQ(p.scanner[0].variant, "");
+  p.params[0].value = 4;  // the tuned stride, as resolve_protocol would choose it
+
+  // Every scanner of the experiment and of the tuning data gets the value.
+  const Json at_values = protocol_config(config, p, false);
+  EXPECT_EQ(at_values["scanners"][0]["params"]["noise_family"], "gaussian");
+  const Json tuning = tuning_config(config, p, "sub");
+  EXPECT_EQ(tuning["scanners"][0],
+            Json({{"preset", "clean"}, {"params", {{"noise_family", "gaussian"}}}}));
+
+  // Sensitivity: each variant at the protocol point and at each other family, one at a time.
+  const Plan plan = expand(parse_experiment(protocol_config(config, p, true), "exp.json"));
+  std::multiset<std::string> points;
+  for (const auto& j : plan.jobs) {
+    points.insert(j.variant + " " + j.point_label);
+    const std::string family = j.point.value("scanner.noise_family", std::string("gaussian"));
+    EXPECT_EQ(j.scanner_params["noise_family"], family) << j.key;
+  }
+  EXPECT_EQ(points, (std::multiset<std::string>{
+                        "ref noise_family=gaussian", "ref noise_family=laplace",
+                        "ref noise_family=uniform", "sub stride=4", "sub stride=2", "sub stride=8",
+                        "sub noise_family=laplace", "sub noise_family=uniform"}));
+
+  // The verdict uses the protocol point only; the sensitivity re-judges every variant at each
+  // family.
+  std::vector<Json> recs;
+  for (const auto& j : plan.jobs) {
+    const std::string family = j.point.value("scanner.noise_family", std::string("gaussian"));
+    double err = j.variant == "ref" ? 2.0 : (family == "laplace" ? 3.0 : 1.0);
+    if (j.point.contains("test.subsample.stride") && j.point["test.subsample.stride"] != 4)
+      err = 5.0;
+    recs.push_back(tuning_record("sphere", j.variant, j.point, err));
+  }
+  const std::vector<Json> at = records_at_protocol(recs, p);
+  ASSERT_EQ(at.size(), 2u);
+  for (const auto& r : at)
+    EXPECT_EQ(r["metrics"]["err"], r["variant"]["label"] == "ref" ? 2.0 : 1.0) << r.dump();
+  const std::vector<Json> lap = records_at_protocol(recs, p, &p.scanner[0], "laplace");
+  ASSERT_EQ(lap.size(), 2u);
+  for (const auto& r : lap)
+    EXPECT_EQ(r["point"]["scanner.noise_family"], "laplace") << r.dump();
+  Claim c;
+  c.id = "c";
+  ClaimRule r;
+  r.what = "sub below ref";
+  r.quantity = "err";
+  r.a.variant = "sub";
+  r.b.variant = "ref";
+  r.has_b = true;
+  r.op = "<";
+  c.rules = {r};
+  const Json s = claim_sensitivity(c, p, recs);
+  const Json& fam = s["params"][1];
+  EXPECT_EQ(fam["key"], "scanner.noise_family");
+  EXPECT_EQ(fam["verdicts"],
+            Json({{"\"gaussian\"", "held"}, {"\"laplace\"", "failed"}, {"\"uniform\"", "held"}}));
+  EXPECT_NE(s["text"].get<std::string>().find(
+                "every variant scanner.noise_family (rule): held at \"gaussian\"*; failed at "
+                "\"laplace\"; held at \"uniform\""),
+            std::string::npos)
+      << s["text"];
+  EXPECT_EQ(protocol_json(p)["scanner"]["scanner.noise_family"]["sensitivity"],
+            Json({"laplace", "uniform"}));
+
+  // One source per parameter; declared, never tuned; a value the scanner rejects.
+  auto broken = [&](auto edit) {
+    Json b = config;
+    edit(b);
+    return param_error(b);
+  };
+  const std::string w = "exp.json: /protocol/scanner/noise_family";
+  EXPECT_EQ(broken([](Json& b) { b["scanners"][0]["params"]["noise_family"] = "laplace"; }),
+            w + ": also set in the params of the scanner at /scanners/0 (give each parameter one "
+                "source)");
+  EXPECT_EQ(broken([](Json& b) {
+              b["variants"][1]["sweep"] = {{"scanner.noise_family", {"gaussian", "laplace"}}};
+            }),
+            w + ": also swept (scanner.noise_family; give each parameter one source)");
+  EXPECT_EQ(broken([](Json& b) {
+              b["protocol"]["scanner"]["noise_family"] = {{"source", "tuned"},
+                                                          {"range", {"gaussian", "laplace"}}};
+            }),
+            w + "/source: a scanner reading is declared (paper or rule), never tuned");
+  const std::string bad =
+      broken([](Json& b) { b["protocol"]["scanner"]["noise_family"]["sensitivity"] = {"cauchy"}; });
+  EXPECT_EQ(bad.rfind("exp.json: /protocol: a protocol value is not accepted: ", 0), 0u) << bad;
+  EXPECT_NE(bad.find("noise_family"), std::string::npos) << bad;
+}
+
 // End to end through the real binary: the tuning runs on the torus only, the claim on the sphere
 // at the chosen stride, claims.json keeps the protocol and the sensitivity; `scanbench run` uses
 // the same protocol; a bad protocol exits 2 with one line naming the file and field.
@@ -276,6 +380,9 @@ TEST(ProtocolE2E, ClaimsAndRunTuneOnTheTuningDataOnly) {
   fs::create_directories(dir / "claims");
   Json exp = experiment_with_protocol();
   exp["protocol"]["objective"] = {{"quantity", "output_points"}, {"direction", "max"}};
+  exp["protocol"]["scanner"] = {
+      {"noise_direction",
+       {{"source", "rule"}, {"value", "ray"}, {"rule", "r"}, {"sensitivity", {"normal"}}}}};
   const Json claim = {{"scanbench_claim", 1},
                       {"claim", "the tuned stride keeps more points than stride 3"},
                       {"source", "test"},
@@ -297,9 +404,22 @@ TEST(ProtocolE2E, ClaimsAndRunTuneOnTheTuningDataOnly) {
   EXPECT_EQ(c["protocol"]["sub"]["test.subsample.stride"]["value"], 2);
   EXPECT_EQ(c["sensitivity"]["params"][0]["verdicts"],
             Json({{"2", "held"}, {"4", "failed"}, {"8", "failed"}}));
+  EXPECT_EQ(c["sensitivity"]["params"][1]["verdicts"],
+            Json({{"\"ray\"", "held"}, {"\"normal\"", "held"}}));
+  EXPECT_EQ(c["protocol"]["scanner"]["scanner.noise_direction"]["value"], "ray");
+  // The scanner entry reached the scans: every record's scanner has the direction of its point.
+  int normal_records = 0;
+  for (const auto& rec : read_jsonl(dir / "out" / "tuned" / "runs.jsonl")) {
+    const std::string want = rec["point"].value("scanner.noise_direction", std::string("ray"));
+    EXPECT_EQ(rec["scanner"]["params"]["noise_direction"], want) << rec["key"];
+    normal_records += want == "normal" ? 1 : 0;
+  }
+  EXPECT_EQ(normal_records, 2);  // sub and ref, once each
   std::set<std::string> tuning_datasets;
-  for (const auto& rec : read_jsonl(dir / "out" / "tuned" / "tuning-sub" / "runs.jsonl"))
+  for (const auto& rec : read_jsonl(dir / "out" / "tuned" / "tuning-sub" / "runs.jsonl")) {
     tuning_datasets.insert(rec["dataset"]["label"].get<std::string>());
+    EXPECT_EQ(rec["scanner"]["params"]["noise_direction"], "ray");
+  }
   EXPECT_EQ(tuning_datasets, std::set<std::string>{"torus"});
   EXPECT_TRUE(fs::exists(dir / "out" / "tuned" / "protocol.json"));
   const std::string md = slurp(dir / "out" / "claims.md");

@@ -159,21 +159,71 @@ bool protocol_same_value(const Json& a, const Json& b) {
   return a == b;
 }
 
+/// A variant object's label as parse_experiment derives it.
+std::string protocol_variant_label(const Json& v) {
+  std::string l = v.value("label", std::string());
+  if (l.empty() && v.contains("algorithm") && v["algorithm"].is_string()) {
+    l = v["algorithm"].get<std::string>();
+  }
+  if (l.empty() && v.contains("chain") && v["chain"].is_array()) {
+    for (const auto& s : v["chain"])
+      l += (l.empty() ? "" : "+") + s.value("label", s.value("algorithm", std::string()));
+  }
+  return l;
+}
+
 /// The variant object of `config` labelled `label` (labels as parse_experiment derives them).
 Json* protocol_find_variant(Json& config, const std::string& label) {
   if (!config.contains("variants") || !config["variants"].is_array()) return nullptr;
-  for (auto& v : config["variants"]) {
-    std::string l = v.value("label", std::string());
-    if (l.empty() && v.contains("algorithm") && v["algorithm"].is_string()) {
-      l = v["algorithm"].get<std::string>();
-    }
-    if (l.empty() && v.contains("chain") && v["chain"].is_array()) {
-      for (const auto& s : v["chain"])
-        l += (l.empty() ? "" : "+") + s.value("label", s.value("algorithm", std::string()));
-    }
-    if (l == label) return &v;
-  }
+  for (auto& v : config["variants"])
+    if (protocol_variant_label(v) == label) return &v;
   return nullptr;
+}
+
+/// Calls `fn(scanner, where)` for every scanner entry that scans in a config's (or a tuning
+/// block's) "scanners" and "datasets[i].scanners" lists; a string entry is first made the object
+/// {"preset": name}, which parse_scanner reads the same (label = the preset).
+template <class Fn>
+void for_each_scanning_scanner(Json& c, const std::string& where, Fn&& fn) {
+  auto list = [&](Json& scanners, const std::string& w) {
+    if (!scanners.is_array()) return;
+    for (std::size_t i = 0; i < scanners.size(); ++i) {
+      Json& sc = scanners[i];
+      const std::string preset = sc.is_string() ? sc.get<std::string>() : sc.value("preset", "");
+      if (preset.empty() || preset == kGroundTruthInput) continue;
+      if (sc.is_string()) sc = Json{{"preset", preset}};
+      fn(sc, fmt::format("{}/{}", w, i));
+    }
+  };
+  if (c.contains("scanners")) list(c["scanners"], where + "/scanners");
+  if (c.contains("datasets") && c["datasets"].is_array())
+    for (std::size_t i = 0; i < c["datasets"].size(); ++i) {
+      Json& d = c["datasets"][i];
+      if (d.is_object() && d.contains("scanners"))
+        list(d["scanners"], fmt::format("{}/datasets/{}/scanners", where, i));
+    }
+}
+
+/// Sets the protocol's scanner values in every scanning scanner of `c` (a config or the tuning
+/// data).
+void set_scanner_values(Json& c, const Protocol& p) {
+  if (p.scanner.empty()) return;
+  for_each_scanning_scanner(c, "", [&](Json& sc, const std::string&) {
+    for (const auto& q : p.scanner)
+      sc["params"][q.param] = q.value;
+  });
+}
+
+/// The protocol's ranged parameters of one variant, in the order their sensitivity sweeps are
+/// built: its step parameters with a range (in declaration order), then the scanner entries with
+/// sensitivity values (every variant's).
+std::vector<const ProtocolParam*> ranged_params(const Protocol& p, const std::string& variant) {
+  std::vector<const ProtocolParam*> out;
+  for (const auto& q : p.params)
+    if (q.variant == variant && !q.range.empty()) out.push_back(&q);
+  for (const auto& q : p.scanner)
+    if (!q.range.empty()) out.push_back(&q);
+  return out;
 }
 
 /// The params object of the step `step` of a variant object (one-step or chain form).
@@ -211,6 +261,7 @@ Json protocol_with_values(const Json& config, const Protocol& p) {
     if (q.value.is_null() && q.range.empty()) continue;
     (*params)[q.param] = q.value.is_null() && !q.range.empty() ? q.range.front() : q.value;
   }
+  set_scanner_values(c, p);
   return c;
 }
 
@@ -302,7 +353,7 @@ std::vector<const ProtocolParam*> Protocol::tuned(const std::string& variant) co
 }
 
 Protocol parse_protocol(const Json& j, const std::string& where) {
-  harness::check_keys(j, where, {"tuning", "objective", "variants", "chains"});
+  harness::check_keys(j, where, {"tuning", "objective", "variants", "chains", "scanner"});
   Protocol p;
   p.where = where;
   if (j.contains("chains")) p.chains = parse_chains(j["chains"], where + "/chains");
@@ -331,11 +382,49 @@ Protocol parse_protocol(const Json& j, const std::string& where) {
       p.params.push_back(
           parse_protocol_param(entry, label, key, w + "/" + key, p, has_objective, objective));
   }
+  if (j.contains("scanner")) {
+    const std::string w = where + "/scanner";
+    if (!j["scanner"].is_object() || j["scanner"].empty())
+      protocol_fail(w, "expected an object: \"<scanner param>\" -> its source");
+    if (j["variants"].contains("scanner")) {
+      protocol_fail(where + "/variants/scanner",
+                    "a variant labelled 'scanner' collides with the protocol's scanner entries");
+    }
+    for (const auto& [param, entry] : j["scanner"].items()) {
+      const std::string we = w + "/" + param;
+      if (param.empty() || param.find('.') != std::string::npos)
+        protocol_fail(we, "expected a scanner parameter's name");
+      if (entry.is_object() && entry.value("source", Json()) == "tuned")
+        protocol_fail(we + "/source", "a scanner reading is declared (paper or rule), never tuned");
+      p.scanner.push_back(parse_protocol_param(entry, "", "scanner." + param, we, p, false, {}));
+    }
+  }
   return p;
 }
 
 void check_protocol(const Protocol& p, const Json& config) {
   Json c = config;
+  // Scanner entries: one source per parameter (no scanner of the experiment or of the tuning data
+  // sets it, no sweep varies it).
+  for (const auto& q : p.scanner) {
+    const std::string w = p.where + "/scanner/" + q.param;
+    Json tuning = p.tuning;
+    for (auto [data, name] : {std::pair<Json*, const char*>{&c, ""}, {&tuning, "/protocol/tuning"}})
+      for_each_scanning_scanner(*data, name, [&](Json& sc, const std::string& at) {
+        if (sc.contains("params") && sc["params"].is_object() && sc["params"].contains(q.param))
+          protocol_fail(w, fmt::format("also set in the params of the scanner at {} (give each "
+                                       "parameter one source)",
+                                       at));
+      });
+    std::vector<Json> sweeps = protocol_variant_sweeps(c);
+    if (c.contains("variants") && c["variants"].is_array())
+      for (const auto& v : c["variants"])
+        for (const auto& s : protocol_variant_sweeps(v))
+          sweeps.push_back(s);
+    for (const auto& s : sweeps)
+      if (s.is_object() && s.contains(q.key))
+        protocol_fail(w, fmt::format("also swept ({}; give each parameter one source)", q.key));
+  }
   for (const auto& q : p.params) {
     const std::string w = p.where + "/variants/" + q.variant;
     Json* v = protocol_find_variant(c, q.variant);
@@ -405,6 +494,7 @@ Json tuning_config(const Json& config, const Protocol& p, const std::string& var
   c["variants"] = Json::array({tv});
   c["datasets"] = p.tuning["datasets"];
   if (p.tuning.contains("scanners")) c["scanners"] = p.tuning["scanners"];
+  set_scanner_values(c, p);  // the tuning data are made the same way
   for (const char* k : {"seed", "seeds"})
     if (p.tuning.contains(k)) {
       c.erase("seed");
@@ -864,12 +954,11 @@ std::string Protocol::inconclusive() const {
 Json protocol_config(const Json& config, const Protocol& p, bool sweep_ranges) {
   Json c = protocol_with_values(config, p);
   if (!sweep_ranges) return c;
-  std::map<std::string, std::vector<const ProtocolParam*>> ranged;
-  for (const auto& q : p.params)
-    if (!q.range.empty()) ranged[q.variant].push_back(&q);
-  for (const auto& [label, qs] : ranged) {
-    Json* v = protocol_find_variant(c, label);
-    if (v == nullptr) continue;
+  if (!c.contains("variants") || !c["variants"].is_array()) return c;
+  for (Json& vj : c["variants"]) {
+    const std::vector<const ProtocolParam*> qs = ranged_params(p, protocol_variant_label(vj));
+    if (qs.empty()) continue;
+    Json* v = &vj;
     std::vector<Json> base = protocol_variant_sweeps(*v);
     if (base.empty()) base.push_back(Json::object());
     Json sweeps = Json::array();
@@ -896,19 +985,22 @@ Json protocol_config(const Json& config, const Protocol& p, bool sweep_ranges) {
 std::vector<Json> records_at_protocol(const std::vector<Json>& records, const Protocol& p,
                                       const ProtocolParam* vary, const Json& at) {
   std::map<std::string, const ProtocolParam*> first;  // variant -> its first ranged parameter
-  for (const auto& q : p.params)
-    if (!q.range.empty() && !first.count(q.variant)) first[q.variant] = &q;
   std::vector<Json> out;
   for (const auto& r : records) {
     const std::string label = r.value("variant", Json::object()).value("label", std::string());
-    const auto it = first.find(label);
+    auto it = first.find(label);
     if (it == first.end()) {
+      const auto qs = ranged_params(p, label);
+      it = first.emplace(label, qs.empty() ? nullptr : qs.front()).first;
+    }
+    if (it->second == nullptr) {
       out.push_back(r);
       continue;
     }
     const Json pt = r.value("point", Json::object());
-    const bool varied =
-        vary != nullptr && vary->variant == label && !protocol_same_value(at, vary->value);
+    // A scanner entry (variant "") is varied for every variant.
+    const bool varied = vary != nullptr && (vary->variant == label || vary->variant.empty()) &&
+                        !protocol_same_value(at, vary->value);
     const ProtocolParam* q = varied ? vary : it->second;
     const Json& want = varied ? at : q->value;
     if (pt.contains(q->key) && protocol_same_value(pt[q->key], want)) out.push_back(r);
@@ -940,6 +1032,12 @@ Json protocol_json(const Protocol& p) {
       e["sensitivity"] = q.range;
     }
     j[q.variant][q.key] = e;
+  }
+  for (const auto& q : p.scanner) {
+    Json e = {{"source", q.source}, {"value", q.value}};
+    e[q.source == "paper" ? "cite" : "rule"] = q.cite;
+    if (!q.range.empty()) e["sensitivity"] = q.range;
+    j["scanner"][q.key] = e;
   }
   return j;
 }

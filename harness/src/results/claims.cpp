@@ -314,7 +314,13 @@ Json claim_sensitivity(const Claim& claim, const Protocol& protocol,
                        const std::vector<Json>& records) {
   Json params = Json::array();
   std::string text;
-  for (const auto& q : protocol.params) {
+  std::vector<const ProtocolParam*> all;
+  for (const auto& q : protocol.params)
+    all.push_back(&q);
+  for (const auto& q : protocol.scanner)  // how the data are made: every variant at once
+    all.push_back(&q);
+  for (const ProtocolParam* qp : all) {
+    const ProtocolParam& q = *qp;
     if (q.range.empty()) continue;
     std::vector<Json> values = q.range;
     if (std::none_of(values.begin(), values.end(), [&](const Json& x) { return x == q.value; })) {
@@ -349,8 +355,9 @@ Json claim_sensitivity(const Claim& claim, const Protocol& protocol,
       line += fmt::format("{}{} at {}", line.empty() ? "" : "; ", v, xs);
     // How the tuning range ended (protocol.h, boundary optima): extended, flat, or inconclusive.
     const std::string bound = q.boundary.value("text", std::string());
-    text += fmt::format("{}{} {} ({}): {}{}", text.empty() ? "" : " | ", q.variant, q.key, q.source,
-                        line, bound.empty() ? "" : " [" + bound + "]");
+    text += fmt::format("{}{} {} ({}): {}{}", text.empty() ? "" : " | ",
+                        q.variant.empty() ? "every variant" : q.variant, q.key, q.source, line,
+                        bound.empty() ? "" : " [" + bound + "]");
     params.push_back({{"variant", q.variant},
                       {"key", q.key},
                       {"source", q.source},

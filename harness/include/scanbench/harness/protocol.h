@@ -10,7 +10,9 @@
 //                  "stat": "median" (default) | "mean" | "min" | "max"}  the default objective,
 //    "variants":  {"<variant label>": {"<step>.<param>": entry, ...}, ...},
 //    "chains":    {...} optional: the variants' method steps (ChainDeclaration below); every pair
-//                 of the protocol's variants is then checked to differ only in its method}
+//                 of the protocol's variants is then checked to differ only in its method,
+//    "scanner":   {"<scanner param>": entry, ...} optional: how the data are made, the same for
+//                 every variant (see "Scanner entries" below)}
 // with one entry per parameter:
 //   {"source": "paper", "value": v, "cite": "GPF 2017, sec. 4.4"}
 //   {"source": "rule",  "value": v, "rule": "h = 6 h0, h0 = d_bb / sqrt(N) (GPF sec. 5, principle
@@ -43,6 +45,18 @@
 // on a falling boundary past the limit makes the protocol inconclusive (`inconclusive`), and a
 // claim on it is judged inconclusive (judge_claim_at_protocol). A fixed "range" cannot be
 // extended: its falling boundary is reported (status "boundary"), the verdict unchanged.
+//
+// Scanner entries (issues 50 and 52): a paper's "3% noise" has several readings (a std along the
+// ray or along the normal, a uniform amplitude; a Gaussian or another family). "scanner" declares
+// the reading a verdict uses, with the others as its sensitivity:
+//   "scanner": {"noise_family": {"source": "rule", "value": "gaussian", "rule": "...",
+//                                "sensitivity": ["laplace", "uniform"]}}
+// Only "paper" and "rule" (a reading is declared, never tuned). The value is set in the params of
+// every scanner of the experiment and of the tuning data (a scanner that sets the parameter
+// itself, or a sweep of "scanner.<param>", is refused: one source per parameter); each
+// sensitivity value re-runs every variant on the experiment's data with that one scanner
+// parameter changed (sweep key "scanner.<param>"), and the claim is re-judged there. The entries
+// are recorded under "scanner" in protocol_json (so no variant may be labelled "scanner").
 #include <filesystem>
 #include <functional>
 #include <map>
@@ -108,7 +122,10 @@ struct Protocol {
   Json tuning = Json::object();  ///< the tuning data (datasets, scanners, seed/seeds)
   std::vector<ProtocolParam> params;
   ChainDeclaration chains;  ///< "chains": every pair of the protocol's variants is compared
-  bool empty() const { return params.empty(); }
+  /// "scanner": one entry per scanner parameter, variant "" (every variant), key
+  /// "scanner.<param>", step "scanner"; source paper or rule, `range` its sensitivity values.
+  std::vector<ProtocolParam> scanner;
+  bool empty() const { return params.empty() && scanner.empty(); }
   /// The boundary texts of tuned parameters whose status is "inconclusive" ("" when none).
   std::string inconclusive() const;
   /// The params of one variant whose source is "tuned".
