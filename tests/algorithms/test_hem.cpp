@@ -417,6 +417,38 @@ TEST(Hem, StopsWhenALevelRemovesLittle) {
   EXPECT_LT(removed_last, p.min_reduction * static_cast<double>(stats.level_sizes[last - 1]));
 }
 
+// The level cap (`levels`, Algorithm 1's l_max) and the stop rule (`min_reduction`, the paper's
+// 2.5% of sec. 10.2) end one and the same path of levels: level l's parents are drawn from the
+// seed and l alone, so a run capped at L levels returns level min(L, k) of the uncapped run that
+// the stop rule ended after level k. The per-level counts of docs/findings.md ("CLOP Fig. 9:
+// component count") are read this way, from runs at increasing `levels`.
+TEST(Hem, LevelCapAndStopRuleEndOnePath) {
+  const PointCloud c = noisy_sphere(4000, 1.0f, 0.005f, 23);
+  const double diag = c.bbox().diagonal();
+  HemParams p;
+  p.levels = 30;
+  HemStats path;
+  {
+    RunContext ctx(7);
+    hem_mixture(c.positions, p, p.h * diag, diag, ctx, &path);
+  }
+  const std::size_t stop = path.level_sizes.size() - 1;  // levels the stop rule let run
+  ASSERT_GE(stop, 3u);
+  ASSERT_LT(stop, 30u);  // the stop rule, not the cap, ended it
+  for (int cap = 0; cap <= static_cast<int>(stop) + 2; ++cap) {
+    HemParams q = p;
+    q.levels = cap;
+    RunContext ctx(7);
+    HemStats capped;
+    const GaussianMixture m = hem_mixture(c.positions, q, q.h * diag, diag, ctx, &capped);
+    const std::size_t expect_level = std::min(static_cast<std::size_t>(cap), stop);
+    EXPECT_EQ(m.size(), path.level_sizes[expect_level]) << "levels " << cap;
+    ASSERT_EQ(capped.level_sizes.size(), expect_level + 1) << "levels " << cap;
+    for (std::size_t l = 0; l <= expect_level; ++l)
+      EXPECT_EQ(capped.level_sizes[l], path.level_sizes[l]) << "levels " << cap << ", level " << l;
+  }
+}
+
 TEST(Hem, DensityWeightsBalanceTheMass) {
   // Left half 4x denser: unweighted mass ~0.8 on the left; WLOP weights (eq. 26) balance it.
   const PointCloud c = two_density_plane(3000, 4, 17);
