@@ -403,7 +403,8 @@ std::array<double, 5> pdflow_uniformity_scores(const UniformityDisks& disks) {
       for (const Eigen::Index i : idx) {
         double nearest = std::numeric_limits<double>::infinity();
         for (const Eigen::Index j : idx)
-          if (j != i) nearest = std::min(nearest, (disks.mapped.col(i) - disks.mapped.col(j)).norm());
+          if (j != i)
+            nearest = std::min(nearest, (disks.mapped.col(i) - disks.mapped.col(j)).norm());
         dis += (nearest - e) * (nearest - e) / e;
       }
       sum += coverage * dis / n;

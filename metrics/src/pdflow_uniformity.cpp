@@ -123,20 +123,21 @@ UniformityDisks pdflow_uniformity_disks(const Eigen::Matrix3Xd& points,
   const auto n = static_cast<std::size_t>(points.cols());
   std::vector<FaceLocation> located(n);
   out.mapped.resize(3, points.cols());
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 256),
-                    [&](const tbb::blocked_range<std::size_t>& r) {
-                      for (std::size_t i = r.begin(); i < r.end(); ++i) {
-                        const auto c = points.col(static_cast<Eigen::Index>(i));
-                        located[i] = locator.locate<AabbTraits>(Point(c(0), c(1), c(2)), tree);
-                        out.mapped.col(static_cast<Eigen::Index>(i)) = to_eigen(
-                            ShortestPath::point(located[i].first, located[i].second, mesh));
-                      }
-                    });
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, n, 256), [&](const tbb::blocked_range<std::size_t>& r) {
+        for (std::size_t i = r.begin(); i < r.end(); ++i) {
+          const auto c = points.col(static_cast<Eigen::Index>(i));
+          located[i] = locator.locate<AabbTraits>(Point(c(0), c(1), c(2)), tree);
+          out.mapped.col(static_cast<Eigen::Index>(i)) =
+              to_eigen(ShortestPath::point(located[i].first, located[i].second, mesh));
+        }
+      });
 
   // The disks: the Euclidean pre-cut at the largest radius through a kd-tree (candidates with a
   // slack, then the original's test in double), an exact geodesic for the rest. One shortest-path
   // object per thread; its answers depend only on its source, so the slots are thread-free.
-  const KdTree mapped_tree(out.mapped.cast<float>());
+  const Eigen::Matrix3Xf mapped_f = out.mapped.cast<float>();  // the tree views it
+  const KdTree mapped_tree(mapped_f);
   out.members.assign(centres.size() * kShares, {});
   tbb::enumerable_thread_specific<ShortestPath> paths([&mesh] { return ShortestPath(mesh); });
   tbb::parallel_for(

@@ -53,6 +53,19 @@
 // Its script scores the files in whatever frame they are in; its test clouds are ScoreDenoise's
 // (PU-Net meshes' Poisson-disk samples). Here both clouds are first put in the ground-truth
 // points' unit sphere (normalize_sphere above), unless normalize = false.
+// Its eval/eval2.py adds PU-GAN's uniformity (R. Li et al., "PU-GAN: a Point Cloud Upsampling
+// Adversarial Network", ICCV 2019), eval/uniformity/uniformity.cpp and uniform.py, on the
+// ground-truth mesh (the .off files) and the output file, unnormalised:
+//  - 1000 disk centres: a face by area, barycentric U(0.01, 1)^3 normalised; radii
+//    sqrt(area x p / pi) for p = 0.4, 0.6, 0.8, 1.0, 1.2 % of the mesh's area;
+//  - each output point moved to its closest point on the mesh; a disk holds the points within
+//    that geodesic distance of its centre (CGAL's Surface_mesh_shortest_path, exact), tried only
+//    within the Euclidean distance of the largest radius;
+//  - per p, over disks with n >= 5 points: (n - pN)^2 / (pN) x the mean over the disk's points
+//    of (d - e)^2 / e, d the distance to the nearest other point of the disk, e the hexagonal
+//    spacing sqrt(2 pi r^2 / (1.732 n)); the mean over those disks.
+// Here mesh and points are in the frame of the other scores (the ground-truth points' unit
+// sphere unless normalize = false), the centres drawn from the run ("metric.pdflow").
 //
 // Tanks and Temples (A. Knapitsch et al., "Tanks and Temples: Benchmarking Large-Scale Scene
 // Reconstruction", SIGGRAPH 2017; github.com/isl-org/TanksAndTemples at 3c2c212,
@@ -198,9 +211,9 @@ DsrScores dsr_scores(const PointCloud& output, const PointCloud& truth);
 Json dsr_metric(const MetricInput& in, const DsrParams& p);
 
 struct PdflowParams {
-  std::int64_t reference_points = 0;  ///< gt cloud size; 0 = as many as the output points
-  bool normalize = true;              ///< score in the gt points' unit sphere
-  bool uniformity = true;             ///< PU-GAN's uniformity on the ground-truth mesh
+  std::int64_t reference_points = 0;     ///< gt cloud size; 0 = as many as the output points
+  bool normalize = true;                 ///< score in the gt points' unit sphere
+  bool uniformity = false;               ///< PU-GAN's uniformity on the ground-truth mesh (slow)
   std::int64_t uniformity_disks = 1000;  ///< disk centres (uniformity.cpp: 1000)
   static void declare(ParamDeclarer<PdflowParams>& d) {
     d.integer("reference_points", &PdflowParams::reference_points, Range::closed(0, 100000000), "",
@@ -210,9 +223,9 @@ struct PdflowParams {
            "put both clouds in the ground-truth points' unit sphere first (ScoreDenoise's "
            "normalize_sphere; PD-Flow's test clouds are in it); false: the dataset's own units");
     d.flag("uniformity", &PdflowParams::uniformity,
-           "compute PU-GAN's uniformity (pdflow_uniformity_*; geodesic disks on the ground-truth "
-           "mesh, the slow part: about a minute per 1,000 disks on a 20K-face mesh and 10K "
-           "points on 2 cores); false: those keys are null");
+           "compute PU-GAN's uniformity (pdflow_uniformity_*: exact geodesic disks on the "
+           "ground-truth mesh, about 1.2 s per disk on 2 cores for 10K points on a 20K-face "
+           "mesh, 20 minutes at 1,000 disks); off by default: the keys are then null");
     d.integer("uniformity_disks", &PdflowParams::uniformity_disks, Range::closed(1, 1000000), "",
               "disk centres of the uniformity (uniformity.cpp: 1000), drawn from the run's "
               "stream \"metric.pdflow\"");
@@ -292,7 +305,8 @@ std::array<double, 5> pdflow_uniformity_scores(const UniformityDisks& disks);
 
 /// Metric "convention.pdflow": pdflow_cd, pdflow_p2s, pdflow_hd, pdflow_reference_points, and
 /// pdflow_uniformity_p04 ... _p12 (PU-GAN's uniformity at 0.4 ... 1.2 %) on the ground-truth mesh
-/// with the same normalisation (null when `uniformity` is off or CGAL cannot build the mesh).
+/// with the same normalisation (null when `uniformity` is off, the default, or CGAL cannot build
+/// the mesh).
 /// Disk centres from the run's stream "metric.pdflow".
 Json pdflow_metric(const MetricInput& in, const PdflowParams& p, RunContext& ctx);
 
