@@ -11,6 +11,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <optional>
 #include <vector>
 
 #include "scanbench/core/kdtree.h"
@@ -377,14 +378,56 @@ PdflowScores pdflow_scores(const Eigen::Matrix3Xf& pred, const PointCloud& gt) {
   return s;
 }
 
-Json pdflow_metric(const MetricInput& in, const PdflowParams& p) {
+namespace {
+// uniform.py's precentages, float64 (uniformity.cpp's radii take the float kUniformityShares).
+constexpr std::array<double, 5> kUniformPyShares = {0.004, 0.006, 0.008, 0.010, 0.012};
+}  // namespace
+
+std::array<double, 5> pdflow_uniformity_scores(const UniformityDisks& disks) {
+  const auto points = static_cast<double>(disks.mapped.cols());
+  const std::size_t shares = kUniformityShares.size();
+  const std::size_t centres = disks.members.size() / shares;
+  std::array<double, 5> u{};
+  for (std::size_t k = 0; k < shares; ++k) {
+    const double expected = kUniformPyShares[k] * points;
+    const double r = disks.radius[k];
+    double sum = 0.0;
+    std::size_t counted = 0;
+    for (std::size_t d = 0; d < centres; ++d) {
+      const std::vector<Eigen::Index>& idx = disks.members[d * shares + k];
+      const auto n = static_cast<double>(idx.size());
+      if (idx.size() < 5) continue;  // uniform.py: the disk is left out, coverage and all
+      const double coverage = (n - expected) * (n - expected) / expected;
+      const double e = std::sqrt(2.0 * (M_PI * r * r / n) / 1.732);  // "using hexagon"
+      double dis = 0.0;
+      for (const Eigen::Index i : idx) {
+        double nearest = std::numeric_limits<double>::infinity();
+        for (const Eigen::Index j : idx)
+          if (j != i)
+            nearest = std::min(nearest, (disks.mapped.col(i) - disks.mapped.col(j)).norm());
+        dis += (nearest - e) * (nearest - e) / e;
+      }
+      sum += coverage * dis / n;
+      ++counted;
+    }
+    u[k] = counted ? sum / static_cast<double>(counted) : 0.0;
+  }
+  return u;
+}
+
+Json pdflow_metric(const MetricInput& in, const PdflowParams& p, RunContext& ctx) {
   const Eigen::Index n = p.reference_points > 0 ? p.reference_points : in.output.size();
   PointCloud gt = in.truth.surface_samples(n);
   Eigen::Matrix3Xf pred = in.output.positions;
+  // The uniformity's mesh and points in double, in the frame of the other scores.
+  Eigen::Matrix3Xd vertices = in.truth.mesh().vertices.cast<double>();
+  Eigen::Matrix3Xd points = pred.cast<double>();
   if (p.normalize) {
     const Sphere s = normalize_sphere(gt.positions);
     gt.positions = normalized(gt.positions, s).cast<float>();
-    pred = normalized(pred, s).cast<float>();
+    vertices = (vertices.colwise() - s.c) / s.s;
+    points = normalized(pred, s);
+    pred = points.cast<float>();
   }
   const PdflowScores s = pdflow_scores(pred, gt);
   Json j = Json::object();
@@ -392,6 +435,19 @@ Json pdflow_metric(const MetricInput& in, const PdflowParams& p) {
   j["pdflow_p2s"] = s.p2s;
   j["pdflow_hd"] = s.hd;
   j["pdflow_reference_points"] = n;
+  std::optional<std::array<double, 5>> u;
+  if (p.uniformity) {
+    Rng rng = ctx.rng("metric.pdflow");
+    const Eigen::Matrix3Xi& faces = in.truth.mesh().faces;
+    try {
+      u = pdflow_uniformity_scores(pdflow_uniformity_disks(
+          points, vertices, faces,
+          pdflow_uniformity_centres(vertices, faces, p.uniformity_disks, rng)));
+    } catch (const NotApplicable&) {  // a mesh CGAL cannot build: no uniformity, the rest stands
+    }
+  }
+  for (std::size_t k = 0; k < kUniformityKeys.size(); ++k)
+    j[kUniformityKeys[k]] = u ? detail::number((*u)[k]) : Json(nullptr);
   return j;
 }
 

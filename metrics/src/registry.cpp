@@ -112,6 +112,17 @@ struct Keys {
   }
 };
 
+Keys pdflow_keys() {
+  Keys k;
+  k.plain("pdflow_cd", kLower)
+      .plain("pdflow_p2s", kLower)
+      .plain("pdflow_hd", kLower)
+      .plain("pdflow_reference_points", kNone);
+  for (const char* u : kUniformityKeys)
+    k.plain(u, kLower);
+  return k;
+}
+
 struct Needs {
   bool closest = false;
   bool output_oracle = false;
@@ -407,14 +418,10 @@ const MetricRegistry& registry() {
             "PD-Flow's evaluator (unknownue/pdflow eval/evaluation.py) in the ground-truth points' "
             "unit sphere: pdflow_cd = mean nearest distance output->gt + gt->output (unsquared, "
             "point-cloud-utils), pdflow_hd = the larger directed maximum, pdflow_p2s = mean "
-            "distance to the nearest of the 16 nearest ground-truth points' tangent planes",
-            Scores::Points,
-            Keys{}
-                .plain("pdflow_cd", kLower)
-                .plain("pdflow_p2s", kLower)
-                .plain("pdflow_hd", kLower)
-                .plain("pdflow_reference_points", kNone),
-            Needs{}, pdflow_metric)));
+            "distance to the nearest of the 16 nearest ground-truth points' tangent planes; "
+            "pdflow_uniformity_p04 ... _p12 = PU-GAN's uniformity at disks of 0.4 ... 1.2 % of "
+            "the area (eval/uniformity: geodesic disks on the ground-truth mesh, seeded centres)",
+            Scores::Points, pdflow_keys(), Needs{}, pdflow_metric)));
     reg.add(following(
         "tnt",
         make_metric<TntParams>(

@@ -11,6 +11,7 @@
 // registry and every metric's convention mark.
 #include <fmt/format.h>
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 
 #include <Eigen/Geometry>
 
@@ -18,6 +19,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -27,6 +29,7 @@
 #include "scanbench/metrics/conventions.h"
 #include "scanbench/metrics/evaluate.h"
 #include "scanbench/metrics/ground_truth.h"
+#include "scanbench/metrics/point_truth.h"
 #include "scanbench/metrics/registry.h"
 #include "scanbench/metrics/surface_sampling.h"
 #include "temp_dir.h"
@@ -378,6 +381,169 @@ TEST(ConventionPdflow, TheMetricScoresInTheUnitSphereUnlessAskedNot) {
   EXPECT_NEAR(unit["pdflow_cd"].get<double>(), raw["pdflow_cd"].get<double>() / 2.0,
               0.01 * unit["pdflow_cd"].get<double>());
   EXPECT_EQ(unit["pdflow_reference_points"].get<long>(), 800);
+}
+
+/// Runs a command, its standard output and error.
+std::string run_command(const std::string& cmd) {
+  std::string out;
+  if (FILE* p = popen((cmd + " 2>&1").c_str(), "r")) {
+    char buf[4096];
+    while (std::fgets(buf, sizeof buf, p))
+      out += buf;
+    pclose(p);
+  }
+  return out;
+}
+
+/// What uniformity.cpp wrote in `dir`/eval/uniformity: the radii, the mapped points and the disks.
+UniformityDisks read_reference_disks(const fs::path& dir) {
+  UniformityDisks r;
+  std::ifstream radius(dir / "eval/uniformity/pc_radius.txt");
+  for (double& x : r.radius)
+    radius >> x;
+  std::ifstream mapped(dir / "eval/uniformity/pc_point2mesh_distance.txt");
+  std::vector<double> v;
+  for (double x[7]; mapped >> x[0] >> x[1] >> x[2] >> x[3] >> x[4] >> x[5] >> x[6];)
+    v.insert(v.end(), {x[4], x[5], x[6]});
+  r.mapped = Eigen::Map<Eigen::Matrix3Xd>(v.data(), 3, static_cast<Eigen::Index>(v.size() / 3));
+  std::ifstream disks(dir / "eval/uniformity/pc_disk_idx.txt");
+  for (std::string line; std::getline(disks, line);) {
+    std::istringstream in(line.substr(line.find(':') + 1));
+    r.members.emplace_back();
+    for (Eigen::Index i; in >> i;)
+      r.members.back().push_back(i);
+  }
+  return r;
+}
+
+// PU-GAN's uniformity: scanbench's disks against PD-Flow's own uniformity.cpp (built from
+// tests/reference/pdflow_uniformity, given the same centres through its centres-file argument),
+// disk by disk; then the five values against tests/reference/pdflow_uniform.py (uniform.py) run
+// on the original's files.
+TEST(ConventionPdflow, UniformityEqualsTheOriginalProgramAndItsPort) {
+  std::uint64_t seed = 61;
+  for (const auto& [name, mesh] : three_shapes()) {
+    const Eigen::Matrix3Xd points = noisy(mesh, 3000, seed, 0.005).cast<double>();
+    const Eigen::Matrix3Xd vertices = mesh.vertices.cast<double>();
+    Rng rng(seed);
+    seed += 100;
+    const std::vector<UniformityCentre> centres =
+        pdflow_uniformity_centres(vertices, mesh.faces, 200, rng);
+    const UniformityDisks disks = pdflow_uniformity_disks(points, vertices, mesh.faces, centres);
+    const std::array<double, 5> u = pdflow_uniformity_scores(disks);
+
+    const test::TempDir dir("uniformity");
+    fs::create_directories(dir / "eval/uniformity");
+    {
+      std::ofstream off(dir / "mesh.off"), xyz(dir / "pred.xyz"), at(dir / "centres.txt");
+      off.precision(17);
+      xyz.precision(17);
+      at.precision(17);
+      off << "OFF\n" << vertices.cols() << " " << mesh.faces.cols() << " 0\n";
+      for (Eigen::Index i = 0; i < vertices.cols(); ++i)
+        off << vertices(0, i) << " " << vertices(1, i) << " " << vertices(2, i) << "\n";
+      for (Eigen::Index f = 0; f < mesh.faces.cols(); ++f)
+        off << "3 " << mesh.faces(0, f) << " " << mesh.faces(1, f) << " " << mesh.faces(2, f)
+            << "\n";
+      for (Eigen::Index i = 0; i < points.cols(); ++i)
+        xyz << points(0, i) << " " << points(1, i) << " " << points(2, i) << "\n";
+      for (const UniformityCentre& c : centres)
+        at << c.face << " " << c.barycentric(0) << " " << c.barycentric(1) << " "
+           << c.barycentric(2) << "\n";
+    }
+    const std::string log =
+        run_command("cd " + dir.path.string() + " && " + SCANBENCH_PDFLOW_UNIFORMITY +
+                    " mesh.off pred.xyz centres.txt");
+    const UniformityDisks ref = read_reference_disks(dir.path);
+    ASSERT_EQ(ref.members.size(), disks.members.size()) << name << ": " << log;
+    for (std::size_t k = 0; k < 5; ++k)  // floats, written with 9 digits
+      EXPECT_EQ(disks.radius[k], static_cast<float>(ref.radius[k])) << name;
+    ASSERT_EQ(ref.mapped.cols(), points.cols()) << name;
+    EXPECT_EQ((disks.mapped - ref.mapped).cwiseAbs().maxCoeff(), 0.0) << name;
+    std::size_t differ = 0, points_in = 0, scored = 0;
+    for (std::size_t d = 0; d < ref.members.size(); ++d) {
+      differ += disks.members[d] != ref.members[d];
+      points_in += ref.members[d].size();
+      scored += ref.members[d].size() >= 5;
+    }
+    EXPECT_EQ(differ, 0u) << name;
+    EXPECT_GT(scored, ref.members.size() / 2) << name;  // the comparison covers most disks
+
+    const std::string py = "/usr/bin/python3 " + std::string(SCANBENCH_TEST_DATA) +
+                           "/../reference/pdflow_uniform.py " + dir.path.string();
+    const std::string out = run_command(py);
+    const Json r = Json::parse(out, nullptr, false);
+    ASSERT_TRUE(r.is_object() && r.contains("uniformity")) << name << ": " << out;
+    double worst = 0.0;
+    for (std::size_t k = 0; k < 5; ++k) {
+      const double want = r["uniformity"][k].get<double>();
+      EXPECT_GT(want, 0.0) << name;
+      EXPECT_NEAR(u[k], want, 1e-6 * want) << name << " share " << kUniformityShares[k];
+      worst = std::max(worst, std::abs(u[k] - want) / want);
+    }
+    std::printf("[ uniformity ] %s: %zu points in %zu disks (%zu scored); %s; relative %.2g\n",
+                name, points_in, ref.members.size(), scored, r["uniformity"].dump().c_str(), worst);
+  }
+}
+
+TEST(ConventionPdflow, UniformityIsSeededFromTheRunAndTheSameAtAnyThreadCount) {
+  const TriangleMesh mesh = icosphere(3, 2.0f);  // radius 2: the unit sphere halves lengths
+  GroundTruth gt(mesh, 3);
+  PointCloud out;
+  out.positions = noisy(mesh, 2000, 43, 0.01);
+  const Json raw_params = {
+      {"convention.pdflow",
+       {{"normalize", false}, {"uniformity", true}, {"uniformity_disks", 200}}}};
+  const Json unit_params = {
+      {"convention.pdflow", {{"uniformity", true}, {"uniformity_disks", 200}}}};
+  RunContext ctx(5);
+  const Json raw = evaluate(gt, out, nullptr, {"convention.pdflow"}, raw_params, ctx);
+  Json one_thread;
+  {
+    const tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
+    RunContext same(5);
+    one_thread = evaluate(gt, out, nullptr, {"convention.pdflow"}, raw_params, same);
+  }
+  RunContext other(6);
+  const Json reseeded = evaluate(gt, out, nullptr, {"convention.pdflow"}, raw_params, other);
+  const Json unit = evaluate(gt, out, nullptr, {"convention.pdflow"}, unit_params, ctx);
+
+  // The metric in the mesh's frame is the three functions on the centres of "metric.pdflow".
+  Rng rng = ctx.rng("metric.pdflow");
+  const Eigen::Matrix3Xd v = mesh.vertices.cast<double>();
+  const std::array<double, 5> direct = pdflow_uniformity_scores(
+      pdflow_uniformity_disks(out.positions.cast<double>(), v, mesh.faces,
+                              pdflow_uniformity_centres(v, mesh.faces, 200, rng)));
+  for (std::size_t k = 0; k < 5; ++k) {
+    const char* key = kUniformityKeys[k];
+    ASSERT_TRUE(raw[key].is_number()) << key;
+    EXPECT_EQ(raw[key].get<double>(), direct[k]) << key;
+    EXPECT_EQ(one_thread[key].get<double>(), raw[key].get<double>()) << key;
+    EXPECT_NE(reseeded[key].get<double>(), raw[key].get<double>()) << key;
+    // A length: the unit sphere (radius 2 -> 1) halves it, up to disks whose members move.
+    EXPECT_NEAR(unit[key].get<double>(), raw[key].get<double>() / 2.0,
+                0.05 * unit[key].get<double>())
+        << key;
+  }
+}
+
+TEST(ConventionPdflow, UniformityIsNullWhenOffAndAbsentOnAPointGroundTruth) {
+  const TriangleMesh mesh = icosphere(2);
+  GroundTruth gt(mesh, 3);
+  PointCloud out;
+  out.positions = noisy(mesh, 500, 47, 0.01);
+  RunContext ctx(1);
+  const Json off = evaluate(gt, out, nullptr, {"convention.pdflow"}, Json::object(), ctx);
+  for (const char* key : kUniformityKeys) {
+    ASSERT_TRUE(off.contains(key)) << key;
+    EXPECT_TRUE(off[key].is_null()) << key;
+  }
+  EXPECT_TRUE(off["pdflow_cd"].is_number());
+  // A point-cloud ground truth: convention.pdflow is not point-capable, so it is skipped whole.
+  const Json points = evaluate_point_truth(gt.surface_samples(800), out, {}, Json::object(), ctx);
+  for (const char* key : kUniformityKeys)
+    EXPECT_FALSE(points.contains(key)) << key;
+  EXPECT_TRUE(points["skipped"].contains("convention.pdflow")) << points["skipped"].dump();
 }
 
 TEST(ConventionTnt, EqualsTheToolboxOnOpen3d) {

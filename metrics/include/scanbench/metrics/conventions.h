@@ -53,6 +53,19 @@
 // Its script scores the files in whatever frame they are in; its test clouds are ScoreDenoise's
 // (PU-Net meshes' Poisson-disk samples). Here both clouds are first put in the ground-truth
 // points' unit sphere (normalize_sphere above), unless normalize = false.
+// Its eval/eval2.py adds PU-GAN's uniformity (R. Li et al., "PU-GAN: a Point Cloud Upsampling
+// Adversarial Network", ICCV 2019), eval/uniformity/uniformity.cpp and uniform.py, on the
+// ground-truth mesh (the .off files) and the output file, unnormalised:
+//  - 1000 disk centres: a face by area, barycentric U(0.01, 1)^3 normalised; radii
+//    sqrt(area x p / pi) for p = 0.4, 0.6, 0.8, 1.0, 1.2 % of the mesh's area;
+//  - each output point moved to its closest point on the mesh; a disk holds the points within
+//    that geodesic distance of its centre (CGAL's Surface_mesh_shortest_path, exact), tried only
+//    within the Euclidean distance of the largest radius;
+//  - per p, over disks with n >= 5 points: (n - pN)^2 / (pN) x the mean over the disk's points
+//    of (d - e)^2 / e, d the distance to the nearest other point of the disk, e the hexagonal
+//    spacing sqrt(2 pi r^2 / (1.732 n)); the mean over those disks.
+// Here mesh and points are in the frame of the other scores (the ground-truth points' unit
+// sphere unless normalize = false), the centres drawn from the run ("metric.pdflow").
 //
 // Tanks and Temples (A. Knapitsch et al., "Tanks and Temples: Benchmarking Large-Scale Scene
 // Reconstruction", SIGGRAPH 2017; github.com/isl-org/TanksAndTemples at 3c2c212,
@@ -102,6 +115,9 @@
 //    (a fraction of the diagonal, default 0: half the median spacing of the ground-truth points,
 //    so the beams of neighbouring rays touch) plus the divergence term. A misaligned scan's
 //    beams start at its registered sensor origins.
+#include <array>
+#include <vector>
+
 #include "scanbench/core/run_context.h"
 #include "scanbench/metrics/metric_input.h"
 
@@ -195,8 +211,10 @@ DsrScores dsr_scores(const PointCloud& output, const PointCloud& truth);
 Json dsr_metric(const MetricInput& in, const DsrParams& p);
 
 struct PdflowParams {
-  std::int64_t reference_points = 0;  ///< gt cloud size; 0 = as many as the output points
-  bool normalize = true;              ///< score in the gt points' unit sphere
+  std::int64_t reference_points = 0;     ///< gt cloud size; 0 = as many as the output points
+  bool normalize = true;                 ///< score in the gt points' unit sphere
+  bool uniformity = false;               ///< PU-GAN's uniformity on the ground-truth mesh (slow)
+  std::int64_t uniformity_disks = 1000;  ///< disk centres (uniformity.cpp: 1000)
   static void declare(ParamDeclarer<PdflowParams>& d) {
     d.integer("reference_points", &PdflowParams::reference_points, Range::closed(0, 100000000), "",
               "size of the clean ground-truth cloud with normals (the ground truth's seeded "
@@ -204,6 +222,13 @@ struct PdflowParams {
     d.flag("normalize", &PdflowParams::normalize,
            "put both clouds in the ground-truth points' unit sphere first (ScoreDenoise's "
            "normalize_sphere; PD-Flow's test clouds are in it); false: the dataset's own units");
+    d.flag("uniformity", &PdflowParams::uniformity,
+           "compute PU-GAN's uniformity (pdflow_uniformity_*: exact geodesic disks on the "
+           "ground-truth mesh, about 1.2 s per disk on 2 cores for 10K points on a 20K-face "
+           "mesh, 20 minutes at 1,000 disks); off by default: the keys are then null");
+    d.integer("uniformity_disks", &PdflowParams::uniformity_disks, Range::closed(1, 1000000), "",
+              "disk centres of the uniformity (uniformity.cpp: 1000), drawn from the run's "
+              "stream \"metric.pdflow\"");
   }
 };
 
@@ -217,8 +242,73 @@ struct PdflowScores {
 /// for empty clouds or missing normals), in the frame given. Exact neighbours in double.
 PdflowScores pdflow_scores(const Eigen::Matrix3Xf& pred, const PointCloud& gt);
 
-/// Metric "convention.pdflow": pdflow_cd, pdflow_p2s, pdflow_hd, pdflow_reference_points.
-Json pdflow_metric(const MetricInput& in, const PdflowParams& p);
+/// PU-GAN's disk area shares (uniformity.cpp's `precentage`, float; uniform.py's `precentages`,
+/// double): 0.4, 0.6, 0.8, 1.0 and 1.2 % of the mesh's area.
+inline constexpr std::array<float, 5> kUniformityShares = {0.004f, 0.006f, 0.008f, 0.010f, 0.012f};
+/// Their keys in convention.pdflow's records.
+inline constexpr std::array<const char*, 5> kUniformityKeys = {
+    "pdflow_uniformity_p04", "pdflow_uniformity_p06", "pdflow_uniformity_p08",
+    "pdflow_uniformity_p10", "pdflow_uniformity_p12"};
+
+/// A disk centre on a mesh as uniformity.cpp's Face_location: a face index and barycentric
+/// coordinates in CGAL's order of the face's corners (Surface_mesh_shortest_path, the face built
+/// by CGAL::Euler::add_face from faces.col(face) as CGAL's OFF reader builds it).
+struct UniformityCentre {
+  Eigen::Index face = 0;
+  Eigen::Vector3d barycentric = Eigen::Vector3d::Zero();
+};
+
+/// uniformity.cpp's random centres, `count` of them from `rng` in order: a face with probability
+/// proportional to its area (CGAL's face_area; cumulative shares in double, where the original's
+/// float sums can fall short of 1 and then pick face 0), then x_k = U(0.01, 1) for k = 1..3 and
+/// barycentric = x / sum(x): the original's draw, denser towards the face's centroid than a
+/// uniform point of the face. InputError for a mesh without area.
+std::vector<UniformityCentre> pdflow_uniformity_centres(const Eigen::Matrix3Xd& vertices,
+                                                        const Eigen::Matrix3Xi& faces,
+                                                        Eigen::Index count, Rng& rng);
+
+/// uniformity.cpp's output: what it writes to pc_radius.txt, pc_point2mesh_distance.txt and
+/// pc_disk_idx.txt.
+struct UniformityDisks {
+  /// sqrt(area x share / pi) per share, rounded to float as the original stores it; in the
+  /// mesh's units (the mesh's total area from CGAL's Polygon_mesh_processing::area).
+  std::array<double, 5> radius{};
+  /// Each output point's closest point on the mesh (CGAL's AABB locate, then the location's
+  /// point), 3 x N.
+  Eigen::Matrix3Xd mapped;
+  /// members[d x 5 + k]: the output points whose closest point lies within geodesic distance
+  /// radius[k] of centre d (CGAL's exact Surface_mesh_shortest_path, distance <= radius), by
+  /// ascending index. Only points within Euclidean distance radius[4] of the centre are tried,
+  /// as in the original (a geodesic is never shorter).
+  std::vector<std::vector<Eigen::Index>> members;
+};
+
+/// The geodesic disks of uniformity.cpp for `points` (3 x N, in the mesh's frame) on the mesh,
+/// one per centre, in parallel over the centres (each disk's result in its own slot: the same at
+/// any thread count). Cost: one exact geodesic propagation over the whole mesh per disk with a
+/// point near it (CGAL builds its sequence tree for the entire mesh). NotApplicable when CGAL
+/// cannot build the mesh (a non-manifold face), InputError for no points or bad face indices.
+UniformityDisks pdflow_uniformity_disks(const Eigen::Matrix3Xd& points,
+                                        const Eigen::Matrix3Xd& vertices,
+                                        const Eigen::Matrix3Xi& faces,
+                                        const std::vector<UniformityCentre>& centres);
+
+/// uniform.py's analyze_uniform, per share k, N the output points and n_d = |members[d x 5 + k]|:
+/// over the disks with n_d >= 5 (the others are left out, their coverage too), the mean of
+///   (n_d - s_k N)^2 / (s_k N) x nanmean_i (d_i - e)^2 / e,
+/// d_i the distance from mapped point i of the disk to its nearest other mapped point of the
+/// disk, e = sqrt(2 (pi radius_k^2 / n_d) / 1.732) the hexagonal spacing (the original's 1.732
+/// for sqrt 3), s_k the share in double. 0 when no disk has 5 points (the original meant 0.0 but
+/// its np.float raises on numpy >= 1.24). In double (the original casts the per-disk values to
+/// float32). The unit is the mesh's length unit.
+std::array<double, 5> pdflow_uniformity_scores(const UniformityDisks& disks);
+
+/// Metric "convention.pdflow": pdflow_cd, pdflow_p2s, pdflow_hd, pdflow_reference_points, and
+/// pdflow_uniformity_p04 ... _p12 (PU-GAN's uniformity at 0.4 ... 1.2 %) on the ground-truth mesh
+/// with the same normalisation (null when `uniformity` is off, the default, or CGAL cannot build
+/// the mesh).
+/// Disk centres from the run's stream "metric.pdflow".
+Json pdflow_metric(const MetricInput& in, const PdflowParams& p, RunContext& ctx);
 
 struct TntParams {
   double tau = 0.005;                      ///< distance threshold, fraction of the diagonal
