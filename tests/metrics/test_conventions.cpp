@@ -428,7 +428,7 @@ TEST(ConventionPdflow, UniformityEqualsTheOriginalProgramAndItsPort) {
     Rng rng(seed);
     seed += 100;
     const std::vector<UniformityCentre> centres =
-        pdflow_uniformity_centres(vertices, mesh.faces, 200, rng);
+        pdflow_uniformity_centres(vertices, mesh.faces, 60, rng);
     const UniformityDisks disks = pdflow_uniformity_disks(points, vertices, mesh.faces, centres);
     const std::array<double, 5> u = pdflow_uniformity_scores(disks);
 
