@@ -176,24 +176,28 @@ TEST(Protocol, TuningSeesOnlyTheTuningDataAndItsChoiceIsUsedOnTheExperimentsData
   const Json config = experiment_with_protocol();
   const Protocol declared = parse_protocol(config["protocol"], "exp.json: /protocol");
   std::vector<Json> asked;
+  std::vector<std::string> folders;
   const RecordsRunner run = [&](const Json& c, const fs::path& out) {
     asked.push_back(c);
-    EXPECT_EQ(out.filename().string(), "tuning-sub");
+    folders.push_back(out.filename().string());
     return synthetic_records(c);
   };
   const Protocol p = resolve_protocol(config, declared, "out", run);
-  ASSERT_EQ(asked.size(), 1u);  // once per variant with tuned parameters
-  for (const auto& job : expand(parse_experiment(asked[0], "t")).jobs) {
-    EXPECT_EQ(job.dataset, "torus");
-    EXPECT_EQ(job.variant, "sub");
-  }
+  // Once per variant with tuned parameters, and once more for the extended range.
+  EXPECT_EQ(folders, std::vector<std::string>({"tuning-sub", "tuning-sub.ext1"}));
+  for (const auto& c : asked)
+    for (const auto& job : expand(parse_experiment(c, "t")).jobs) {
+      EXPECT_EQ(job.dataset, "torus");
+      EXPECT_EQ(job.variant, "sub");
+    }
   ASSERT_EQ(p.params.size(), 1u);
   EXPECT_EQ(p.params[0].value, 2);  // the torus's best
-  // 2 is the lowest of the fixed range and 4 is worse: reported, and a fixed range is not extended.
-  EXPECT_EQ(p.params[0].boundary["status"], "boundary");
-  EXPECT_EQ(
-      p.params[0].boundary["text"],
-      "test.subsample.stride optimum on the lower boundary 2 of a fixed range, still falling");
+  // 2 is the lowest of the fixed range and 4 is worse: the range is extended by its own ratio
+  // (1/2: stride 1, within 2x), where the curve rises again.
+  EXPECT_EQ(p.params[0].range, std::vector<Json>({1, 2, 4, 8}));
+  EXPECT_EQ(p.params[0].boundary["status"], "extended");
+  EXPECT_EQ(p.params[0].boundary["text"],
+            "test.subsample.stride tuned at the lower boundary 2, extended to 1: optimum 2");
   EXPECT_EQ(p.inconclusive(), "");
   // On the experiment's own data the best would have been 8: the data disagree, and the choice
   // did not look at them.
@@ -207,7 +211,7 @@ TEST(Protocol, TuningSeesOnlyTheTuningDataAndItsChoiceIsUsedOnTheExperimentsData
   EXPECT_FALSE(plain.contains("protocol"));
   EXPECT_EQ(plain["variants"][0]["params"]["stride"], 2);
   EXPECT_EQ(swept["variants"][0]["sweep"],
-            Json::parse(R"([{"test.subsample.stride": [2, 4, 8]}])"));
+            Json::parse(R"([{"test.subsample.stride": [2, 1, 4, 8]}])"));
   // The records at the protocol: "sub" at stride 2 only, "ref" untouched.
   const std::vector<Json> at = records_at_protocol(verdict, p);
   ASSERT_EQ(at.size(), 2u);
@@ -217,7 +221,7 @@ TEST(Protocol, TuningSeesOnlyTheTuningDataAndItsChoiceIsUsedOnTheExperimentsData
   const Json j = protocol_json(p)["sub"]["test.subsample.stride"];
   EXPECT_EQ(j["source"], "tuned");
   EXPECT_EQ(j["value"], 2);
-  EXPECT_EQ(j["range"], Json({2, 4, 8}));
+  EXPECT_EQ(j["range"], Json({1, 2, 4, 8}));
   EXPECT_EQ(j["tuning_data"]["datasets"][0]["name"], "torus");
   EXPECT_EQ(j["objective"]["quantity"], "err");
   EXPECT_DOUBLE_EQ(j["tuning_curve"]["test.subsample.stride=8"].get<double>(), 3.0);
@@ -401,9 +405,12 @@ TEST(ProtocolE2E, ClaimsAndRunTuneOnTheTuningDataOnly) {
   const Json s = Json::parse(slurp(dir / "out" / "claims.json"));
   const Json& c = s["claims"][0];
   EXPECT_EQ(c["verdict"], "held") << c.dump(1);
-  EXPECT_EQ(c["protocol"]["sub"]["test.subsample.stride"]["value"], 2);
+  // Most points at the lowest stride: the range [2, 4, 8] is extended to stride 1, the end of
+  // the parameter's own domain.
+  EXPECT_EQ(c["protocol"]["sub"]["test.subsample.stride"]["value"], 1);
+  EXPECT_EQ(c["protocol"]["sub"]["test.subsample.stride"]["boundary"]["status"], "limit");
   EXPECT_EQ(c["sensitivity"]["params"][0]["verdicts"],
-            Json({{"2", "held"}, {"4", "failed"}, {"8", "failed"}}));
+            Json({{"1", "held"}, {"2", "held"}, {"4", "failed"}, {"8", "failed"}}));
   EXPECT_EQ(c["sensitivity"]["params"][1]["verdicts"],
             Json({{"\"ray\"", "held"}, {"\"normal\"", "held"}}));
   EXPECT_EQ(c["protocol"]["scanner"]["scanner.noise_direction"]["value"], "ray");
@@ -423,10 +430,11 @@ TEST(ProtocolE2E, ClaimsAndRunTuneOnTheTuningDataOnly) {
   EXPECT_EQ(tuning_datasets, std::set<std::string>{"torus"});
   EXPECT_TRUE(fs::exists(dir / "out" / "tuned" / "protocol.json"));
   const std::string md = slurp(dir / "out" / "claims.md");
-  EXPECT_NE(md.find("sub: test.subsample.stride tuned 2 (max output_points over [2,4,8] on torus)"),
-            std::string::npos)
+  EXPECT_NE(
+      md.find("sub: test.subsample.stride tuned 1 (max output_points over [1,2,4,8] on torus)"),
+      std::string::npos)
       << md;
-  EXPECT_NE(md.find("held at 2*; failed at 4, 8"), std::string::npos) << md;
+  EXPECT_NE(md.find("held at 1*, 2; failed at 4, 8"), std::string::npos) << md;
 
   // `scanbench run`: the chosen value in every record's chain.
   Json run_exp = exp;
@@ -435,12 +443,12 @@ TEST(ProtocolE2E, ClaimsAndRunTuneOnTheTuningDataOnly) {
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_EQ(
       Json::parse(slurp(dir / "run" / "protocol.json"))["sub"]["test.subsample.stride"]["value"],
-      2);
+      1);
   int tuned_records = 0;
   for (const auto& rec : read_jsonl(dir / "run" / "runs.jsonl")) {
     if (rec["variant"]["label"] != "sub") continue;
     ++tuned_records;
-    EXPECT_EQ(rec["variant"]["chain"][0]["params"]["stride"], 2);
+    EXPECT_EQ(rec["variant"]["chain"][0]["params"]["stride"], 1);
   }
   EXPECT_EQ(tuned_records, 1);
 
@@ -613,4 +621,66 @@ TEST(ProtocolRange, BoundaryOptimumExtendsTheRangeOrMakesTheVerdictInconclusive)
   EXPECT_NE(s.find("[test.subsample.work_ms optimum on the upper boundary 0.2133"),
             std::string::npos)
       << s;
+}
+
+// A fixed range (issue 50): a falling boundary is extended by the range's own ratio as far as the
+// parameter's declaration allows; still falling past the limit is inconclusive, at the end of the
+// parameter's own domain it is stated and the verdict stands.
+TEST(ProtocolRange, FixedRangesExtendByTheirRatioWithinTheParametersDomain) {
+  Json config = experiment_with_protocol();
+  config["protocol"]["variants"]["sub"]["test.subsample.stride"]["range"] = {2, 4, 8};
+  const Protocol declared = parse_protocol(config["protocol"], "p");
+  std::vector<std::string> folders;
+  // err = |stride - target| on every dataset.
+  auto runner = [&folders](double target) -> RecordsRunner {
+    return [target, &folders](const Json& c, const fs::path& out) {
+      folders.push_back(out.filename().string());
+      std::vector<Json> recs;
+      for (const auto& job : expand(parse_experiment(c, "synthetic")).jobs) {
+        const double stride = job.chain[0]["params"]["stride"].get<double>();
+        recs.push_back(
+            tuning_record(job.dataset_label, job.variant, job.point, std::abs(stride - target)));
+      }
+      return recs;
+    };
+  };
+  // Upper side: ratio 2, limit 2 x 8: 16 is tried; the best at 30 still falls there.
+  const Protocol up = resolve_protocol(config, declared, "out", runner(30));
+  EXPECT_EQ(up.params[0].range, std::vector<Json>({2, 4, 8, 16}));
+  EXPECT_EQ(up.params[0].value, 16);
+  EXPECT_EQ(up.params[0].boundary["status"], "inconclusive");
+  EXPECT_EQ(up.inconclusive(),
+            "sub test.subsample.stride optimum on the upper boundary 16 (the range extended up to "
+            "2x), still falling: inconclusive");
+  // A wider limit reaches the optimum: 16, 32 within 4 x 8; the curve rises at 32.
+  Json wide = config;
+  wide["protocol"]["variants"]["sub"]["test.subsample.stride"]["extend_limit"] = 4;
+  const Protocol reach =
+      resolve_protocol(wide, parse_protocol(wide["protocol"], "p"), "out", runner(17));
+  EXPECT_EQ(reach.params[0].range, std::vector<Json>({2, 4, 8, 16, 32}));
+  EXPECT_EQ(reach.params[0].value, 16);
+  EXPECT_EQ(reach.params[0].boundary["status"], "extended");
+  // Lower side: stride 1 is tried (ratio 1/2), the best at 0 still falls there, but stride 1 is
+  // the parameter's own minimum: stated, not inconclusive.
+  const Protocol low = resolve_protocol(config, declared, "out", runner(0));
+  EXPECT_EQ(low.params[0].range, std::vector<Json>({1, 2, 4, 8}));
+  EXPECT_EQ(low.params[0].value, 1);
+  EXPECT_EQ(low.params[0].boundary["status"], "limit");
+  EXPECT_EQ(low.params[0].boundary["text"],
+            "test.subsample.stride optimum at 1, the end of the parameter's own domain (still "
+            "falling)");
+  EXPECT_EQ(low.inconclusive(), "");
+  // A ratio that overshoots the limit (3 -> 0.5 of 2 with limit 2: 1 by the limit itself).
+  Json steep = config;
+  steep["protocol"]["variants"]["sub"]["test.subsample.stride"]["range"] = {6, 36};
+  const Protocol lim =
+      resolve_protocol(steep, parse_protocol(steep["protocol"], "p"), "out", runner(0));
+  EXPECT_EQ(lim.params[0].range, std::vector<Json>({3, 6, 36}));
+  EXPECT_EQ(lim.params[0].boundary["status"], "inconclusive");
+  // Bad limits are refused.
+  Json bad = config;
+  bad["protocol"]["variants"]["sub"]["test.subsample.stride"]["extend_limit"] = 0.5;
+  EXPECT_EQ(param_error(bad),
+            "exp.json: /protocol/variants/sub/test.subsample.stride/extend_limit: expected a "
+            "number >= 1");
 }

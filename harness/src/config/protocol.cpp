@@ -119,9 +119,14 @@ ProtocolParam parse_protocol_param(const Json& j, const std::string& variant,
         q.extend_limit = l.get<double>();
       }
     } else {
-      for (const char* f : {"multiples", "extend_limit"})
-        if (j.contains(f))
-          protocol_fail(where + "/" + f, "used only with \"rule\": \"h0_multiples\"");
+      if (j.contains("multiples"))
+        protocol_fail(where + "/multiples", "used only with \"rule\": \"h0_multiples\"");
+      if (j.contains("extend_limit")) {
+        const Json& l = j["extend_limit"];
+        if (!l.is_number() || !(l.get<double>() >= 1.0) || !std::isfinite(l.get<double>()))
+          protocol_fail(where + "/extend_limit", "expected a number >= 1");
+        q.extend_limit = l.get<double>();
+      }
       if (!j.contains("range")) {
         protocol_fail(where + "/range", "missing (the values to tune over, or a \"rule\")");
       }
@@ -643,6 +648,67 @@ std::vector<double> next_multiples(const ProtocolParam& q, const std::string& si
   return out;
 }
 
+/// The next values of a fixed numeric range beyond `side` (the ratio of its two values on that
+/// side, as next_multiples), within `limit` times the declared top (the declared bottom divided by
+/// it); when the first step already overshoots, the limit itself. All positive values are
+/// required; a range of integers stays integers (rounded, values already in the range dropped).
+/// Empty when the range is not all positive numbers.
+std::vector<Json> next_range_values(const ProtocolParam& q, const std::string& side) {
+  std::vector<double> xs, declared;
+  bool integers = true;
+  for (const Json& x : q.range) {
+    if (!x.is_number() || !(x.get<double>() > 0)) return {};
+    integers = integers && x.is_number_integer();
+    xs.push_back(x.get<double>());
+  }
+  for (const Json& x : q.declared_range)
+    declared.push_back(x.get<double>());
+  std::sort(xs.begin(), xs.end());
+  std::sort(declared.begin(), declared.end());
+  const std::size_t n = xs.size();
+  std::vector<double> raw;
+  if (side == "upper") {
+    const double ratio = xs[n - 1] / xs[n - 2], limit = declared.back() * q.extend_limit;
+    for (double x = xs[n - 1] * ratio; x <= limit * (1 + 1e-9); x *= ratio)
+      raw.push_back(x);
+    if (raw.empty() && limit > xs[n - 1] * (1 + 1e-9)) raw.push_back(limit);
+  } else {
+    const double ratio = xs[0] / xs[1], limit = declared.front() / q.extend_limit;
+    for (double x = xs[0] * ratio; x >= limit * (1 - 1e-9); x *= ratio)
+      raw.push_back(x);
+    if (raw.empty() && limit < xs[0] * (1 - 1e-9)) raw.push_back(limit);
+  }
+  std::vector<Json> out;
+  for (double x : raw) {
+    const Json v =
+        integers ? Json(static_cast<long long>(std::llround(x))) : Json(protocol_round(x));
+    const bool known = std::any_of(q.range.begin(), q.range.end(),
+                                   [&](const Json& r) { return protocol_same_value(r, v); }) ||
+                       std::any_of(out.begin(), out.end(),
+                                   [&](const Json& r) { return protocol_same_value(r, v); });
+    if (!known) out.push_back(v);
+  }
+  return out;
+}
+
+/// Whether a fixed range's boundary value `b.at` is the end of the parameter's own domain: the next
+/// value beyond it by the range's ratio rounds back to it (integers) or is not `accepted`.
+template <class Accepted>
+bool at_domain_edge(const ProtocolParam& q, const BoundaryCheck& b, Accepted&& accepted) {
+  std::vector<double> xs;
+  bool integers = true;
+  for (const Json& x : q.range) {
+    if (!x.is_number() || !(x.get<double>() > 0)) return false;
+    integers = integers && x.is_number_integer();
+    xs.push_back(x.get<double>());
+  }
+  std::sort(xs.begin(), xs.end());
+  const std::size_t n = xs.size();
+  const double x = b.side == "upper" ? xs[n - 1] * xs[n - 1] / xs[n - 2] : xs[0] * xs[0] / xs[1];
+  const Json v = integers ? Json(static_cast<long long>(std::llround(x))) : Json(protocol_round(x));
+  return protocol_same_value(v, b.at) || !accepted(v);
+}
+
 /// The median point count of the tuning scans (sizes.scan_points of the probe's records).
 double tuning_scan_points(const std::vector<Json>& records) {
   std::vector<double> n;
@@ -864,9 +930,21 @@ Protocol resolve_protocol(const Json& config, Protocol p, const fs::path& out,
     // The objective of the variant's first tuned parameter decides the joint choice.
     const ProtocolObjective objective = tuned.front()->objective;
     std::vector<Json> records = run(tuning_config(config, p, variant), out / ("tuning-" + variant));
-    // Boundary optima: extend an h0_multiples range on its falling side, once per side (all the
-    // next multiples within the limit at once), and choose again over all records.
+    // Boundary optima: extend a range on its falling side, once (all the next values within the
+    // limit at once: h0 multiples, or a fixed range's own ratio, next_range_values, as far as the
+    // parameter's declaration accepts them), and choose again over all records.
     std::map<std::string, Json> extended;  // key -> {"side", "from"}
+    // Whether the parameter's declaration accepts `v` (a value past its own domain is not tried).
+    auto accepted = [&](const ProtocolParam& q, const Json& v) {
+      Json tc = tuning_config(config, p, variant);
+      tc["variants"][0]["sweep"] = {{q.key, Json::array({v})}};
+      try {
+        (void)expand(parse_experiment(tc, "extension"));
+        return true;
+      } catch (const ParamError&) {
+        return false;
+      }
+    };
     int round = 0;
     Json best, curve;
     for (;;) {
@@ -874,26 +952,35 @@ Protocol resolve_protocol(const Json& config, Protocol p, const fs::path& out,
       const std::vector<TuningPoint> points = tuning_points(records, tuned, objective);
       bool more = false;
       for (ProtocolParam* q : mine) {
-        if (q->range_rule.empty() ||
-            extended.count(q->key + "/lower") + extended.count(q->key + "/upper") > 0) {
-          continue;
-        }
+        if (extended.count(q->key + "/lower") + extended.count(q->key + "/upper") > 0) continue;
         const BoundaryCheck b = boundary_check(*q, best, points, objective);
         if (b.side.empty() || !b.falling) continue;
-        const double lo = q->multiples.front(), hi = q->multiples.back();
-        const std::vector<double> add = next_multiples(*q, b.side, lo, hi);
         extended[q->key + "/" + b.side] = {{"side", b.side}, {"from", b.at}};
-        if (add.empty()) continue;
         std::vector<Json> values;
-        for (double m : add)
-          values.emplace_back(protocol_round(m * q->h0));
-        for (std::size_t i = 0; i < add.size(); ++i) {
+        if (!q->range_rule.empty()) {
+          const double lo = q->multiples.front(), hi = q->multiples.back();
+          const std::vector<double> add = next_multiples(*q, b.side, lo, hi);
+          for (double m : add)
+            values.emplace_back(protocol_round(m * q->h0));
+          for (std::size_t i = 0; i < add.size(); ++i) {
+            if (b.side == "upper") {
+              q->multiples.push_back(add[i]);
+            } else {
+              q->multiples.insert(q->multiples.begin(), add[i]);
+            }
+          }
+        } else {
+          for (const Json& v : next_range_values(*q, b.side)) {
+            if (!accepted(*q, v)) break;  // past the parameter's own domain
+            values.push_back(v);
+          }
+        }
+        if (values.empty()) continue;
+        for (const Json& v : values) {
           if (b.side == "upper") {
-            q->multiples.push_back(add[i]);
-            q->range.push_back(values[i]);
+            q->range.push_back(v);
           } else {
-            q->multiples.insert(q->multiples.begin(), add[i]);
-            q->range.insert(q->range.begin(), values[i]);
+            q->range.insert(q->range.begin(), v);
           }
         }
         // The new values against the current ranges of the others.
@@ -916,15 +1003,20 @@ Protocol resolve_protocol(const Json& config, Protocol p, const fs::path& out,
         if (extended.count(q->key + "/" + side)) ext = &extended.at(q->key + "/" + side);
       const bool grown = q->range.size() > q->declared_range.size();
       std::string status = "interior", text;
-      if (!b.side.empty() && b.falling) {
-        status = q->range_rule.empty() ? "boundary" : "inconclusive";
-        text = q->range_rule.empty()
-                   ? fmt::format("{} optimum on the {} boundary {} of a fixed range, still falling",
-                                 q->key, b.side, b.at.dump())
-                   : fmt::format(
-                         "{} optimum on the {} boundary {} (the range extended up to {}x), "
-                         "still falling: inconclusive",
-                         q->key, b.side, b.at.dump(), q->extend_limit);
+      if (!b.side.empty() && b.falling && q->range_rule.empty() &&
+          at_domain_edge(*q, b, [&](const Json& v) { return accepted(*q, v); })) {
+        // The range ends where the parameter itself does (a PCA k of 1 has no smaller value):
+        // no range could be wider there, so the verdict stands.
+        status = "limit";
+        text =
+            fmt::format("{} optimum at {}, the end of the parameter's own domain (still falling)",
+                        q->key, b.at.dump());
+      } else if (!b.side.empty() && b.falling) {
+        status = "inconclusive";
+        text = fmt::format(
+            "{} optimum on the {} boundary {} (the range extended up to {}x), still falling: "
+            "inconclusive",
+            q->key, b.side, b.at.dump(), q->extend_limit);
       } else if (ext != nullptr && grown) {
         status = "extended";
         text = fmt::format("{} tuned at the {} boundary {}, extended to {}: optimum {}", q->key,

@@ -43,8 +43,14 @@
 // up to extend_limit times the declared top multiple (down to the declared bottom one divided by
 // it), tuned again (OUT/tuning-<variant>.ext<k>/) and chosen over all records; an optimum still
 // on a falling boundary past the limit makes the protocol inconclusive (`inconclusive`), and a
-// claim on it is judged inconclusive (judge_claim_at_protocol). A fixed "range" cannot be
-// extended: its falling boundary is reported (status "boundary"), the verdict unchanged.
+// claim on it is judged inconclusive (judge_claim_at_protocol). A fixed numeric "range" (all
+// values positive) is extended the same way by its own ratio on that side (upper: v_n^2 / v_(n-1);
+// lower: v_1^2 / v_2), integers staying integers, within "extend_limit" (default 2) times its
+// declared top or bottom, and when the first step overshoots, to the limit itself; values the
+// parameter's declaration rejects are not tried. An optimum still falling at a value that is the
+// end of the parameter's own domain (the next value rounds back to it or is rejected: a stride
+// of 1) is status "limit", the verdict unchanged (no range could be wider there); otherwise
+// "inconclusive" as above. A range that is not all positive numbers is not checked.
 //
 // Scanner entries (issues 50 and 52): a paper's "3% noise" has several readings (a std along the
 // ray or along the normal, a uniform amplitude; a Gaussian or another family). "scanner" declares
@@ -87,12 +93,13 @@ struct ProtocolParam {
   Json tuning_curve = Json::object();  ///< tuned: "<point>" -> objective statistic
   std::string range_rule;              ///< tuned: "" (the fixed `range`) or "h0_multiples"
   std::vector<double> multiples;       ///< h0_multiples: ascending, extended ones included
-  double extend_limit = 2.0;           ///< h0_multiples: how far the range may be extended
+  double extend_limit = 2.0;           ///< tuned: how far the range may be extended
   std::vector<Json> declared_range;    ///< tuned: the range before any extension (resolved)
   double scan_points = 0;              ///< h0_multiples: N, the tuning scans' median point count
   double h0 = 0;                       ///< h0_multiples: 1 / sqrt(N), fraction of the diagonal
   /// tuned, after resolve_protocol: {"status": "interior" | "flat" (on the boundary, the curve
-  /// flat there) | "extended" | "boundary" (a fixed range, still falling) | "inconclusive",
+  /// flat there) | "extended" | "limit" (still falling at the end of the parameter's own domain)
+  /// | "inconclusive",
   /// "side": "lower" | "upper", "text": one line for the sensitivity line ("" when interior)}.
   Json boundary = Json::object();
 };
