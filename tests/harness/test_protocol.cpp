@@ -684,3 +684,43 @@ TEST(ProtocolRange, FixedRangesExtendByTheirRatioWithinTheParametersDomain) {
             "exp.json: /protocol/variants/sub/test.subsample.stride/extend_limit: expected a "
             "number >= 1");
 }
+
+// Joint tuning: extending one parameter can move the optimum of another to its other side; each
+// side is extended once, so the move is followed, not judged inconclusive.
+TEST(ProtocolRange, EachSideOfARangeIsExtendedOnce) {
+  Json config = experiment_with_protocol();
+  config["protocol"]["variants"]["sub"] = {
+      {"test.subsample.stride", {{"source", "tuned"}, {"range", {2, 4, 8}}}},
+      {"test.subsample.work_ms", {{"source", "tuned"}, {"range", {1, 2, 4}}}}};
+  const Protocol declared = parse_protocol(config["protocol"], "p");
+  std::vector<std::string> folders;
+  const RecordsRunner run = [&folders](const Json& c, const fs::path& out) {
+    folders.push_back(out.filename().string());
+    std::vector<Json> recs;
+    for (const auto& job : expand(parse_experiment(c, "synthetic")).jobs) {
+      const int stride = job.chain[0]["params"]["stride"].get<int>();
+      const double w = job.chain[0]["params"]["work_ms"].get<double>();
+      // First best at (8, 4), both on their upper boundaries; once work_ms reaches 8 the best is
+      // (2, 8), stride's lower boundary, where 1 is worse.
+      double err = 3.0;
+      if (stride == 8 && w == 4) err = 1.0;
+      if (stride == 2 && w == 8) err = 0.5;
+      if (stride == 1 && w == 8) err = 0.7;
+      recs.push_back(tuning_record(job.dataset_label, job.variant, job.point, err));
+    }
+    return recs;
+  };
+  const Protocol p = resolve_protocol(config, declared, "out", run);
+  const ProtocolParam& stride = p.params[0];
+  EXPECT_EQ(folders, std::vector<std::string>(
+                         {"tuning-sub", "tuning-sub.ext1", "tuning-sub.ext2", "tuning-sub.ext3"}));
+  EXPECT_EQ(stride.range, std::vector<Json>({1, 2, 4, 8, 16}));
+  EXPECT_EQ(stride.value, 2);
+  EXPECT_EQ(stride.boundary["status"], "extended");
+  EXPECT_EQ(stride.boundary["text"],
+            "test.subsample.stride tuned at the lower boundary 2, extended to 1; at the upper "
+            "boundary 8, extended to 16: optimum 2");
+  // work_ms still falls at 8, its upper side already extended once: inconclusive.
+  EXPECT_EQ(p.params[1].value, 8);
+  EXPECT_EQ(p.params[1].boundary["status"], "inconclusive");
+}

@@ -933,7 +933,10 @@ Protocol resolve_protocol(const Json& config, Protocol p, const fs::path& out,
     // Boundary optima: extend a range on its falling side, once (all the next values within the
     // limit at once: h0 multiples, or a fixed range's own ratio, next_range_values, as far as the
     // parameter's declaration accepts them), and choose again over all records.
-    std::map<std::string, Json> extended;  // key -> {"side", "from"}
+    std::map<std::string, Json> extended;                           // key/side -> {"side", "from"}
+    std::map<std::string, std::vector<double>> declared_multiples;  // the limits' reference
+    for (const ProtocolParam* q : mine)
+      declared_multiples[q->key] = q->multiples;
     // Whether the parameter's declaration accepts `v` (a value past its own domain is not tried).
     auto accepted = [&](const ProtocolParam& q, const Json& v) {
       Json tc = tuning_config(config, p, variant);
@@ -952,13 +955,13 @@ Protocol resolve_protocol(const Json& config, Protocol p, const fs::path& out,
       const std::vector<TuningPoint> points = tuning_points(records, tuned, objective);
       bool more = false;
       for (ProtocolParam* q : mine) {
-        if (extended.count(q->key + "/lower") + extended.count(q->key + "/upper") > 0) continue;
+        // Once per side: a joint optimum may move to a parameter's other side after an extension.
         const BoundaryCheck b = boundary_check(*q, best, points, objective);
-        if (b.side.empty() || !b.falling) continue;
-        extended[q->key + "/" + b.side] = {{"side", b.side}, {"from", b.at}};
+        if (b.side.empty() || !b.falling || extended.count(q->key + "/" + b.side) > 0) continue;
         std::vector<Json> values;
         if (!q->range_rule.empty()) {
-          const double lo = q->multiples.front(), hi = q->multiples.back();
+          const double lo = declared_multiples.at(q->key).front(),
+                       hi = declared_multiples.at(q->key).back();
           const std::vector<double> add = next_multiples(*q, b.side, lo, hi);
           for (double m : add)
             values.emplace_back(protocol_round(m * q->h0));
@@ -975,7 +978,8 @@ Protocol resolve_protocol(const Json& config, Protocol p, const fs::path& out,
             values.push_back(v);
           }
         }
-        if (values.empty()) continue;
+        if (values.empty()) continue;  // nothing to try (past the limit or the domain)
+        extended[q->key + "/" + b.side] = {{"side", b.side}, {"from", b.at}};
         for (const Json& v : values) {
           if (b.side == "upper") {
             q->range.push_back(v);
@@ -998,9 +1002,15 @@ Protocol resolve_protocol(const Json& config, Protocol p, const fs::path& out,
       q->value = best.value(q->key, Json());
       q->tuning_curve = curve;
       const BoundaryCheck b = boundary_check(*q, best, points, objective);
-      const Json* ext = nullptr;
-      for (const char* side : {"lower", "upper"})
-        if (extended.count(q->key + "/" + side)) ext = &extended.at(q->key + "/" + side);
+      std::string sides;  // "at the lower boundary 15, extended to 4; at the upper ..."
+      for (const char* side : {"lower", "upper"}) {
+        const auto e = extended.find(q->key + "/" + side);
+        if (e == extended.end()) continue;
+        sides +=
+            fmt::format("{}at the {} boundary {}, extended to {}", sides.empty() ? "" : "; ", side,
+                        e->second["from"].dump(),
+                        (std::string(side) == "upper" ? q->range.back() : q->range.front()).dump());
+      }
       const bool grown = q->range.size() > q->declared_range.size();
       std::string status = "interior", text;
       if (!b.side.empty() && b.falling && q->range_rule.empty() &&
@@ -1017,12 +1027,9 @@ Protocol resolve_protocol(const Json& config, Protocol p, const fs::path& out,
             "{} optimum on the {} boundary {} (the range extended up to {}x), still falling: "
             "inconclusive",
             q->key, b.side, b.at.dump(), q->extend_limit);
-      } else if (ext != nullptr && grown) {
+      } else if (!sides.empty() && grown) {
         status = "extended";
-        text = fmt::format("{} tuned at the {} boundary {}, extended to {}: optimum {}", q->key,
-                           (*ext)["side"].get<std::string>(), (*ext)["from"].dump(),
-                           ((*ext)["side"] == "upper" ? q->range.back() : q->range.front()).dump(),
-                           q->value.dump());
+        text = fmt::format("{} tuned {}: optimum {}", q->key, sides, q->value.dump());
       } else if (!b.side.empty()) {
         status = "flat";
         text = fmt::format("{} optimum on the {} boundary {}, the curve flat there", q->key, b.side,
