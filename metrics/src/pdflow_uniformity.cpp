@@ -138,6 +138,9 @@ UniformityDisks pdflow_uniformity_disks(const Eigen::Matrix3Xd& points,
   // object per thread; its answers depend only on its source, so the slots are thread-free.
   const Eigen::Matrix3Xf mapped_f = out.mapped.cast<float>();  // the tree views it
   const KdTree mapped_tree(mapped_f);
+  // The float copy's rounding grows with the coordinates, and so does the slack (no point is cut
+  // by rounding; the exact double test below decides).
+  const double slack = 1e-7 + 1e-6 * out.mapped.cwiseAbs().maxCoeff();
   out.members.assign(centres.size() * kShares, {});
   tbb::enumerable_thread_specific<ShortestPath> paths([&mesh] { return ShortestPath(mesh); });
   tbb::parallel_for(
@@ -150,7 +153,7 @@ UniformityDisks pdflow_uniformity_disks(const Eigen::Matrix3Xd& points,
           const FaceLocation source = location_of(centres[d]);
           const Eigen::Vector3d centre =
               to_eigen(ShortestPath::point(source.first, source.second, mesh));
-          mapped_tree.radius(centre.cast<float>(), static_cast<float>(reach * (1.0 + 1e-5) + 1e-7),
+          mapped_tree.radius(centre.cast<float>(), static_cast<float>(reach * (1.0 + 1e-5) + slack),
                              near);
           candidates.clear();
           for (const auto& [i, unused] : near) {

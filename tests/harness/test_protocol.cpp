@@ -88,6 +88,21 @@ std::vector<Json> synthetic_records(const Json& config) {
   return out;
 }
 
+/// The claim "sub < ref" on the quantity err.
+Claim sub_below_ref_claim() {
+  Claim c;
+  c.id = "c";
+  ClaimRule r;
+  r.what = "sub below ref";
+  r.quantity = "err";
+  r.a.variant = "sub";
+  r.b.variant = "ref";
+  r.has_b = true;
+  r.op = "<";
+  c.rules = {r};
+  return c;
+}
+
 TEST(Protocol, BadProtocolIsOneLineNamingTheField) {
   EXPECT_EQ(param_error(experiment_with_protocol()), "");
   auto broken = [](auto edit) {
@@ -239,16 +254,8 @@ TEST(Protocol, SensitivityJudgesTheClaimAtEachValueOfTheRange) {
                                   tuning_record("sphere", "sub", {{k, 4}}, 3.0),
                                   tuning_record("sphere", "sub", {{k, 8}}, 4.0),
                                   tuning_record("sphere", "ref", Json::object(), 2.5)};
-  Claim c;
-  c.id = "c";
-  ClaimRule r;
-  r.what = "sub below ref";
-  r.quantity = "err";
-  r.a.variant = "sub";
-  r.b.variant = "ref";
-  r.has_b = true;
-  r.op = "<";
-  c.rules = {r};
+  Claim c = sub_below_ref_claim();
+  const ClaimRule r = c.rules[0];
   EXPECT_EQ(judge_claim(c, records_at_protocol(recs, p)).verdict, "held");
   const Json s = claim_sensitivity(c, p, recs);
   EXPECT_EQ(s["params"][0]["verdicts"], Json({{"2", "held"}, {"4", "failed"}, {"8", "failed"}}));
@@ -328,16 +335,7 @@ TEST(ProtocolScanner, ScannerEntriesSetEveryScannerAndSweepEveryVariant) {
   ASSERT_EQ(lap.size(), 2u);
   for (const auto& r : lap)
     EXPECT_EQ(r["point"]["scanner.noise_family"], "laplace") << r.dump();
-  Claim c;
-  c.id = "c";
-  ClaimRule r;
-  r.what = "sub below ref";
-  r.quantity = "err";
-  r.a.variant = "sub";
-  r.b.variant = "ref";
-  r.has_b = true;
-  r.op = "<";
-  c.rules = {r};
+  const Claim c = sub_below_ref_claim();
   const Json s = claim_sensitivity(c, p, recs);
   const Json& fam = s["params"][1];
   EXPECT_EQ(fam["key"], "scanner.noise_family");

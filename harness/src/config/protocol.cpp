@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <limits>
 #include <map>
+#include <optional>
 #include <set>
 #include <tuple>
 
@@ -653,17 +654,34 @@ std::vector<double> next_multiples(const ProtocolParam& q, const std::string& si
 /// it); when the first step already overshoots, the limit itself. All positive values are
 /// required; a range of integers stays integers (rounded, values already in the range dropped).
 /// Empty when the range is not all positive numbers.
-std::vector<Json> next_range_values(const ProtocolParam& q, const std::string& side) {
-  std::vector<double> xs, declared;
+/// A fixed range read as numbers: its values sorted, and whether all are integers; nullopt when
+/// a value is not a positive number (such a range is neither extended nor checked at its ends).
+struct NumericRange {
+  std::vector<double> xs;
   bool integers = true;
-  for (const Json& x : q.range) {
-    if (!x.is_number() || !(x.get<double>() > 0)) return {};
-    integers = integers && x.is_number_integer();
-    xs.push_back(x.get<double>());
+  /// `x` as a value of this range: an integer, or 4 significant digits.
+  Json value(double x) const {
+    return integers ? Json(static_cast<long long>(std::llround(x))) : Json(protocol_round(x));
   }
+};
+std::optional<NumericRange> numeric_range(const std::vector<Json>& range) {
+  NumericRange r;
+  for (const Json& x : range) {
+    if (!x.is_number() || !(x.get<double>() > 0)) return std::nullopt;
+    r.integers = r.integers && x.is_number_integer();
+    r.xs.push_back(x.get<double>());
+  }
+  std::sort(r.xs.begin(), r.xs.end());
+  return r;
+}
+
+std::vector<Json> next_range_values(const ProtocolParam& q, const std::string& side) {
+  const std::optional<NumericRange> nr = numeric_range(q.range);
+  if (!nr) return {};
+  const std::vector<double>& xs = nr->xs;
+  std::vector<double> declared;
   for (const Json& x : q.declared_range)
     declared.push_back(x.get<double>());
-  std::sort(xs.begin(), xs.end());
   std::sort(declared.begin(), declared.end());
   const std::size_t n = xs.size();
   std::vector<double> raw;
@@ -680,8 +698,7 @@ std::vector<Json> next_range_values(const ProtocolParam& q, const std::string& s
   }
   std::vector<Json> out;
   for (double x : raw) {
-    const Json v =
-        integers ? Json(static_cast<long long>(std::llround(x))) : Json(protocol_round(x));
+    const Json v = nr->value(x);
     const bool known = std::any_of(q.range.begin(), q.range.end(),
                                    [&](const Json& r) { return protocol_same_value(r, v); }) ||
                        std::any_of(out.begin(), out.end(),
@@ -695,17 +712,12 @@ std::vector<Json> next_range_values(const ProtocolParam& q, const std::string& s
 /// value beyond it by the range's ratio rounds back to it (integers) or is not `accepted`.
 template <class Accepted>
 bool at_domain_edge(const ProtocolParam& q, const BoundaryCheck& b, Accepted&& accepted) {
-  std::vector<double> xs;
-  bool integers = true;
-  for (const Json& x : q.range) {
-    if (!x.is_number() || !(x.get<double>() > 0)) return false;
-    integers = integers && x.is_number_integer();
-    xs.push_back(x.get<double>());
-  }
-  std::sort(xs.begin(), xs.end());
+  const std::optional<NumericRange> nr = numeric_range(q.range);
+  if (!nr) return false;
+  const std::vector<double>& xs = nr->xs;
   const std::size_t n = xs.size();
   const double x = b.side == "upper" ? xs[n - 1] * xs[n - 1] / xs[n - 2] : xs[0] * xs[0] / xs[1];
-  const Json v = integers ? Json(static_cast<long long>(std::llround(x))) : Json(protocol_round(x));
+  const Json v = nr->value(x);
   return protocol_same_value(v, b.at) || !accepted(v);
 }
 
