@@ -24,6 +24,9 @@ find_package(SQLite3 REQUIRED)  # CMake's FindSQLite3: the results history (harn
 # libcrypto's SHA-256 (libssl-dev): the hash of every plugin file in the records (harness).
 find_package(OpenSSL REQUIRED COMPONENTS Crypto)
 find_package(ZLIB REQUIRED)  # the PDF figure's image streams (harness figure.cpp)
+# Google Highway (libhwy-dev): the SIMD kernels, compiled for several targets and dispatched at run
+# time (cmake/Simd.cmake, core/include/scanbench/core/simd.h).
+find_package(hwy 1.0 REQUIRED CONFIG)
 
 list(APPEND CMAKE_MODULE_PATH /usr/lib/x86_64-linux-gnu/cmake/OpenVDB)
 find_package(OpenVDB REQUIRED)

@@ -43,3 +43,13 @@ set(SCANBENCH_BUILD_ISA "${_sb_simd}")
 string(JOIN " " SCANBENCH_SIMD_FLAGS_TEXT ${SCANBENCH_SIMD_FLAGS})
 message(STATUS "scanbench: compiled for ${SCANBENCH_BUILD_ISA} (${SCANBENCH_SIMD_FLAGS_TEXT})")
 add_compile_options(${SCANBENCH_SIMD_FLAGS})
+
+# Google Highway's kernels (the `HWY_NAMESPACE` code of foreach_target.h translation units) are
+# compiled for every target Highway can attain on x86-64, not only those at or above this build's
+# level: EMU128 (Highway's portable scalar reference of the same source), SSE4 (4 floats), AVX2
+# (8) and AVX3 (AVX-512, 16). The active one follows SCANBENCH_ISA / simd::select() (sse2 -> SSE4,
+# avx2 -> AVX2, avx512 -> AVX3), so every compiled target can be run and tested on one machine.
+# SSSE3 is left out: no x86-64 CPU of the last fifteen years lacks SSE4, and it would only double
+# the 4-float code. The same definitions in every translation unit keep Highway's inline functions
+# one definition per target.
+add_compile_definitions(HWY_COMPILE_ALL_ATTAINABLE "HWY_DISABLED_TARGETS=HWY_SSSE3")

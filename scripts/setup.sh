@@ -15,7 +15,7 @@ packages=(
   libopenimageio-dev openimageio-tools libopencv-core-dev fonts-dejavu-core
   nlohmann-json3-dev libfmt-dev libspdlog-dev libcli11-dev libnanoflann-dev libtinyobjloader-dev
   libgtest-dev libgmock-dev libbenchmark-dev
-  libcgal-dev libcgal-demo colmap libsqlite3-dev sqlite3 libssl-dev zlib1g-dev libopen3d-dev pcl-tools
+  libhwy-dev libcgal-dev libcgal-demo colmap libsqlite3-dev sqlite3 libssl-dev zlib1g-dev libopen3d-dev pcl-tools
   chromium python3-numpy python3-sklearn python3-open3d
 )
 

@@ -1,6 +1,7 @@
 #include "scanbench/core/simd.h"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <atomic>
 #include <cstdio>
@@ -8,6 +9,7 @@
 #include <mutex>
 
 #include "scanbench/core/errors.h"
+#include "simd_targets.h"
 
 #ifndef SCANBENCH_SIMD_FLAGS
 #define SCANBENCH_SIMD_FLAGS "(default flags)"
@@ -125,6 +127,7 @@ std::vector<Isa> available() {
 void select(Isa isa) {
   if (static_cast<int>(isa) > static_cast<int>(kCompiled) || !cpu_has(isa))
     throw ParamError(fmt::format("SCANBENCH_ISA={}: {}", name(isa), why_unavailable(isa)));
+  restrict_targets(isa);
   g_active.store(static_cast<int>(isa), std::memory_order_relaxed);
 }
 
@@ -137,7 +140,7 @@ Isa active() {
     if (env != nullptr && *env != '\0') {
       select(parse(env, "SCANBENCH_ISA"));
     } else {
-      g_active.store(static_cast<int>(available().back()), std::memory_order_relaxed);
+      select(available().back());
     }
   }
   return static_cast<Isa>(g_active.load(std::memory_order_relaxed));
@@ -145,8 +148,9 @@ Isa active() {
 
 std::string describe() {
   const Isa a = active();
-  return fmt::format("{} ({} floats; compiled for {}: {})", name(a), lanes(a), name(kCompiled),
-                     SCANBENCH_SIMD_FLAGS);
+  return fmt::format("{} ({} floats; compiled for {}: {}); Highway target {} of {}", name(a),
+                     lanes(a), name(kCompiled), SCANBENCH_SIMD_FLAGS, chosen_target(),
+                     fmt::join(compiled_targets(), " "));
 }
 
 }  // namespace scanbench::simd

@@ -1,7 +1,6 @@
 #include "scanbench/scanner/scanner.h"
 
 #include <fmt/format.h>
-#include <immintrin.h>
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
@@ -24,10 +23,10 @@
 
 #include "noise.h"
 #include "photo.h"
+#include "ray_directions.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/files.h"
 #include "scanbench/core/io.h"
-#include "scanbench/core/simd.h"
 #include "scanner_engine.h"
 #include "surface_samples.h"
 #include "ziggurat.h"
@@ -354,94 +353,35 @@ ScannerEngine::Tile ScannerEngine::tile(int t) const {
 
 namespace {
 
-/// A camera's basis broadcast to the four lanes of an SSE register.
-struct CameraLanes {
-  explicit CameraLanes(const Camera& c)
-      : fx(_mm_set1_ps(c.forward.x())),
-        fy(_mm_set1_ps(c.forward.y())),
-        fz(_mm_set1_ps(c.forward.z())),
-        rx(_mm_set1_ps(c.right.x())),
-        ry(_mm_set1_ps(c.right.y())),
-        rz(_mm_set1_ps(c.right.z())),
-        ux(_mm_set1_ps(c.up.x())),
-        uy(_mm_set1_ps(c.up.y())),
-        uz(_mm_set1_ps(c.up.z())) {}
-  __m128 fx, fy, fz, rx, ry, rz, ux, uy, uz;
-};
-
-/// normalise(forward + xs right + ys up) in four lanes, in two steps: the part that depends on xs
-/// only (shared by the rows of a tile), then the rest. SSE is part of baseline x86-64, and each
-/// lane performs the same IEEE operations in a fixed order, so a direction does not depend on the
-/// lane or the step it was computed in. (Builds for x86-64-v3 and up let GCC fuse the products
-/// and sums into FMAs; it fuses the same ones here and in tile_rows_avx, checked in the
-/// disassembly.)
-inline void dirs4_x(const CameraLanes& c, __m128 xs, __m128& ax, __m128& ay, __m128& az) {
-  ax = _mm_add_ps(c.fx, _mm_mul_ps(xs, c.rx));
-  ay = _mm_add_ps(c.fy, _mm_mul_ps(xs, c.ry));
-  az = _mm_add_ps(c.fz, _mm_mul_ps(xs, c.rz));
-}
-inline void dirs4_y(const CameraLanes& c, __m128 ax, __m128 ay, __m128 az, __m128 ys, __m128& dx,
-                    __m128& dy, __m128& dz) {
-  dx = _mm_add_ps(ax, _mm_mul_ps(ys, c.ux));
-  dy = _mm_add_ps(ay, _mm_mul_ps(ys, c.uy));
-  dz = _mm_add_ps(az, _mm_mul_ps(ys, c.uz));
-  const __m128 len2 =
-      _mm_add_ps(_mm_add_ps(_mm_mul_ps(dx, dx), _mm_mul_ps(dy, dy)), _mm_mul_ps(dz, dz));
-  const __m128 s = _mm_div_ps(_mm_set1_ps(1.0f), _mm_sqrt_ps(len2));
-  dx = _mm_mul_ps(dx, s);
-  dy = _mm_mul_ps(dy, s);
-  dz = _mm_mul_ps(dz, s);
+CameraBasis basis_of(const Camera& c) {
+  return {{c.forward.x(), c.forward.y(), c.forward.z()},
+          {c.right.x(), c.right.y(), c.right.z()},
+          {c.up.x(), c.up.y(), c.up.z()}};
 }
 
-/// The rows of a tile with AVX, eight rays per step, for CPUs that have it: the same IEEE
-/// operations in the same order as dirs4_y (fused alike where the build has FMA), hence
-/// bit-identical rays; each ray's origin and direction rows go out in one 32-byte store.
-/// `n` (rays per row) is a multiple of 8; `ys` holds each row's image-plane y.
-__attribute__((target("avx"))) void tile_rows_avx(const Camera& cam, const float* ax,
-                                                  const float* ay, const float* az, const float* oy,
-                                                  int n, const float* ys, int rows,
-                                                  __m128 org_tnear, __m128i tail, std::uint64_t ids,
-                                                  std::size_t ids_offset, RTCRayHit* out) {
-  const __m256 ux = _mm256_set1_ps(cam.up.x()), uy = _mm256_set1_ps(cam.up.y()),
-               uz = _mm256_set1_ps(cam.up.z()), one = _mm256_set1_ps(1.0f);
-  for (int row = 0; row < rows; ++row, out += n) {
-    const __m256 y = _mm256_set1_ps(ys[row]);
-    for (int j0 = 0; j0 < n; j0 += 8) {
-      const __m256 yk = _mm256_add_ps(y, _mm256_load_ps(oy + j0));
-      __m256 dx = _mm256_add_ps(_mm256_load_ps(ax + j0), _mm256_mul_ps(yk, ux));
-      __m256 dy = _mm256_add_ps(_mm256_load_ps(ay + j0), _mm256_mul_ps(yk, uy));
-      __m256 dz = _mm256_add_ps(_mm256_load_ps(az + j0), _mm256_mul_ps(yk, uz));
-      const __m256 len2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)),
-                                        _mm256_mul_ps(dz, dz));
-      const __m256 inv = _mm256_div_ps(one, _mm256_sqrt_ps(len2));
-      dx = _mm256_mul_ps(dx, inv);
-      dy = _mm256_mul_ps(dy, inv);
-      dz = _mm256_mul_ps(dz, inv);
-      for (int half = 0; half < 2; ++half) {
-        __m128 hx = half ? _mm256_extractf128_ps(dx, 1) : _mm256_castps256_ps128(dx);
-        __m128 hy = half ? _mm256_extractf128_ps(dy, 1) : _mm256_castps256_ps128(dy);
-        __m128 hz = half ? _mm256_extractf128_ps(dz, 1) : _mm256_castps256_ps128(dz);
-        __m128 time = _mm_setzero_ps();
-        _MM_TRANSPOSE4_PS(hx, hy, hz, time);
-        const __m128 dir_time[4] = {hx, hy, hz, time};
-        for (int l = 0; l < 4; ++l) {
-          RTCRayHit& r = out[j0 + 4 * half + l];
-          _mm256_storeu_ps(&r.ray.org_x,
-                           _mm256_insertf128_ps(_mm256_castps128_ps256(org_tnear), dir_time[l], 1));
-          _mm_storeu_si128(reinterpret_cast<__m128i*>(&r.ray.tfar), tail);
-          std::memcpy(reinterpret_cast<char*>(&r) + ids_offset, &ids, sizeof ids);
-        }
-      }
-    }
+/// Embree's ray stream for n rays from the camera: per ray three 16-byte rows (origin and tnear 0;
+/// the direction and time 0 of dir_time, ray_directions.h; tfar, every mask bit, id and flags 0)
+/// and geomID and instID[0] invalid (the fields the casts read).
+void write_rays(const Camera& cam, float tfar, const float* dir_time, std::size_t n,
+                RTCRayHit* out) {
+  const float org_tnear[4] = {cam.origin.x(), cam.origin.y(), cam.origin.z(), 0.0f};
+  const std::uint32_t tail[4] = {std::bit_cast<std::uint32_t>(tfar), ~0u, 0u, 0u};
+  constexpr std::uint64_t invalid_ids =
+      std::uint64_t{RTC_INVALID_GEOMETRY_ID} | (std::uint64_t{RTC_INVALID_GEOMETRY_ID} << 32);
+  for (std::size_t l = 0; l < n; ++l) {
+    RTCRayHit& r = out[l];
+    std::memcpy(&r.ray.org_x, org_tnear, sizeof org_tnear);
+    std::memcpy(&r.ray.dir_x, dir_time + 4 * l, 4 * sizeof(float));
+    std::memcpy(&r.ray.tfar, tail, sizeof tail);
+    std::memcpy(&r.hit.geomID, &invalid_ids, sizeof invalid_ids);
   }
 }
 
-/// Whether the 8-wide path runs: the CPU has AVX (checked once) and the active ISA
-/// (scanbench/core/simd.h, SCANBENCH_ISA) is wider than sse2. Both paths give bit-identical rays.
-bool cpu_has_avx() {
-  static const bool has = __builtin_cpu_supports("avx");
-  return has && simd::active() != simd::Isa::sse2;
-}
+static_assert(offsetof(RTCRay, tnear) == 12 && offsetof(RTCRay, time) == 28 &&
+                  offsetof(RTCRay, tfar) == 32 && offsetof(RTCRay, flags) == 44 &&
+                  offsetof(RTCHit, instID) == offsetof(RTCHit, geomID) + 4,
+              "RTCRayHit layout: org+tnear, dir+time, tfar+mask+id+flags as three 16-byte rows; "
+              "geomID and instID[0] adjacent");
 
 /// Image-plane coordinates of pixel centres (tangent-plane units) of an R x R image.
 inline float image_x(const Camera& cam, int resolution, int u) {
@@ -453,43 +393,33 @@ inline float image_y(const Camera& cam, int resolution, int v) {
   return (1.0f - (static_cast<float>(v) + 0.5f) * inv) * cam.tan_half;
 }
 
-static_assert(offsetof(RTCRay, tnear) == 12 && offsetof(RTCRay, time) == 28 &&
-                  offsetof(RTCRay, flags) == 44 &&
-                  offsetof(RTCHit, instID) == offsetof(RTCHit, geomID) + 4,
-              "RTCRayHit layout: org+tnear, dir+time, tfar+mask+id+flags as three 16-byte rows; "
-              "geomID and instID[0] adjacent");
-
 }  // namespace
 
 Eigen::Vector3f ScannerEngine::axis_dir(const Camera& cam, int u, int v) const {
-  // The operations of make_tile_rays for sub-ray 0, so the direction is bit-identical to the
-  // cast ray's.
-  const CameraLanes lanes(cam);
+  // The kernels of make_tile_rays for sub-ray 0, so the direction is bit-identical to the cast
+  // ray's.
+  const CameraBasis basis = basis_of(cam);
   const Eigen::Vector2f& o = beam_offsets_[0];
-  __m128 ax, ay, az, dx, dy, dz;
-  dirs4_x(lanes, _mm_set1_ps(image_x(cam, resolution_, u) + o.x()), ax, ay, az);
-  dirs4_y(lanes, ax, ay, az,
-          _mm_add_ps(_mm_set1_ps(image_y(cam, resolution_, v)), _mm_set1_ps(o.y())), dx, dy, dz);
-  return {_mm_cvtss_f32(dx), _mm_cvtss_f32(dy), _mm_cvtss_f32(dz)};
+  constexpr std::size_t n = kRayLanePad;
+  alignas(64) float xs[n] = {}, oy[n] = {}, ax[n], ay[n], az[n], dir_time[4 * n];
+  xs[0] = image_x(cam, resolution_, u) + o.x();
+  oy[0] = o.y();
+  ray_dirs_x(basis, xs, n, ax, ay, az);
+  ray_dirs_y(basis, ax, ay, az, oy, image_y(cam, resolution_, v), n, dir_time);
+  return {dir_time[0], dir_time[1], dir_time[2]};
 }
 
 void ScannerEngine::make_tile_rays(const Camera& cam, const Tile& t, RTCRayHit* out) const {
   // Runs for every ray. The rays of a tile row are (pixel, sub-ray) pairs in the same order in
-  // every row, so the x-dependent half of the directions is computed once per tile; then four
-  // directions per step, transposed into the AoS stream (four stores per ray).
-  const CameraLanes lanes(cam);
-  const __m128 org_tnear = _mm_setr_ps(cam.origin.x(), cam.origin.y(), cam.origin.z(), 0.0f);
+  // every row, so the x-dependent half of the directions is computed once per tile; then each
+  // row's directions, written into Embree's ray stream.
+  const CameraBasis basis = basis_of(cam);
   const float tfar = static_cast<float>(p_.range_max) * diag_;
-  // tfar, mask = all bits, id = 0, flags = 0.
-  const __m128i tail = _mm_setr_epi32(std::bit_cast<std::int32_t>(tfar), -1, 0, 0);
-  // hit.geomID and hit.instID[0] in one store.
-  constexpr std::size_t kIdsOffset = offsetof(RTCRayHit, hit) + offsetof(RTCHit, geomID);
-  constexpr std::uint64_t invalid_ids =
-      std::uint64_t{RTC_INVALID_GEOMETRY_ID} | (std::uint64_t{RTC_INVALID_GEOMETRY_ID} << 32);
-  const int n = (t.u1 - t.u0) * sub_rays_;
-  constexpr int kRow = kTile * kMaxSubRays + 4;
-  alignas(32) float xs[kRow], oy[kRow], ax[kRow], ay[kRow], az[kRow];  // AVX loads
-  int j = 0;
+  const std::size_t n = static_cast<std::size_t>((t.u1 - t.u0) * sub_rays_);
+  constexpr std::size_t kRow =
+      (static_cast<std::size_t>(kTile * kMaxSubRays) + kRayLanePad - 1) / kRayLanePad * kRayLanePad;
+  alignas(64) float xs[kRow], oy[kRow], ax[kRow], ay[kRow], az[kRow], dir_time[4 * kRow];
+  std::size_t j = 0;
   for (int u = t.u0; u < t.u1; ++u) {
     const float x = image_x(cam, resolution_, u);
     for (int k = 0; k < sub_rays_; ++k, ++j) {
@@ -498,43 +428,15 @@ void ScannerEngine::make_tile_rays(const Camera& cam, const Tile& t, RTCRayHit* 
       oy[j] = o.y();
     }
   }
-  for (; j % 4 != 0; ++j) {
+  for (; j % kRayLanePad != 0; ++j) {
     xs[j] = 0.0f;
     oy[j] = 0.0f;
   }
-  for (int j0 = 0; j0 < n; j0 += 4) {
-    __m128 px, py, pz;
-    dirs4_x(lanes, _mm_load_ps(xs + j0), px, py, pz);
-    _mm_store_ps(ax + j0, px);
-    _mm_store_ps(ay + j0, py);
-    _mm_store_ps(az + j0, pz);
-  }
-  if (n % 8 == 0 && cpu_has_avx()) {
-    float ys[kTile];
-    for (int v = t.v0; v < t.v1; ++v)
-      ys[v - t.v0] = image_y(cam, resolution_, v);
-    tile_rows_avx(cam, ax, ay, az, oy, n, ys, t.v1 - t.v0, org_tnear, tail, invalid_ids, kIdsOffset,
-                  out);
-    return;
-  }
+  const std::size_t padded = j;
+  ray_dirs_x(basis, xs, padded, ax, ay, az);
   for (int v = t.v0; v < t.v1; ++v) {
-    const __m128 y = _mm_set1_ps(image_y(cam, resolution_, v));
-    for (int j0 = 0; j0 < n; j0 += 4) {
-      __m128 dx, dy, dz;
-      dirs4_y(lanes, _mm_load_ps(ax + j0), _mm_load_ps(ay + j0), _mm_load_ps(az + j0),
-              _mm_add_ps(y, _mm_load_ps(oy + j0)), dx, dy, dz);
-      __m128 time = _mm_setzero_ps();
-      _MM_TRANSPOSE4_PS(dx, dy, dz, time);
-      const __m128 dir_time[4] = {dx, dy, dz, time};
-      const int m = std::min(4, n - j0);
-      for (int l = 0; l < m; ++l) {
-        RTCRayHit& r = out[j0 + l];
-        _mm_storeu_ps(&r.ray.org_x, org_tnear);
-        _mm_storeu_ps(&r.ray.dir_x, dir_time[l]);
-        _mm_storeu_si128(reinterpret_cast<__m128i*>(&r.ray.tfar), tail);
-        std::memcpy(reinterpret_cast<char*>(&r) + kIdsOffset, &invalid_ids, sizeof invalid_ids);
-      }
-    }
+    ray_dirs_y(basis, ax, ay, az, oy, image_y(cam, resolution_, v), padded, dir_time);
+    write_rays(cam, tfar, dir_time, n, out);
     out += n;
   }
 }

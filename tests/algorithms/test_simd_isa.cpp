@@ -334,8 +334,9 @@ TEST_F(SimdKernels, BilateralNormalsAgreeWithSse2) {
   }
 }
 
-// The scanner's ray generation has a 4-wide and an 8-wide path with the same IEEE operations in
-// the same order: the scans are bit-identical on every ISA (positions and every property).
+// The scanner's ray directions are a Highway kernel (scanner-sim/src/ray_directions.cpp) with the
+// same IEEE operations in every lane of every target: the scans are bit-identical on every ISA
+// (positions and every property).
 TEST(SimdScanner, ScansAreIdenticalOnEveryIsa) {
   scanner::ScannerParams p = scanner::all_artifacts_params();
   p.resolution = 64;

@@ -11,6 +11,7 @@
 #include <cstring>
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include "scanbench/core/rng.h"
 #include "scanbench/core/run_context.h"
@@ -119,6 +120,41 @@ TEST(FieldSampler, EveryIsaMatchesOpenVdbAndSse2) {
     }
     std::vector<Eigen::Index> o1, o2;
     const Eigen::VectorXf a = run(isa, 1, o1), b = run(isa, 2, o2);
+    EXPECT_EQ(0,
+              std::memcmp(a.data(), b.data(), sizeof(float) * static_cast<std::size_t>(a.size())));
+    EXPECT_EQ(o1, o2);
+    EXPECT_EQ(o1, ref_outside);
+    EXPECT_LE((a - ref).cwiseAbs().maxCoeff(), 1e-6f * voxel);
+  }
+}
+
+// The batch sampler is a Highway kernel (metrics/src/field_sampler.cpp): on every target this CPU
+// runs, the one-lane SCALAR reference among them, it matches OpenVDB's BoxSampler, makes the
+// SCALAR target's in/out decisions and is bit-identical at 1 and 2 threads.
+TEST(FieldSampler, EveryHighwayTargetMatchesOpenVdbAndTheScalarReference) {
+  const float voxel = 0.02f;
+  const DistanceField f(testing::icosphere(4), voxel, 3.0f, DistanceField::Kind::Signed);
+  const Eigen::Matrix3Xf q = band_queries(20003, voxel, 1.0f, 29);
+  auto run = [&](int threads, std::vector<Eigen::Index>& outside) {
+    RunContext ctx(1, threads);
+    Eigen::VectorXf out;
+    f.distances(q, out, outside);
+    for (const Eigen::Index i : outside)
+      out[i] = -1.0f;
+    return out;
+  };
+  std::vector<Eigen::Index> ref_outside;
+  Eigen::VectorXf ref;
+  {
+    simd::ScopedTarget scalar("SCALAR");
+    ref = run(1, ref_outside);
+  }
+  for (const std::string& t : simd::runnable_targets()) {
+    SCOPED_TRACE(t);
+    simd::ScopedTarget scoped(t);
+    expect_matches_openvdb(f, q);
+    std::vector<Eigen::Index> o1, o2;
+    const Eigen::VectorXf a = run(1, o1), b = run(2, o2);
     EXPECT_EQ(0,
               std::memcmp(a.data(), b.data(), sizeof(float) * static_cast<std::size_t>(a.size())));
     EXPECT_EQ(o1, o2);
