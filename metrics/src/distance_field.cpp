@@ -14,9 +14,9 @@
 #include <mutex>
 #include <sstream>
 
+#include "field_sampler.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/files.h"
-#include "field_sampler.h"
 #include "spatial_order.h"
 
 namespace scanbench::metrics {
@@ -172,8 +172,7 @@ void DistanceField::distances(const Eigen::Matrix3Xf& q, Eigen::VectorXf& out,
             ly[k - begin] = q(1, i);
             lz[k - begin] = q(2, i);
           }
-          detail::sample_batch(sampler, lx.data(), ly.data(), lz.data(), end - begin,
-                               value.data());
+          detail::sample_batch(sampler, lx.data(), ly.data(), lz.data(), end - begin, value.data());
           for (std::size_t k = begin; k < end; ++k) {
             const Eigen::Index i = order[k];
             if (value[k - begin] >= 0.0f)
