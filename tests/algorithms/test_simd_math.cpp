@@ -3,7 +3,8 @@
 // CPU runs, the one-lane SCALAR reference among them, FastExp and FastRsqrt give each lane the bits
 // of fast_pexp and fast_prsqrt, and SumOfLanesInEigenOrder the bits of Eigen's predux at the same
 // width. (The sanitizer tree compiles without contracting a * b + c, so there a target without
-// fused multiply-add instructions rounds MulAdd twice where Eigen's packets fuse: within 4 ulp.)
+// fused multiply-add instructions rounds MulAdd twice where Eigen's packets fuse: within 8 ulp,
+// measured at most 4.)
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "algorithms/test_simd_math.cpp"
 #include <hwy/foreach_target.h>  // IWYU pragma: keep
@@ -79,7 +80,7 @@ std::int64_t ulps(float a, float b) {
 }
 
 #if defined(SCANBENCH_SANITIZE)
-constexpr std::int64_t kUlps = 4;
+constexpr std::int64_t kUlps = 8;
 #else
 constexpr std::int64_t kUlps = 0;
 #endif
