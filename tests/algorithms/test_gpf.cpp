@@ -23,6 +23,7 @@
 #include "scanbench/core/errors.h"
 #include "scanbench/core/procedural.h"
 #include "scanbench/core/rng.h"
+#include "scanbench/core/simd.h"
 #include "scanbench/metrics/ground_truth.h"
 #include "scanbench/scanner/scanner.h"
 
@@ -523,34 +524,40 @@ TEST(Gpf, BadInput) {
 // ---------------------------------------------------------------------------------------------
 // normals.bilateral
 
+// On every Highway target this CPU runs (the kernel is gpf/bilateral_normals.cpp), the one-lane
+// SCALAR reference among them.
 TEST(BilateralNormals, OneIterationMatchesBruteForceAndPointsStay) {
-  const SmallCase c = small_case();
-  PointCloud in;
-  in.positions = c.v;
-  in.normals = c.b;
-  in.normals.col(5) *= -1.0f;  // an arbitrary sign: aligned before filtering
-  BilateralNormalsParams p;
-  p.h = 0.2;
-  p.iterations = 1;
-  RunContext ctx(1);
-  const PointCloud out = bilateral_normals(in, p, ctx);
-  EXPECT_TRUE(out.positions.cwiseEqual(in.positions).all());
-  const double h = p.h * static_cast<double>(in.bbox().diagonal());
-  const double sharp = 1.0 - std::cos(p.sigma_n * M_PI / 180.0);
-  for (Eigen::Index i = 0; i < in.size(); ++i) {
-    const Eigen::Vector3d ni = in.normals.col(i).cast<double>();
-    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-    for (Eigen::Index j = 0; j < in.size(); ++j) {
-      const double r = (in.positions.col(i) - in.positions.col(j)).cast<double>().norm();
-      if (r > h) continue;
-      Eigen::Vector3d nj = in.normals.col(j).cast<double>();
-      if (ni.dot(nj) < 0) nj = -nj;
-      const double a = (1 - ni.dot(nj)) / sharp;
-      sum += std::exp(-16 * r * r / (h * h)) * std::exp(-a * a) * nj;
+  for (const std::string& target : simd::runnable_targets()) {
+    SCOPED_TRACE(target);
+    simd::ScopedTarget scoped(target);
+    const SmallCase c = small_case();
+    PointCloud in;
+    in.positions = c.v;
+    in.normals = c.b;
+    in.normals.col(5) *= -1.0f;  // an arbitrary sign: aligned before filtering
+    BilateralNormalsParams p;
+    p.h = 0.2;
+    p.iterations = 1;
+    RunContext ctx(1);
+    const PointCloud out = bilateral_normals(in, p, ctx);
+    EXPECT_TRUE(out.positions.cwiseEqual(in.positions).all());
+    const double h = p.h * static_cast<double>(in.bbox().diagonal());
+    const double sharp = 1.0 - std::cos(p.sigma_n * M_PI / 180.0);
+    for (Eigen::Index i = 0; i < in.size(); ++i) {
+      const Eigen::Vector3d ni = in.normals.col(i).cast<double>();
+      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+      for (Eigen::Index j = 0; j < in.size(); ++j) {
+        const double r = (in.positions.col(i) - in.positions.col(j)).cast<double>().norm();
+        if (r > h) continue;
+        Eigen::Vector3d nj = in.normals.col(j).cast<double>();
+        if (ni.dot(nj) < 0) nj = -nj;
+        const double a = (1 - ni.dot(nj)) / sharp;
+        sum += std::exp(-16 * r * r / (h * h)) * std::exp(-a * a) * nj;
+      }
+      expect_close(out.normals.col(i), sum.normalized(), 1e-4, "normal " + std::to_string(i));
     }
-    expect_close(out.normals.col(i), sum.normalized(), 1e-4, "normal " + std::to_string(i));
+    EXPECT_LT(out.normals.col(5).dot(c.b.col(5)), 0.0f);  // keeps its own sign
   }
-  EXPECT_LT(out.normals.col(5).dot(c.b.col(5)), 0.0f);  // keeps its own sign
 }
 
 TEST(BilateralNormals, PreservesACreaseBetterThanPca) {
