@@ -81,6 +81,11 @@ std::vector<std::string> runnable_targets() {
   return out;
 }
 
+std::string scalar_target() {
+  const std::int64_t t = HWY_TARGETS & (HWY_SCALAR | HWY_EMU128);
+  return t == 0 ? std::string() : std::string(hwy::TargetName(t & -t));
+}
+
 std::string chosen_target() {
   (void)active();
   return HWY_DYNAMIC_DISPATCH(TargetNameHere)();

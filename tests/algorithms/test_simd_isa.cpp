@@ -354,7 +354,7 @@ TEST_F(SimdKernels, BilateralNormalsAgreeWithTheScalarTarget) {
     RunContext ctx(3, threads);
     return bilateral_normals(in, prm, ctx).normals;
   };
-  const Eigen::Matrix3Xf ref = run("SCALAR", 1);
+  const Eigen::Matrix3Xf ref = run(simd::scalar_target(), 1);
   for (const std::string& target : simd::runnable_targets()) {
     SCOPED_TRACE(target);
     const Eigen::Matrix3Xf a = run(target, 1);

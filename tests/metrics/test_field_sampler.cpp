@@ -146,7 +146,7 @@ TEST(FieldSampler, EveryHighwayTargetMatchesOpenVdbAndTheScalarReference) {
   std::vector<Eigen::Index> ref_outside;
   Eigen::VectorXf ref;
   {
-    simd::ScopedTarget scalar("SCALAR");
+    simd::ScopedTarget scalar(simd::scalar_target());
     ref = run(1, ref_outside);
   }
   for (const std::string& t : simd::runnable_targets()) {

@@ -1,7 +1,8 @@
 // The ray-direction kernels (scanner-sim/src/ray_directions.cpp), a Highway kernel compiled for
-// every target of cmake/Simd.cmake: each target this CPU runs, the one-lane SCALAR reference
-// always among them, gives the same bits, and the SCALAR result is the direction a
-// double-precision oracle computes, to float rounding. The active ISA chooses the target.
+// every target of cmake/Simd.cmake: each target this CPU runs gives the same bits as the reference
+// target without SIMD instructions (SCALAR, or EMU128 in clang builds), which is always among
+// them and gives the direction a double-precision oracle computes, to float rounding. The active
+// ISA chooses the target.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -50,7 +51,8 @@ void run(const CameraBasis& c, float y, Rays& r) {
 
 TEST(RayDirections, EveryTargetGivesTheScalarReferencesBitsAndTheOraclesDirection) {
   const std::vector<std::string> targets = simd::runnable_targets();
-  ASSERT_NE(std::find(targets.begin(), targets.end(), "SCALAR"), targets.end());
+  const std::string scalar = simd::scalar_target();
+  ASSERT_NE(std::find(targets.begin(), targets.end(), scalar), targets.end());
   Rng rng(7);
   for (int trial = 0; trial < 20; ++trial) {
     const CameraBasis c = random_basis(rng);
@@ -61,8 +63,8 @@ TEST(RayDirections, EveryTargetGivesTheScalarReferencesBitsAndTheOraclesDirectio
       ref.oy[j] = static_cast<float>((rng.uniform() - 0.5) * 0.01);
     }
     {
-      simd::ScopedTarget scalar("SCALAR");
-      ASSERT_EQ(simd::chosen_target(), "SCALAR");
+      simd::ScopedTarget scoped(scalar);
+      ASSERT_EQ(simd::chosen_target(), scalar);
       run(c, y, ref);
     }
     // The oracle: normalise(forward + x right + (y + oy) up) in double.
@@ -96,7 +98,10 @@ TEST(RayDirections, EveryTargetGivesTheScalarReferencesBitsAndTheOraclesDirectio
 
 TEST(RayDirections, TheActiveIsaChoosesTheTarget) {
   const std::vector<std::string> compiled = simd::compiled_targets();
-  for (const char* t : {"AVX3", "AVX2", "SSE4", "SCALAR"})
+  const std::string scalar = simd::scalar_target();
+  ASSERT_TRUE(scalar == "SCALAR" || scalar == "EMU128") << scalar;
+  for (const std::string& t :
+       {std::string("AVX3"), std::string("AVX2"), std::string("SSE4"), scalar})
     EXPECT_NE(std::find(compiled.begin(), compiled.end(), t), compiled.end()) << t;
   const std::vector<std::string> runnable = simd::runnable_targets();
   auto runs = [&](const char* t) {
@@ -105,14 +110,14 @@ TEST(RayDirections, TheActiveIsaChoosesTheTarget) {
   for (simd::Isa isa : simd::available()) {
     SCOPED_TRACE(std::string(simd::name(isa)));
     simd::ScopedIsa scoped(isa);
-    std::string want = "SCALAR";
+    std::string want = scalar;
     if (runs("SSE4")) want = "SSE4";
     if (isa != simd::Isa::sse2 && runs("AVX2")) want = "AVX2";
     if (isa == simd::Isa::avx512 && runs("AVX3")) want = "AVX3";
     EXPECT_EQ(simd::chosen_target(), want);
     {
-      simd::ScopedTarget scalar("SCALAR");
-      EXPECT_EQ(simd::chosen_target(), "SCALAR");
+      simd::ScopedTarget scoped_scalar(scalar);
+      EXPECT_EQ(simd::chosen_target(), scalar);
     }
     EXPECT_EQ(simd::chosen_target(), want);
   }

@@ -4,7 +4,8 @@
 // Two kinds of kernel share this choice while the kernels move to Google Highway (issue 51):
 // - Highway kernels (the `HWY_NAMESPACE` code of a hwy/foreach_target.h translation unit, called
 //   through SCANBENCH_DISPATCH below) are compiled for every target of cmake/Simd.cmake: SCALAR
-//   (Highway's one-lane reference of the same source), SSE4 (4 floats), AVX2 (8) and AVX3
+//   (Highway's one-lane reference of the same source; EMU128 with clang), SSE4 (4 floats), AVX2
+//   (8) and AVX3
 //   (AVX-512, 16). They run the best target of the active ISA's width or narrower that the CPU
 //   has: sse2 -> SSE4, avx2 -> AVX2, avx512 -> AVX3.
 // - The kernels not yet moved are written over Eigen's packet type and instantiated for every
@@ -72,6 +73,10 @@ std::vector<std::string> compiled_targets();
 std::vector<std::string> runnable_targets();
 /// The target the Highway kernels dispatch to now (follows active()).
 std::string chosen_target();
+/// The compiled reference target without SIMD instructions: "SCALAR" (one lane; GCC builds, where
+/// Highway 1.0.3 marks EMU128 broken) or "EMU128" (four lanes emulated in plain C++; clang builds,
+/// the sanitizer tree).
+std::string scalar_target();
 
 /// For tests: the Highway kernels run on one target (a name of runnable_targets()) for a scope,
 /// whatever the active ISA; then they follow active() again. Throws ParamError for a target not
