@@ -6,7 +6,7 @@
 #include <numbers>
 #include <vector>
 
-#include "scanbench/algorithms/gps.h"
+#include "scanbench/algorithms/gps/gps.h"
 #include "scanbench/core/procedural.h"
 
 namespace scanbench::algorithms::fixtures {

@@ -4,7 +4,7 @@
 
 #include <cmath>
 
-#include "scanbench/algorithms/cgal_peers.h"
+#include "scanbench/algorithms/peers/cgal_peers.h"
 #include "scanbench/algorithms/registry.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/rng.h"

@@ -8,7 +8,7 @@
 
 #include <cmath>
 
-#include "scanbench/algorithms/cgal_peers.h"
+#include "scanbench/algorithms/peers/cgal_peers.h"
 #include "scanbench/core/rng.h"
 
 namespace scanbench::algorithms {

@@ -12,7 +12,7 @@
 #include <limits>
 
 #include "fixtures.h"
-#include "scanbench/algorithms/clop.h"
+#include "scanbench/algorithms/lop/clop.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/kdtree.h"
 #include "scanbench/core/rng.h"

@@ -22,7 +22,7 @@
 
 #include "fixtures.h"
 #include "lop/clop_internal.h"
-#include "scanbench/algorithms/clop.h"
+#include "scanbench/algorithms/lop/clop.h"
 #include "scanbench/core/rng.h"
 
 namespace scanbench::algorithms {

@@ -23,7 +23,7 @@
 #include <vector>
 
 #include "fixtures.h"
-#include "scanbench/algorithms/clop.h"
+#include "scanbench/algorithms/lop/clop.h"
 #include "scanbench/core/kdtree.h"
 #include "scanbench/core/params.h"
 #include "scanbench/core/run_context.h"

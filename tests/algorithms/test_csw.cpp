@@ -6,9 +6,9 @@
 #include <cmath>
 #include <cstring>
 
-#include "scanbench/algorithms/csw.h"
-#include "scanbench/algorithms/hem.h"
-#include "scanbench/algorithms/pca_normals.h"
+#include "scanbench/algorithms/lop/csw.h"
+#include "scanbench/algorithms/lop/pca_normals.h"
+#include "scanbench/algorithms/mixtures/hem.h"
 #include "scanbench/algorithms/registry.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/rng.h"

@@ -13,8 +13,8 @@
 #include <cmath>
 #include <vector>
 
-#include "scanbench/algorithms/clop.h"
-#include "scanbench/algorithms/csw.h"
+#include "scanbench/algorithms/lop/clop.h"
+#include "scanbench/algorithms/lop/csw.h"
 #include "scanbench/core/rng.h"
 
 namespace scanbench::algorithms {

@@ -9,8 +9,8 @@
 #include <limits>
 
 #include "gps_fixtures.h"
-#include "scanbench/algorithms/decimate.h"
-#include "scanbench/algorithms/gps.h"
+#include "scanbench/algorithms/gps/decimate.h"
+#include "scanbench/algorithms/gps/gps.h"
 #include "scanbench/algorithms/registry.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/procedural.h"

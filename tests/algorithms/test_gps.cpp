@@ -20,7 +20,7 @@
 #include <numbers>
 
 #include "gps_fixtures.h"
-#include "scanbench/algorithms/gps.h"
+#include "scanbench/algorithms/gps/gps.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/io.h"
 #include "scanbench/core/procedural.h"

@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "fixtures.h"
-#include "scanbench/algorithms/hem.h"
+#include "scanbench/algorithms/mixtures/hem.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/rng.h"
 

@@ -12,7 +12,7 @@
 #include "fixtures.h"
 #include "input_checks.h"
 #include "lop/projection_kernels.h"
-#include "scanbench/algorithms/lop.h"
+#include "scanbench/algorithms/lop/lop.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/kdtree.h"
 #include "scanbench/core/rng.h"

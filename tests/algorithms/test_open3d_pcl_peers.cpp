@@ -17,9 +17,9 @@
 #include <string>
 #include <utility>
 
-#include "scanbench/algorithms/open3d_peers.h"
-#include "scanbench/algorithms/pca_normals.h"
-#include "scanbench/algorithms/pcl_peers.h"
+#include "scanbench/algorithms/lop/pca_normals.h"
+#include "scanbench/algorithms/peers/open3d_peers.h"
+#include "scanbench/algorithms/peers/pcl_peers.h"
 #include "scanbench/algorithms/registry.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/procedural.h"

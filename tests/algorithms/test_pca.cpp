@@ -4,7 +4,7 @@
 #include <Eigen/Geometry>
 #include <cmath>
 
-#include "scanbench/algorithms/pca_normals.h"
+#include "scanbench/algorithms/lop/pca_normals.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/rng.h"
 

@@ -1,4 +1,4 @@
-// The peak RSS of an external program a step runs (detail::run_program ->
+// The peak RSS of an external program a step runs (programs::run_program ->
 // RunContext::program_peak_rss_kb, the harness's timing.step_program_peak_rss_mb and the program
 // part of step_work_mb): the program's own peak, not this process's. The kernel's ru_maxrss of a
 // posix_spawn child includes the caller's peak RSS at the spawn (execve folds the old memory's
@@ -11,10 +11,10 @@
 #include <string>
 #include <vector>
 
-#include "peers/run_program.h"
-#include "scanbench/algorithms/pca_normals.h"
-#include "scanbench/algorithms/poisson.h"
+#include "scanbench/algorithms/lop/pca_normals.h"
+#include "scanbench/algorithms/reconstruction/poisson.h"
 #include "scanbench/core/rng.h"
+#include "scanbench/core/run_program.h"
 
 namespace scanbench::algorithms {
 namespace {
@@ -31,8 +31,8 @@ std::vector<char> resident(long mib) {
 long run_and_measure(const std::vector<std::string>& argv) {
   RunContext ctx(1);
   EXPECT_EQ(ctx.program_peak_rss_kb(), -1);
-  const detail::TempDir dir("program-memory");
-  detail::run_program(argv, dir.path(), 60.0, "test", ctx);
+  const programs::TempDir dir("program-memory");
+  programs::run_program(argv, dir.path(), 60.0, "test", ctx);
   return ctx.program_peak_rss_kb();
 }
 

@@ -15,10 +15,10 @@
 #include <limits>
 #include <string>
 
-#include "scanbench/algorithms/cgal_reconstruction.h"
-#include "scanbench/algorithms/external.h"
-#include "scanbench/algorithms/pca_normals.h"
-#include "scanbench/algorithms/poisson.h"
+#include "scanbench/algorithms/lop/pca_normals.h"
+#include "scanbench/algorithms/peers/external.h"
+#include "scanbench/algorithms/reconstruction/cgal_reconstruction.h"
+#include "scanbench/algorithms/reconstruction/poisson.h"
 #include "scanbench/algorithms/registry.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/io.h"

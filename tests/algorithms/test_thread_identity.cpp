@@ -17,7 +17,7 @@
 #include "scanbench/algorithms/registry.h"
 #include "scanbench/core/io.h"
 #include "scanbench/core/procedural.h"
-#include "scanbench/harness/chain.h"
+#include "scanbench/harness/exec/chain.h"
 #include "scanbench/metrics/evaluate.h"
 #include "scanbench/metrics/ground_truth.h"
 #include "scanbench/metrics/registry.h"

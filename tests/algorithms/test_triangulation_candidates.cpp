@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "scanbench/algorithms/bhattacharyya_triangulation.h"
+#include "scanbench/algorithms/gps/bhattacharyya_triangulation.h"
 #include "scanbench/algorithms/registry.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/procedural.h"

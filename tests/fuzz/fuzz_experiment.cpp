@@ -10,7 +10,7 @@
 
 #include "scanbench/core/errors.h"
 #include "scanbench/core/json_text.h"
-#include "scanbench/harness/experiment.h"
+#include "scanbench/harness/config/experiment.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string_view text(reinterpret_cast<const char*>(data), size);

@@ -20,8 +20,8 @@
 
 #include "scanbench/core/errors.h"
 #include "scanbench/core/json_text.h"
-#include "scanbench/harness/experiment.h"
-#include "scanbench/harness/records.h"
+#include "scanbench/harness/config/experiment.h"
+#include "scanbench/harness/results/records.h"
 
 namespace {
 

@@ -3,7 +3,7 @@
 #include <string>
 
 #include "scanbench/core/errors.h"
-#include "scanbench/harness/experiment.h"
+#include "scanbench/harness/config/experiment.h"
 
 namespace scanbench::test {
 

@@ -8,7 +8,7 @@
 
 #include "experiment_test_util.h"
 #include "scanbench/core/errors.h"
-#include "scanbench/harness/experiment.h"
+#include "scanbench/harness/config/experiment.h"
 
 namespace scanbench::harness {
 namespace {

@@ -13,8 +13,8 @@
 
 #include "cli_test_util.h"
 #include "scanbench/core/errors.h"
-#include "scanbench/harness/claims.h"
-#include "scanbench/harness/claims_render.h"
+#include "scanbench/harness/results/claims.h"
+#include "scanbench/harness/results/claims_render.h"
 
 namespace fs = std::filesystem;
 using scanbench::Json;

@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-#include "scanbench/harness/compare.h"
+#include "scanbench/harness/results/compare.h"
 
 namespace scanbench::harness {
 namespace {

@@ -3,8 +3,8 @@
 // cell, a change in a vertex count is informational.
 #include <gtest/gtest.h>
 
-#include "scanbench/harness/compare.h"
-#include "scanbench/harness/table.h"
+#include "scanbench/harness/results/compare.h"
+#include "scanbench/harness/results/table.h"
 #include "scanbench/metrics/registry.h"
 
 namespace scanbench::harness {

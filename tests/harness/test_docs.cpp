@@ -32,39 +32,6 @@ fs::path docs_dir() {
   return fs::path(SCANBENCH_TEST_DATA).parent_path().parent_path() / "docs";
 }
 
-/// Which page documents an algorithm: exact names first, then name prefixes; "" = none.
-std::string page_of_algorithm(const std::string& name) {
-  static const std::vector<std::pair<std::string, std::string>> exact = {
-      {"normals.pca", "algorithms/lop-family.md"},
-      {"resample.lop", "algorithms/lop-family.md"},
-      {"resample.wlop", "algorithms/lop-family.md"},
-      {"resample.clop", "algorithms/lop-family.md"},
-      {"mixture.hem", "algorithms/lop-family.md"},
-      {"normals.csw", "algorithms/lop-family.md"},
-      {"normals.bilateral", "algorithms/gpf.md"},
-      {"filter.gpf", "algorithms/gpf.md"},
-      {"mesh.decimate", "algorithms/gps.md"},
-      {"peer.cgal_advancing_front", "algorithms/reconstruction.md"},
-      {"peer.cgal_scale_space", "algorithms/reconstruction.md"},
-      {"peer.open3d_poisson", "algorithms/reconstruction.md"},
-      {"peer.open3d_ball_pivoting", "algorithms/reconstruction.md"},
-      {"peer.open3d_alpha_shape", "algorithms/reconstruction.md"},
-      {"peer.pcl_poisson", "algorithms/reconstruction.md"},
-  };
-  static const std::vector<std::pair<std::string, std::string>> prefixes = {
-      {"subdivide.", "algorithms/gps.md"},
-      {"triangulate.", "algorithms/gps.md"},
-      {"reconstruct.", "algorithms/reconstruction.md"},
-      {"external.", "algorithms/reconstruction.md"},
-      {"peer.", "algorithms/peers.md"},
-  };
-  for (const auto& [n, page] : exact)
-    if (n == name) return page;
-  for (const auto& [pre, page] : prefixes)
-    if (name.rfind(pre, 0) == 0) return page;
-  return "";
-}
-
 std::string slurp(const fs::path& p) {
   std::ifstream in(p, std::ios::binary);
   std::stringstream ss;
@@ -136,7 +103,8 @@ Pages expected_pages(const Json& list, std::vector<std::string>& unplaced) {
   Pages pages;
   for (const Json& e : list.at("algorithms")) {
     const std::string name = e.at("name").get<std::string>();
-    const std::string page = page_of_algorithm(name);
+    // The page its family declares (algorithms/src/registry.cpp), in `scanbench list --json`.
+    const std::string page = e.value("page", "");
     if (page.empty()) {
       unplaced.push_back(name);
     } else {
@@ -191,8 +159,8 @@ TEST(Docs, OptionsTablesMatchTheRegistry) {
   std::vector<std::string> unplaced;
   const Pages pages = expected_pages(list, unplaced);
   for (const auto& name : unplaced)
-    ADD_FAILURE() << "algorithm " << name << " has no docs page: add its family to "
-                  << "page_of_algorithm() in tests/harness/test_docs.cpp";
+    ADD_FAILURE() << "algorithm " << name << " has no docs page: add it through its family "
+                  << "(algorithms/src/registry.cpp)";
   const bool update = std::getenv("SCANBENCH_UPDATE_DOCS") != nullptr &&
                       std::string(std::getenv("SCANBENCH_UPDATE_DOCS")) == "1";
   for (const auto& [page, entries] : pages) {

@@ -21,7 +21,7 @@
 #include "scanbench/core/errors.h"
 #include "scanbench/core/io.h"
 #include "scanbench/core/paths.h"
-#include "scanbench/harness/experiment.h"
+#include "scanbench/harness/config/experiment.h"
 
 namespace fs = std::filesystem;
 

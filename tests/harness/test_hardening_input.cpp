@@ -12,9 +12,9 @@
 #include "experiment_test_util.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/json_text.h"
-#include "scanbench/harness/claim_file.h"
-#include "scanbench/harness/experiment.h"
-#include "scanbench/harness/protocol.h"
+#include "scanbench/harness/config/claim_file.h"
+#include "scanbench/harness/config/experiment.h"
+#include "scanbench/harness/config/protocol.h"
 
 namespace scanbench::test {
 namespace {

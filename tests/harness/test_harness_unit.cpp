@@ -9,11 +9,11 @@
 
 #include "scanbench/core/errors.h"
 #include "scanbench/core/rng.h"
-#include "scanbench/harness/compare.h"
-#include "scanbench/harness/experiment.h"
-#include "scanbench/harness/records.h"
-#include "scanbench/harness/stats.h"
-#include "scanbench/harness/table.h"
+#include "scanbench/harness/config/experiment.h"
+#include "scanbench/harness/results/compare.h"
+#include "scanbench/harness/results/records.h"
+#include "scanbench/harness/results/stats.h"
+#include "scanbench/harness/results/table.h"
 
 using namespace scanbench;
 using namespace scanbench::harness;

@@ -17,8 +17,8 @@
 #include <vector>
 
 #include "cli_test_util.h"
-#include "scanbench/harness/history.h"
-#include "scanbench/harness/records.h"
+#include "scanbench/harness/results/history.h"
+#include "scanbench/harness/results/records.h"
 
 namespace scanbench::test {
 namespace {

@@ -15,9 +15,9 @@
 
 #include "cli_test_util.h"
 #include "experiment_test_util.h"
-#include "scanbench/harness/compare.h"
-#include "scanbench/harness/stats.h"
-#include "scanbench/harness/table.h"
+#include "scanbench/harness/results/compare.h"
+#include "scanbench/harness/results/stats.h"
+#include "scanbench/harness/results/table.h"
 
 namespace fs = std::filesystem;
 using scanbench::Json;

@@ -8,7 +8,7 @@
 
 #include "scanbench/core/errors.h"
 #include "scanbench/core/timing.h"
-#include "scanbench/harness/paired.h"
+#include "scanbench/harness/pipelines/paired.h"
 
 namespace scanbench::harness {
 namespace {

@@ -147,8 +147,8 @@ TEST(PluginPackage, ExampleBuiltAgainstTheInstalledPackageRunsBesideClopAndWlop)
                         "include/scanbench/algorithms/neighbor_grid.h"})
     EXPECT_TRUE(fs::exists(prefix / f)) << f;
   // Internals stay private.
-  for (const char* f : {"include/scanbench/core/io.h", "include/scanbench/harness/runner.h",
-                        "include/scanbench/algorithms/clop.h"})
+  for (const char* f : {"include/scanbench/core/io.h", "include/scanbench/harness/exec/runner.h",
+                        "include/scanbench/algorithms/lop/clop.h"})
     EXPECT_FALSE(fs::exists(prefix / f)) << f;
   // Every scanbench header an installed header includes is installed.
   const std::regex inc(R"(#include\s+"(scanbench/[^"]+)\")");

@@ -15,9 +15,10 @@
 
 #include "cli_test_util.h"
 #include "scanbench/core/errors.h"
-#include "scanbench/harness/claims.h"
-#include "scanbench/harness/experiment.h"
-#include "scanbench/harness/protocol.h"
+#include "scanbench/harness/config/experiment.h"
+#include "scanbench/harness/config/protocol.h"
+#include "scanbench/harness/results/claims.h"
+#include "scanbench/harness/results/tuning.h"
 
 namespace fs = std::filesystem;
 using scanbench::Json;

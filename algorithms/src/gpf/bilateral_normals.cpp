@@ -74,10 +74,9 @@ HWY_AFTER_NAMESPACE();
 #if HWY_ONCE
 #include <fmt/format.h>
 
-#include "gpf/normal_checks.h"
 #include "input_checks.h"
 #include "lop/projection_kernels.h"
-#include "scanbench/algorithms/bilateral_normals.h"
+#include "scanbench/algorithms/gpf/bilateral_normals.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/simd.h"
 #include "spatial/grid_packets.h"

@@ -1,4 +1,4 @@
-#include "scanbench/algorithms/gpf.h"
+#include "scanbench/algorithms/gpf/gpf.h"
 
 #include <fmt/format.h>
 
@@ -10,7 +10,6 @@
 #include <string_view>
 
 #include "gpf/gpf_internal.h"
-#include "gpf/normal_checks.h"
 #include "input_checks.h"
 #include "lop/projection_kernels.h"
 #include "scanbench/core/errors.h"

@@ -1,4 +1,4 @@
-#include "scanbench/algorithms/bhattacharyya_triangulation.h"
+#include "scanbench/algorithms/gps/bhattacharyya_triangulation.h"
 
 #include <fmt/format.h>
 #include <tbb/blocked_range.h>

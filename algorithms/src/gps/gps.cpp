@@ -1,4 +1,4 @@
-#include "scanbench/algorithms/gps.h"
+#include "scanbench/algorithms/gps/gps.h"
 
 #include <fmt/format.h>
 #include <tbb/parallel_for.h>

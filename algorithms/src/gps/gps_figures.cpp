@@ -1,7 +1,7 @@
 #include <cmath>
 #include <numbers>
 
-#include "scanbench/algorithms/gps.h"
+#include "scanbench/algorithms/gps/gps.h"
 
 namespace scanbench::algorithms {
 

@@ -1,4 +1,4 @@
-#include "scanbench/algorithms/subdivision.h"
+#include "scanbench/algorithms/gps/subdivision.h"
 
 #include <sys/resource.h>
 #include <unistd.h>

@@ -1,4 +1,4 @@
-#include "scanbench/algorithms/clop.h"
+#include "scanbench/algorithms/lop/clop.h"
 
 #include <fmt/format.h>
 #include <tbb/blocked_range.h>

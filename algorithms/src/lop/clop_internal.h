@@ -3,7 +3,7 @@
 // the tests that they do not change the result (tests/algorithms/test_clop_oracle.cpp).
 #include <Eigen/Core>
 
-#include "scanbench/algorithms/clop.h"
+#include "scanbench/algorithms/lop/clop.h"
 
 namespace scanbench::algorithms::detail {
 

@@ -1,4 +1,4 @@
-#include "scanbench/algorithms/csw.h"
+#include "scanbench/algorithms/lop/csw.h"
 
 #include <fmt/format.h>
 #include <tbb/blocked_range.h>

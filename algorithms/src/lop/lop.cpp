@@ -1,4 +1,4 @@
-#include "scanbench/algorithms/lop.h"
+#include "scanbench/algorithms/lop/lop.h"
 
 #include <fmt/format.h>
 

@@ -1,6 +1,6 @@
 // mixture.hem, its face (CLOP paper sec. 5, 7, 9.2, Algorithm 1): level 0 (hem_level0.cpp), the
 // merge levels (hem_merge.cpp), and the mixture they leave.
-#include "scanbench/algorithms/hem.h"
+#include "scanbench/algorithms/mixtures/hem.h"
 
 #include <fmt/format.h>
 

@@ -10,7 +10,7 @@
 #include <utility>
 #include <vector>
 
-#include "scanbench/algorithms/hem.h"
+#include "scanbench/algorithms/mixtures/hem.h"
 
 namespace scanbench::algorithms::hem_detail {
 

@@ -1,5 +1,5 @@
 // The only translation unit that includes CGAL (its headers compile slowly and must not leak).
-#include "scanbench/algorithms/cgal_peers.h"
+#include "scanbench/algorithms/peers/cgal_peers.h"
 
 #include <CGAL/Simple_cartesian.h>
 #include <CGAL/bilateral_smooth_point_set.h>
@@ -14,9 +14,8 @@
 #include <utility>
 #include <vector>
 
-#include "gpf/normal_checks.h"
 #include "input_checks.h"
-#include "scanbench/algorithms/pca_normals.h"
+#include "scanbench/algorithms/lop/pca_normals.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/rng.h"
 

@@ -1,4 +1,4 @@
-#include "scanbench/algorithms/external.h"
+#include "scanbench/algorithms/peers/external.h"
 
 #include <fmt/format.h>
 
@@ -8,9 +8,9 @@
 #include <sstream>
 
 #include "input_checks.h"
-#include "peers/run_program.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/io.h"
+#include "scanbench/core/run_program.h"
 
 namespace scanbench::algorithms {
 
@@ -41,16 +41,16 @@ template <class Read>
 auto run_external(const StageData& in, const ExternalParams& p, RunContext& ctx,
                   std::string_view stage, std::string_view what, Read read) {
   detail::check_points(in.points, stage);
-  const detail::TempDir dir("external");
+  const programs::TempDir dir("external");
   const auto input = dir.path() / "input.ply";
   const auto output = dir.path() / ("output" + p.extension);
   const std::string command = expand_command(p, input.string(), output.string(), stage);
   write_point_cloud(in.points, input);
   {
     auto timer = ctx.phase("external");
-    detail::run_program({"/bin/sh", "-c", command}, dir.path(), p.timeout_s, stage, ctx);
+    programs::run_program({"/bin/sh", "-c", command}, dir.path(), p.timeout_s, stage, ctx);
   }
-  detail::require_output(output, dir.path(), p.command, what, stage);
+  programs::require_output(output, dir.path(), p.command, what, stage);
   try {
     return read(output);
   } catch (const IoError& e) {

@@ -1,6 +1,6 @@
 // The only translation unit that includes Open3D (its headers are heavy and carry their own
 // usage requirements; see algorithms/CMakeLists.txt).
-#include "scanbench/algorithms/open3d_peers.h"
+#include "scanbench/algorithms/peers/open3d_peers.h"
 
 #include <fmt/format.h>
 #include <omp.h>
@@ -16,7 +16,6 @@
 #include <thread>
 #include <vector>
 
-#include "gpf/normal_checks.h"
 #include "input_checks.h"
 #include "scanbench/core/errors.h"
 

@@ -1,4 +1,4 @@
-#include "scanbench/algorithms/pcl_peers.h"
+#include "scanbench/algorithms/peers/pcl_peers.h"
 
 #include <fmt/format.h>
 #include <unistd.h>
@@ -10,11 +10,10 @@
 #include <sstream>
 #include <vector>
 
-#include "gpf/normal_checks.h"
 #include "input_checks.h"
-#include "peers/run_program.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/io.h"
+#include "scanbench/core/run_program.h"
 
 namespace scanbench::algorithms {
 
@@ -145,7 +144,7 @@ PcdPoints read_pcd(const fs::path& path, std::string_view stage) {
 
 /// A private directory holding the input as PCD (through pcl_ply2pcd).
 struct PclJob {
-  detail::TempDir dir;
+  programs::TempDir dir;
   fs::path input;
   PclJob(const PointCloud& points, std::string_view name, double timeout_s, std::string_view stage,
          RunContext& ctx)
@@ -159,8 +158,8 @@ struct PclJob {
   void run(const char* program, std::vector<std::string> args, const fs::path& output,
            std::string_view what, double timeout_s, std::string_view stage, RunContext& ctx) const {
     args.insert(args.begin(), program);
-    detail::run_program(args, dir.path(), timeout_s, stage, ctx);
-    detail::require_output(output, dir.path(), program, what, stage);
+    programs::run_program(args, dir.path(), timeout_s, stage, ctx);
+    programs::require_output(output, dir.path(), program, what, stage);
   }
 };
 
@@ -177,9 +176,9 @@ std::string pcl_tools_version() {
   static const std::string version = [] {
     RunContext quiet;
     try {
-      const detail::TempDir dir("pcl-version");
-      detail::run_program({"dpkg-query", "-W", "-f=${Version}", kPclPackage}, dir.path(), 30.0,
-                          "pcl-tools version", quiet);
+      const programs::TempDir dir("pcl-version");
+      programs::run_program({"dpkg-query", "-W", "-f=${Version}", kPclPackage}, dir.path(), 30.0,
+                            "pcl-tools version", quiet);
       std::ifstream in(dir.path() / "stdout.txt");
       std::string v;
       std::getline(in, v);

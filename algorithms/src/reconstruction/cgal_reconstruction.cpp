@@ -1,6 +1,6 @@
 // CGAL's reconstruction peers (cgal_reconstruction.h); CGAL is confined to this translation unit
 // and cgal_peers.cpp (the scanbench_algorithms_cgal object library).
-#include "scanbench/algorithms/cgal_reconstruction.h"
+#include "scanbench/algorithms/reconstruction/cgal_reconstruction.h"
 
 #include <CGAL/Advancing_front_surface_reconstruction.h>
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>

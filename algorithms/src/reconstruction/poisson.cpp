@@ -1,4 +1,4 @@
-#include "scanbench/algorithms/poisson.h"
+#include "scanbench/algorithms/reconstruction/poisson.h"
 
 #include <fmt/format.h>
 
@@ -14,9 +14,9 @@
 #include <vector>
 
 #include "input_checks.h"
-#include "peers/run_program.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/io.h"
+#include "scanbench/core/run_program.h"
 
 namespace scanbench::algorithms {
 
@@ -236,20 +236,20 @@ StageData poisson(const StageData& in, const PoissonParams& p, RunContext& ctx) 
                     "normals.pca -> reconstruct.poisson)",
                     stage));
   }
-  const detail::TempDir dir("poisson");
+  const programs::TempDir dir("poisson");
   const auto input = dir.path() / "points.ply";
   const auto output = dir.path() / "mesh.ply";
   write_point_cloud_rgb(points, input);
   {
     auto timer = ctx.phase("poisson");
-    detail::run_program(
+    programs::run_program(
         {"colmap", "poisson_mesher", "--input_path", input.string(), "--output_path",
          output.string(), "--PoissonMeshing.depth", std::to_string(p.depth),
          "--PoissonMeshing.point_weight", fmt::format("{}", p.point_weight),
          "--PoissonMeshing.trim", fmt::format("{}", p.trim), "--PoissonMeshing.num_threads", "1"},
         dir.path(), p.timeout_s, stage, ctx);
   }
-  detail::require_output(output, dir.path(), "colmap poisson_mesher", "mesh", stage);
+  programs::require_output(output, dir.path(), "colmap poisson_mesher", "mesh", stage);
   const std::string unusable =
       fmt::format("{}: colmap poisson_mesher exited with code 0 but its mesh is unusable", stage);
   PoissonMesh read;

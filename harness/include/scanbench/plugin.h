@@ -122,7 +122,7 @@ inline void report_progress(const RunContext& ctx, const std::string& what,
   if (const ProgressFn f = detail::progress_fn()) f(ctx, what.c_str(), fraction);
 }
 
-/// Host side (harness, exec/plugins.cpp): while a ProgressListener for `ctx` lives, every
+/// Host side (harness, config/plugins.cpp): while a ProgressListener for `ctx` lives, every
 /// report_progress(ctx, ...) of the host and of every loaded plugin calls `on` (under a mutex,
 /// from the reporting thread). One listener per context.
 class ProgressListener {

@@ -1,4 +1,4 @@
-#include "scanbench/harness/cli.h"
+#include "scanbench/harness/cli/cli.h"
 
 #include <fmt/format.h>
 
@@ -7,13 +7,13 @@
 #include <string_view>
 
 #include "cli/commands.h"
+#include "config/json_checks.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/run_program.h"
 #include "scanbench/core/simd.h"
 #include "scanbench/core/version.h"
-#include "scanbench/harness/plugins.h"
-#include "scanbench/harness/runner.h"
-#include "scanbench/harness/table.h"  // did_you_mean
+#include "scanbench/harness/config/plugins.h"
+#include "scanbench/harness/exec/runner.h"
 
 namespace scanbench::harness {
 

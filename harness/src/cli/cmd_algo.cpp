@@ -1,45 +1,30 @@
 // scanbench algo NAME -i in.ply -o out.ply [--set key=value ...] [--seed N] [--threads N]
 //                [--timings t.json] [--mixture m.ply] [--mesh m.ply] [--progress]
 //                [--progress-interval S]
+// Parses the flags and runs the algorithm pipeline (pipelines/algo_run.h), with the progress
+// printer below on stderr.
 #include <fmt/format.h>
-#include <fmt/ranges.h>
-
 #include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
 #include <condition_variable>
 #include <cstdio>
-#include <filesystem>
-#include <fstream>
-#include <map>
 #include <memory>
 #include <mutex>
-#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include "cli/commands.h"
-#include "scanbench/algorithms/registry.h"
-#include "scanbench/core/errors.h"
-#include "scanbench/core/io.h"
+#include "scanbench/core/files.h"
 #include "scanbench/core/run_context.h"
-#include "scanbench/harness/chain.h"
-#include "scanbench/harness/records.h"
+#include "scanbench/harness/pipelines/algo_run.h"
 #include "scanbench/plugin.h"
 
 namespace scanbench::harness {
 
 namespace {
-
-// "<out>.<suffix>.ply" next to the output: out.ply -> out.mixture.ply.
-std::filesystem::path sibling(const std::filesystem::path& out, const std::string& suffix) {
-  std::filesystem::path p = out;
-  p.replace_extension();
-  p += "." + suffix + ".ply";
-  return p;
-}
 
 /// Progress lines on stderr while one step runs: "algo NAME: 12.0 s, <what> (42%)". A line when
 /// the step reports a new phase (report_progress, plugin.h) at most every `interval` seconds,
@@ -169,94 +154,25 @@ void add_algo_command(Cli& cli) {
       ->check(CLI::Range(0.0, 3600.0));
   sub->callback([&cli, opts] {
     cli.action = [opts] {
-      const auto& entry = algorithms::registry().at(opts->name);
-      Json given = Json::object();
-      for (const auto& s : opts->sets)
-        apply_assignment(given, s);
-      const Json params = entry.params.validate(given, "algo " + entry.name);
-      StageData input;
-      Eigen::Vector3d origin = Eigen::Vector3d::Zero();
-      for (const auto& path : opts->inputs) {
-        StageData d = read_stage_file(path);
-        if (&path == &opts->inputs.front()) origin = d.origin(path);
-        const DataKinds k = d.kinds();
-        if ((input.kinds().bits & k.bits) != 0) {
-          throw ParamError(fmt::format("algo: {}: a second {} input (give one file per kind)", path,
-                                       kinds_names(k)));
-        }
-        input = StageData::carry(std::move(d), input, k);
+      AlgoRunRequest r;
+      r.name = opts->name;
+      r.inputs = opts->inputs;
+      r.output = opts->output;
+      r.sets = opts->sets;
+      r.seed = opts->seed;
+      r.threads = opts->threads;
+      r.mixture = opts->mixture;
+      r.mesh = opts->mesh;
+      r.covariance_mesh = opts->covariance_mesh;
+      if (opts->progress || isatty(STDERR_FILENO) == 1) {
+        const double interval = opts->progress_interval;
+        r.watch = [interval](const RunContext& ctx, const std::string& name) {
+          return std::make_shared<ProgressPrinter>(ctx, name, interval);
+        };
       }
-      // Local origin (core stage_data.h): the inputs in the frame of the first one; the algorithm
-      // sees them at origin zero (as data at the world origin) and the outputs get it back.
-      input.rebase(origin);
-      input.set_origin(Eigen::Vector3d::Zero());
-      const auto& io = entry.fn.io;
-      if (!input.kinds().contains(io.consumes)) {
-        throw ParamError(
-            fmt::format("algo {}: consumes {}, but the inputs ({}) hold {}: give {} with -i",
-                        entry.name, kinds_names(io.consumes), fmt::join(opts->inputs, ", "),
-                        kinds_names(input.kinds()), kinds_names(io.consumes - input.kinds())));
-      }
-
-      RunContext ctx(opts->seed, opts->threads);
-      const auto t0 = std::chrono::steady_clock::now();
-      StageData out;
-      try {
-        std::optional<ProgressPrinter> progress;
-        if (opts->progress || isatty(STDERR_FILENO) == 1)
-          progress.emplace(ctx, entry.name, opts->progress_interval);
-        out = entry.fn(input, params, ctx);
-      } catch (const InputError& e) {
-        // The algorithm rejected the data (a non-manifold mesh, too few points...): name the files
-        // it came from, so the one-line error says which input to look at.
-        throw InputError(fmt::format("{}: {}", fmt::join(opts->inputs, ", "), e.what()));
-      }
-      const double total =
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-
-      out.set_origin(origin);
-      const std::map<DataKind, std::string> named = {
-          {DataKind::Mixture, opts->mixture},
-          {DataKind::Mesh, opts->mesh},
-          {DataKind::CovarianceMesh, opts->covariance_mesh}};
-      const auto path_of = [&](DataKind kind) {
-        if (kind == io.primary) return std::filesystem::path(opts->output);
-        const auto it = named.find(kind);
-        return it == named.end() || it->second.empty()
-                   ? sibling(opts->output, std::string(kind_suffix(kind)))
-                   : std::filesystem::path(it->second);
-      };
-      std::string extra;
-      for (const auto& [kind, path] : write_stage_data(out, io.produces | io.primary, path_of)) {
-        if (kind != io.primary) extra += fmt::format(", {} -> {}", kind_name(kind), path.string());
-      }
-      if (!opts->timings.empty()) {
-        Json record = Json::object();
-        record["algorithm"] = entry.name;
-        record["params"] = params;
-        record["seed"] = opts->seed;
-        record["threads"] = opts->threads;
-        record["inputs"] = opts->inputs;
-        record["input_points"] = input.points.size();
-        record["output_kind"] = kind_name(io.primary);
-        if (!origin.isZero(0.0)) record["dataset_origin"] = {origin.x(), origin.y(), origin.z()};
-        record["output_points"] = out.points.size();
-        if (out.mesh) record["output_mesh_faces"] = out.mesh->num_faces();
-        if (out.covariance_mesh)
-          record["output_covariance_mesh_faces"] = out.covariance_mesh->num_faces();
-        Json phases = Json::object();
-        for (const auto& [name, seconds] : ctx.phase_seconds())
-          phases[name] = seconds;
-        record["phases"] = phases;
-        Json cpu = Json::object();
-        for (const auto& [name, seconds] : ctx.phase_cpu_seconds())
-          cpu[name] = seconds;
-        record["phases_cpu"] = cpu;
-        record["total_s"] = total;
-        write_json_file(opts->timings, record, 2);
-      }
-      fmt::print("{}: {} -> {} in {:.3f} s -> {}{}\n", entry.name, kinds_names(input.kinds()),
-                 kind_name(io.primary), total, opts->output, extra);
+      const AlgoRunResult res = run_algo(r);
+      if (!opts->timings.empty()) write_json_file(opts->timings, res.to_json(), 2);
+      fmt::print("{}\n", res.summary);
       return 0;
     };
   });

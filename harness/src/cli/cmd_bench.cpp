@@ -6,7 +6,7 @@
 #include <memory>
 
 #include "cli/commands.h"
-#include "scanbench/harness/bench.h"
+#include "scanbench/harness/pipelines/bench.h"
 
 namespace scanbench::harness {
 

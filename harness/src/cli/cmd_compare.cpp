@@ -2,8 +2,8 @@
 #include <fmt/format.h>
 
 #include "cli/commands.h"
-#include "scanbench/harness/compare.h"
-#include "scanbench/harness/records.h"
+#include "scanbench/harness/results/compare.h"
+#include "scanbench/harness/results/records.h"
 
 namespace scanbench::harness {
 

@@ -19,8 +19,8 @@
 #include "cli/commands.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/json_text.h"
-#include "scanbench/harness/eval.h"
-#include "scanbench/harness/records.h"
+#include "scanbench/harness/exec/eval.h"
+#include "scanbench/harness/results/records.h"
 
 namespace scanbench::harness {
 

@@ -7,7 +7,7 @@
 
 #include "cli/commands.h"
 #include "scanbench/core/errors.h"
-#include "scanbench/harness/figure.h"
+#include "scanbench/harness/results/figure.h"
 
 namespace scanbench::harness {
 

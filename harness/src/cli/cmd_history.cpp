@@ -13,9 +13,9 @@
 #include "scanbench/core/errors.h"
 #include "scanbench/core/paths.h"
 #include "scanbench/core/timing.h"
-#include "scanbench/harness/history.h"
-#include "scanbench/harness/records.h"
-#include "scanbench/harness/table.h"
+#include "scanbench/harness/results/history.h"
+#include "scanbench/harness/results/records.h"
+#include "scanbench/harness/results/table.h"
 
 namespace scanbench::harness {
 

@@ -6,7 +6,7 @@
 #include "cli/commands.h"
 #include "scanbench/algorithms/registry.h"
 #include "scanbench/core/datasets.h"
-#include "scanbench/harness/plugins.h"
+#include "scanbench/harness/config/plugins.h"
 #include "scanbench/metrics/registry.h"
 #include "scanbench/scanner/registry.h"
 

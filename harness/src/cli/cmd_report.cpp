@@ -2,8 +2,8 @@
 #include <fmt/format.h>
 
 #include "cli/commands.h"
-#include "scanbench/harness/folder_lock.h"
-#include "scanbench/harness/report.h"
+#include "scanbench/harness/results/folder_lock.h"
+#include "scanbench/harness/results/report.h"
 
 namespace scanbench::harness {
 

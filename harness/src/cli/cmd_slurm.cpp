@@ -4,9 +4,9 @@
 #include <fmt/format.h>
 
 #include "cli/commands.h"
-#include "scanbench/harness/finish.h"
-#include "scanbench/harness/folder_lock.h"
-#include "scanbench/harness/slurm.h"
+#include "scanbench/harness/exec/slurm.h"
+#include "scanbench/harness/results/finish.h"
+#include "scanbench/harness/results/folder_lock.h"
 
 namespace scanbench::harness {
 

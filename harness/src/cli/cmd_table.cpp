@@ -3,8 +3,8 @@
 #include <fmt/format.h>
 
 #include "cli/commands.h"
-#include "scanbench/harness/records.h"
-#include "scanbench/harness/table.h"
+#include "scanbench/harness/results/records.h"
+#include "scanbench/harness/results/table.h"
 
 namespace scanbench::harness {
 

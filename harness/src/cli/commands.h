@@ -71,18 +71,4 @@ void add_claims_command(Cli& cli);
 /// failed over all claims of a `run_claims` summary.
 int print_failed_claim_jobs(const Json& summary, const std::filesystem::path& out);
 
-struct ClaimsOptions {
-  std::filesystem::path out;         ///< results folder (DIR/<claim id>/, DIR/claims.json)
-  std::filesystem::path claims_dir;  ///< default configs/claims
-  std::filesystem::path baseline;    ///< claims.json to compare with; empty = none
-  std::string filter;                ///< regex on the claim id
-  bool quick = false;
-  bool resume = false;
-  bool quiet = false;
-  int jobs = 2;
-};
-/// Runs and judges the claims into o.out; returns the summary written to o.out/claims.json (with
-/// "regressions": ids that held in o.baseline and failed now).
-Json run_claims(const ClaimsOptions& o);
-
 }  // namespace scanbench::harness

@@ -1,5 +1,5 @@
 #include "scanbench/core/allocator.h"
-#include "scanbench/harness/cli.h"
+#include "scanbench/harness/cli/cli.h"
 
 int main(int argc, char** argv) {
   // One allocator policy for every command (scanbench/core/allocator.h), so that `bench`

@@ -1,5 +1,5 @@
 // Claim files (claim_file.h): reading, validating against the experiment, selectors.
-#include "scanbench/harness/claim_file.h"
+#include "scanbench/harness/config/claim_file.h"
 
 #include <fmt/format.h>
 
@@ -11,7 +11,7 @@
 #include "config/json_checks.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/json_text.h"
-#include "scanbench/harness/experiment.h"
+#include "scanbench/harness/config/experiment.h"
 
 namespace scanbench::harness {
 

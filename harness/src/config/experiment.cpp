@@ -1,4 +1,4 @@
-#include "scanbench/harness/experiment.h"
+#include "scanbench/harness/config/experiment.h"
 
 #include <fmt/format.h>
 
@@ -7,14 +7,14 @@
 #include <limits>
 #include <set>
 
+#include "config/json_checks.h"
 #include "scanbench/core/datasets.h"
 #include "scanbench/core/json_text.h"
 #include "scanbench/core/rng.h"
-#include "scanbench/harness/compare.h"
-#include "scanbench/harness/plugins.h"
-#include "scanbench/harness/protocol.h"
-#include "scanbench/harness/table.h"
-#include "scanbench/harness/test_algorithms.h"
+#include "scanbench/harness/config/compare_options.h"
+#include "scanbench/harness/config/plugins.h"
+#include "scanbench/harness/config/protocol.h"
+#include "scanbench/harness/config/test_algorithms.h"
 #include "scanbench/metrics/point_truth.h"
 #include "scanbench/metrics/registry.h"
 #include "scanbench/scanner/registry.h"

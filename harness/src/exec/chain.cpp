@@ -1,4 +1,4 @@
-#include "scanbench/harness/chain.h"
+#include "scanbench/harness/exec/chain.h"
 
 #include <algorithm>
 
@@ -6,7 +6,7 @@
 #include "exec/proc_memory.h"
 #include "scanbench/core/io.h"
 #include "scanbench/core/timing.h"
-#include "scanbench/harness/test_algorithms.h"
+#include "scanbench/harness/config/test_algorithms.h"
 #include "scanbench/metrics/mesh_facts.h"
 
 namespace scanbench::harness {

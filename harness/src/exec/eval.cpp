@@ -1,4 +1,4 @@
-#include "scanbench/harness/eval.h"
+#include "scanbench/harness/exec/eval.h"
 
 #include <fmt/format.h>
 
@@ -6,15 +6,16 @@
 #include <memory>
 #include <optional>
 
+#include "config/json_checks.h"
 #include "exec/point_dataset.h"
 #include "scanbench/core/datasets.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/io.h"
 #include "scanbench/core/run_context.h"
 #include "scanbench/core/stage_data.h"
-#include "scanbench/harness/experiment.h"
-#include "scanbench/harness/records.h"
-#include "scanbench/harness/table.h"
+#include "scanbench/harness/config/experiment.h"
+#include "scanbench/harness/results/records.h"
+#include "scanbench/harness/results/table.h"
 #include "scanbench/metrics/distance_field.h"
 #include "scanbench/metrics/evaluate.h"
 #include "scanbench/metrics/ground_truth.h"

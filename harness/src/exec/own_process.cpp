@@ -8,7 +8,7 @@
 #include "scanbench/core/io.h"
 #include "scanbench/core/json_text.h"
 #include "scanbench/core/run_program.h"
-#include "scanbench/harness/chain.h"
+#include "scanbench/harness/exec/chain.h"
 
 namespace scanbench::harness {
 

@@ -1,4 +1,4 @@
-#include "scanbench/harness/runner.h"
+#include "scanbench/harness/exec/runner.h"
 
 #include <fcntl.h>
 #include <fmt/format.h>
@@ -25,8 +25,8 @@
 
 #include "scanbench/core/errors.h"
 #include "scanbench/core/run_program.h"
-#include "scanbench/harness/plugins.h"
-#include "scanbench/harness/records.h"
+#include "scanbench/harness/config/plugins.h"
+#include "scanbench/harness/results/records.h"
 
 namespace scanbench::harness {
 
@@ -636,6 +636,19 @@ int run_job_file(const fs::path& spec_path, const fs::path& result_path) {
   programs::reap_orphans();  // nothing a step started outlives its job
   write_file_atomic(result_path, result.dump());
   return 0;
+}
+
+RecordsRunner local_records_runner(int jobs, bool resume, bool quiet) {
+  return [=](const Json& config, const fs::path& out) {
+    const Experiment e = parse_experiment(config, (out / "config.json").string());
+    RunOptions o;
+    o.out = out;
+    o.jobs = jobs;
+    o.resume = resume;
+    o.quiet = quiet;
+    run_experiment(e, o);
+    return load_records(out);
+  };
 }
 
 }  // namespace scanbench::harness

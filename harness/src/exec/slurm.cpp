@@ -1,4 +1,4 @@
-#include "scanbench/harness/slurm.h"
+#include "scanbench/harness/exec/slurm.h"
 
 #include <fcntl.h>
 #include <fmt/format.h>
@@ -20,8 +20,8 @@
 #include <sstream>
 #include <thread>
 
-#include "scanbench/harness/plugins.h"
-#include "scanbench/harness/records.h"
+#include "scanbench/harness/config/plugins.h"
+#include "scanbench/harness/results/records.h"
 
 namespace scanbench::harness {
 

@@ -1,5 +1,5 @@
 // Judging claims (claims.h) on the records of their experiments.
-#include "scanbench/harness/claims.h"
+#include "scanbench/harness/results/claims.h"
 
 #include <fmt/format.h>
 
@@ -9,7 +9,8 @@
 #include <map>
 
 #include "results/claims_judging.h"
-#include "scanbench/harness/records.h"
+#include "scanbench/harness/results/records.h"
+#include "scanbench/harness/results/tuning.h"
 
 namespace scanbench::harness {
 

@@ -5,7 +5,7 @@
 #include <utility>
 #include <vector>
 
-#include "scanbench/harness/claims.h"
+#include "scanbench/harness/results/claims.h"
 
 namespace scanbench::harness {
 

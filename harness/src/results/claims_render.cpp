@@ -1,12 +1,12 @@
 // claims.json entries, the Markdown table and the report's section of the claims (claims_render.h).
-#include "scanbench/harness/claims_render.h"
+#include "scanbench/harness/results/claims_render.h"
 
 #include <fmt/format.h>
 
 #include <map>
 
-#include "scanbench/harness/protocol.h"
-#include "scanbench/harness/table.h"
+#include "scanbench/harness/config/protocol.h"
+#include "scanbench/harness/results/table.h"
 
 namespace scanbench::harness {
 

@@ -8,7 +8,7 @@
 #include <limits>
 
 #include "scanbench/core/timing.h"
-#include "scanbench/harness/records.h"
+#include "scanbench/harness/results/records.h"
 
 namespace scanbench::harness {
 

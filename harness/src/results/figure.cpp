@@ -1,4 +1,4 @@
-#include "scanbench/harness/figure.h"
+#include "scanbench/harness/results/figure.h"
 
 #include <fmt/format.h>
 #include <zlib.h>
@@ -11,9 +11,9 @@
 #include "scanbench/core/datasets.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/files.h"
-#include "scanbench/harness/experiment.h"
-#include "scanbench/harness/records.h"
-#include "scanbench/harness/table.h"
+#include "scanbench/harness/config/experiment.h"
+#include "scanbench/harness/results/records.h"
+#include "scanbench/harness/results/table.h"
 #include "scanbench/metrics/ground_truth.h"
 #include "scanbench/metrics/heatmap.h"
 

@@ -1,8 +1,8 @@
-#include "scanbench/harness/finish.h"
+#include "scanbench/harness/results/finish.h"
 
-#include "scanbench/harness/records.h"
-#include "scanbench/harness/report.h"
-#include "scanbench/harness/table.h"
+#include "scanbench/harness/results/records.h"
+#include "scanbench/harness/results/report.h"
+#include "scanbench/harness/results/table.h"
 
 namespace scanbench::harness {
 

@@ -1,4 +1,4 @@
-#include "scanbench/harness/folder_lock.h"
+#include "scanbench/harness/results/folder_lock.h"
 
 #include <fcntl.h>
 #include <fmt/format.h>
@@ -13,7 +13,7 @@
 #include <mutex>
 #include <thread>
 
-#include "scanbench/harness/records.h"  // utc_now
+#include "scanbench/harness/results/records.h"  // utc_now
 
 namespace scanbench::harness {
 

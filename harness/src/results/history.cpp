@@ -1,6 +1,6 @@
-#include "scanbench/harness/history.h"
+#include "scanbench/harness/results/history.h"
 
-#include "scanbench/harness/folder_lock.h"
+#include "scanbench/harness/results/folder_lock.h"
 
 #include <fmt/format.h>
 #include <sqlite3.h>
@@ -18,9 +18,9 @@
 #include "scanbench/core/errors.h"
 #include "scanbench/core/paths.h"
 #include "scanbench/core/timing.h"
-#include "scanbench/harness/experiment.h"
-#include "scanbench/harness/records.h"
-#include "scanbench/harness/stats.h"
+#include "scanbench/harness/config/experiment.h"
+#include "scanbench/harness/results/records.h"
+#include "scanbench/harness/results/stats.h"
 
 namespace scanbench::harness {
 

@@ -11,9 +11,9 @@
 #include <regex>
 
 #include "scanbench/core/errors.h"
-#include "scanbench/harness/compare.h"
-#include "scanbench/harness/history.h"
-#include "scanbench/harness/records.h"
+#include "scanbench/harness/results/compare.h"
+#include "scanbench/harness/results/history.h"
+#include "scanbench/harness/results/records.h"
 
 namespace scanbench::harness {
 

@@ -1,4 +1,4 @@
-#include "scanbench/harness/records.h"
+#include "scanbench/harness/results/records.h"
 
 #include <fmt/format.h>
 #include <sys/stat.h>
@@ -24,14 +24,14 @@
 #include <utility>
 #include <vector>
 
-#include "scanbench/algorithms/open3d_peers.h"
-#include "scanbench/algorithms/pcl_peers.h"
+#include "scanbench/algorithms/peers/open3d_peers.h"
+#include "scanbench/algorithms/peers/pcl_peers.h"
 #include "scanbench/core/allocator.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/json_text.h"
 #include "scanbench/core/simd.h"
 #include "scanbench/core/version.h"
-#include "scanbench/harness/plugins.h"
+#include "scanbench/harness/config/plugins.h"
 
 namespace scanbench::harness {
 

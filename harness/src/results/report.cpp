@@ -1,4 +1,4 @@
-#include "scanbench/harness/report.h"
+#include "scanbench/harness/results/report.h"
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
@@ -9,15 +9,16 @@
 #include <map>
 #include <set>
 
+#include "config/json_checks.h"
 #include "results/report_viewer.h"
 #include "scanbench/core/errors.h"
 #include "scanbench/core/json_text.h"
 #include "scanbench/core/paths.h"
 #include "scanbench/core/timing.h"
-#include "scanbench/harness/claims_render.h"
-#include "scanbench/harness/history.h"
-#include "scanbench/harness/records.h"
-#include "scanbench/harness/table.h"
+#include "scanbench/harness/results/claims_render.h"
+#include "scanbench/harness/results/history.h"
+#include "scanbench/harness/results/records.h"
+#include "scanbench/harness/results/table.h"
 
 namespace scanbench::harness {
 

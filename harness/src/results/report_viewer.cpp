@@ -17,8 +17,8 @@
 #include "scanbench/core/errors.h"
 #include "scanbench/core/io.h"
 #include "scanbench/core/stage_data.h"
-#include "scanbench/harness/experiment.h"
-#include "scanbench/harness/table.h"
+#include "scanbench/harness/config/experiment.h"
+#include "scanbench/harness/results/table.h"
 #include "scanbench/metrics/ground_truth.h"
 #include "scanbench/metrics/heatmap.h"
 

@@ -1,4 +1,4 @@
-#include "scanbench/harness/stats.h"
+#include "scanbench/harness/results/stats.h"
 
 #include <algorithm>
 #include <cmath>

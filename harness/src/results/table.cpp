@@ -1,4 +1,4 @@
-#include "scanbench/harness/table.h"
+#include "scanbench/harness/results/table.h"
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
@@ -8,9 +8,10 @@
 #include <map>
 #include <set>
 
+#include "config/json_checks.h"
 #include "scanbench/core/errors.h"
-#include "scanbench/harness/compare.h"
-#include "scanbench/harness/records.h"
+#include "scanbench/harness/results/compare.h"
+#include "scanbench/harness/results/records.h"
 #include "scanbench/metrics/registry.h"
 
 namespace scanbench::harness {
@@ -70,22 +71,6 @@ void check_field(const std::string& f, const std::vector<Json>& records, const c
 
 /// How a record's output was scored: "mesh" (samples of its surface, output_mesh_samples) or
 /// "points".
-/// Levenshtein distance (a dozen lines; no library among the dependencies offers one).
-std::size_t edit_distance(const std::string& a, const std::string& b) {
-  std::vector<std::size_t> prev(b.size() + 1), cur(b.size() + 1);
-  for (std::size_t j = 0; j <= b.size(); ++j)
-    prev[j] = j;
-  for (std::size_t i = 1; i <= a.size(); ++i) {
-    cur[0] = i;
-    for (std::size_t j = 1; j <= b.size(); ++j) {
-      const std::size_t sub = prev[j - 1] + (a[i - 1] == b[j - 1] ? 0 : 1);
-      cur[j] = std::min({prev[j] + 1, cur[j - 1] + 1, sub});
-    }
-    std::swap(prev, cur);
-  }
-  return prev[b.size()];
-}
-
 /// The label of a record on an axis: the fields' values joined with " / "; with `point_in_parens`
 /// (a sweep point the table added) the point follows in parentheses: "CLOP (h=0.04)".
 std::string label_of(const Json& r, const std::vector<std::string>& fields,
@@ -155,33 +140,6 @@ std::string format_number(double v) {
   }
   if (a >= 1e-3) return fmt::format("{:.4g}", v);
   return fmt::format("{:.3e}", v);
-}
-
-std::string did_you_mean(const std::string& name, const std::vector<std::string>& candidates) {
-  if (candidates.empty()) return "";
-  std::string best;
-  std::size_t best_d = std::string::npos;
-  for (const auto& c : candidates) {
-    std::size_t d = edit_distance(name, c);
-    // A short name against a dotted key's last part ("stride" of "test.subsample.stride").
-    const auto dot = c.rfind('.');
-    if (name.find('.') == std::string::npos && dot != std::string::npos)
-      d = std::min(d, edit_distance(name, c.substr(dot + 1)));
-    // A prefix or a part of a longer name ("p2plane_mean" of "p2plane_mean_rel") is close.
-    if (!name.empty() && c.find(name) != std::string::npos) d = std::min<std::size_t>(d, 1);
-    if (d < best_d) {
-      best_d = d;
-      best = c;
-    }
-  }
-  if (best_d <= std::max<std::size_t>(2, name.size() / 3)) {
-    return fmt::format(" (did you mean '{}'?)", best);
-  }
-  std::string known;
-  for (std::size_t i = 0; i < candidates.size() && i < 12; ++i)
-    known += (known.empty() ? "" : ", ") + candidates[i];
-  if (candidates.size() > 12) known += fmt::format(", ... {} in all", candidates.size());
-  return " (known: " + known + ")";
 }
 
 std::vector<std::string> record_quantities(const std::vector<Json>& records) {

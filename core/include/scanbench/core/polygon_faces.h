@@ -1,7 +1,7 @@
 #pragma once
 // PolygonFaces: polygon connectivity in compressed rows, the one face layout of the covariance
 // mesh (covariance_mesh.h, its PLY faces) and of the subdivision engine
-// (scanbench/algorithms/subdivision.h). Face f holds indices[offsets[f] .. offsets[f + 1]),
+// (scanbench/algorithms/gps/subdivision.h). Face f holds indices[offsets[f] .. offsets[f + 1]),
 // counter-clockwise seen from outside; offsets has num_faces() + 1 entries (a single 0 without
 // faces). Any mix of polygon sizes: triangles for Loop, quads for Catmull-Clark.
 #include <cstddef>

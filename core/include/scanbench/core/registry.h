@@ -19,13 +19,17 @@ struct RegistryEntry {
   std::string doc;     ///< one paragraph: what it is, which paper and equations
   ParamSchema params;  ///< declared parameters
   Fn fn;               ///< what the module runs for this entry
+  /// The page under docs/ that documents the entry (its family's, e.g. "algorithms/gpf.md"); ""
+  /// for entries without one (plugins may leave it empty).
+  std::string page = {};
 
-  /// {"name","doc","params":[...]} plus whatever `extra` holds.
+  /// {"name","doc","params":[...]} plus "page" when set and whatever Fn::describe adds.
   Json to_json() const {
     Json j = Json::object();
     j["name"] = name;
     j["doc"] = doc;
     j["params"] = params.to_json();
+    if (!page.empty()) j["page"] = page;
     if constexpr (requires(const Fn& f, Json& out) { f.describe(out); }) fn.describe(j);
     return j;
   }
