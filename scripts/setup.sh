@@ -17,6 +17,7 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libhwy-dev libcgal-dev libcgal-demo colmap libsqlite3-dev sqlite3 libssl-dev zlib1g-dev libopen3d-dev pcl-tools
   chromium python3-numpy python3-sklearn python3-open3d
+  python3-dev pybind11-dev python3-pybind11 python3-pandas python3-pytest
 )
 
 missing=()

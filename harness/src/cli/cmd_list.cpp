@@ -4,39 +4,13 @@
 #include <iostream>
 
 #include "cli/commands.h"
-#include "scanbench/algorithms/registry.h"
-#include "scanbench/core/datasets.h"
-#include "scanbench/harness/config/plugins.h"
-#include "scanbench/metrics/registry.h"
-#include "scanbench/scanner/registry.h"
+#include "scanbench/harness/pipelines/registries.h"
 
 namespace scanbench::harness {
 
 namespace {
 
 // `kind` "algorithm" or "metric" marks each entry's source (built in or a plugin).
-template <class R>
-Json entries_json(const R& reg, std::string_view kind = "") {
-  Json a = Json::array();
-  for (const auto& e : reg.entries()) {
-    a.push_back(e.to_json());
-    if (!kind.empty()) mark_source(a.back(), kind);
-  }
-  return a;
-}
-
-Json datasets_json() {
-  Json a = Json::array();
-  for (const auto& e : datasets().entries()) {
-    Json j = e.to_json();
-    j["procedural"] = e.fn.file.empty();
-    j["file"] = e.fn.file.empty() ? Json(nullptr) : Json(e.fn.file.string());
-    j["available"] = e.fn.available();
-    a.push_back(std::move(j));
-  }
-  return a;
-}
-
 void print_text(const std::string& title, const Json& entries) {
   fmt::print("{} ({})\n", title, entries.size());
   for (const auto& e : entries) {
@@ -90,12 +64,7 @@ void add_list_command(Cli& cli) {
                 "One JSON object with arrays algorithms, metrics, datasets, scanners");
   sub->callback([&cli, opts] {
     cli.action = [opts] {
-      Json all = Json::object();
-      auto want = [&](const char* k) { return opts->kind.empty() || opts->kind == k; };
-      if (want("algorithms")) all["algorithms"] = entries_json(algorithms::registry(), "algorithm");
-      if (want("metrics")) all["metrics"] = entries_json(metrics::registry(), "metric");
-      if (want("datasets")) all["datasets"] = datasets_json();
-      if (want("scanners")) all["scanners"] = entries_json(scanner::presets());
+      const Json all = registries_json(opts->kind);
       if (opts->json) {
         std::cout << all.dump(2) << "\n";
       } else {

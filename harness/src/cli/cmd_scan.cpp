@@ -8,11 +8,7 @@
 #include <vector>
 
 #include "cli/commands.h"
-#include "scanbench/core/datasets.h"
-#include "scanbench/core/errors.h"
-#include "scanbench/core/io.h"
-#include "scanbench/core/run_context.h"
-#include "scanbench/scanner/registry.h"
+#include "scanbench/harness/pipelines/scan_run.h"
 #include "scanbench/scanner/scanner.h"
 
 namespace scanbench::harness {
@@ -48,30 +44,23 @@ void add_scan_command(Cli& cli) {
       ->required();
   sub->callback([&cli, opts] {
     cli.action = [opts] {
-      if (opts->dataset.empty() == opts->mesh.empty()) {
-        throw ParamError("scan: give exactly one of --dataset NAME or --mesh FILE");
-      }
       const auto t0 = std::chrono::steady_clock::now();
-      const TriangleMesh mesh =
-          opts->mesh.empty() ? load_dataset(opts->dataset) : read_mesh(opts->mesh);
-      Json values = opts->preset.empty() ? schema_of<scanner::ScannerParams>().defaults()
-                                         : scanner::preset_values(opts->preset);
-      for (const auto& s : opts->sets)
-        apply_assignment(values, s);
-      const auto p = params_from_json<scanner::ScannerParams>(values, "scanner");
-      RunContext ctx(opts->seed, opts->threads);
-      scanner::Scan s = scanner::scan(mesh, p, ctx);
-      Json input = Json::object();
-      input["dataset"] = opts->dataset.empty() ? Json(nullptr) : Json(opts->dataset);
-      input["mesh"] = opts->mesh.empty() ? Json(nullptr) : Json(opts->mesh);
-      input["preset"] = opts->preset.empty() ? Json(nullptr) : Json(opts->preset);
-      s.record["input"] = input;
+      ScanRequest r;
+      r.dataset = opts->dataset;
+      r.mesh = opts->mesh;
+      r.preset = opts->preset;
+      r.sets = opts->sets;
+      r.seed = opts->seed;
+      r.threads = opts->threads;
+      const scanner::Scan s = run_scan(r);
+      const auto& p = s.record["params"];
       scanner::write_scan(s, opts->output);
       const double seconds =
           std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       const Json& c = s.record["counts"];
-      const std::string from = p.kind == "surface_samples" ? std::string("surface samples")
-                                                           : fmt::format("{} views", p.views);
+      const std::string from = p.value("kind", std::string()) == "surface_samples"
+                                   ? std::string("surface samples")
+                                   : fmt::format("{} views", p.value("views", 0));
       fmt::print("scan: {} points ({} outliers) from {} of {} in {:.2f} s -> {}\n",
                  c["points"].get<std::int64_t>(), c["outliers"].get<std::int64_t>(), from,
                  opts->mesh.empty() ? opts->dataset : opts->mesh, seconds, opts->output);

@@ -26,13 +26,36 @@ std::filesystem::path sibling(const std::filesystem::path& out, const std::strin
 
 }  // namespace
 
+StepRun run_step(
+    const std::string& name, const StageData& input, const Json& given, std::uint64_t seed,
+    int threads,
+    const std::function<std::shared_ptr<void>(const RunContext&, const std::string&)>& watch) {
+  const auto& entry = algorithms::registry().at(name);
+  StepRun res;
+  res.params = entry.params.validate(given, "algo " + entry.name);
+  RunContext ctx(seed, threads);
+  const auto t0 = std::chrono::steady_clock::now();
+  {
+    const std::shared_ptr<void> watching = watch ? watch(ctx, entry.name) : nullptr;
+    res.output = entry.fn(input, res.params, ctx);
+  }
+  res.total_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  res.phases = Json::object();
+  for (const auto& [phase, seconds] : ctx.phase_seconds())
+    res.phases[phase] = seconds;
+  res.phases_cpu = Json::object();
+  for (const auto& [phase, seconds] : ctx.phase_cpu_seconds())
+    res.phases_cpu[phase] = seconds;
+  return res;
+}
+
 AlgoRunResult run_algo(const AlgoRunRequest& r) {
   AlgoRunResult res;
   const auto& entry = algorithms::registry().at(r.name);
   Json given = Json::object();
   for (const auto& s : r.sets)
     apply_assignment(given, s);
-  const Json params = entry.params.validate(given, "algo " + entry.name);
+  (void)entry.params.validate(given, "algo " + entry.name);  // before reading any file
   StageData input;
   Eigen::Vector3d origin = Eigen::Vector3d::Zero();
   for (const auto& path : r.inputs) {
@@ -57,18 +80,17 @@ AlgoRunResult run_algo(const AlgoRunRequest& r) {
                     kinds_names(input.kinds()), kinds_names(io.consumes - input.kinds())));
   }
 
-  RunContext ctx(r.seed, r.threads);
-  const auto t0 = std::chrono::steady_clock::now();
-  StageData out;
-  try {
-    const std::shared_ptr<void> watching = r.watch ? r.watch(ctx, entry.name) : nullptr;
-    out = entry.fn(input, params, ctx);
-  } catch (const InputError& e) {
-    // The algorithm rejected the data (a non-manifold mesh, too few points...): name the files
-    // it came from, so the one-line error says which input to look at.
-    throw InputError(fmt::format("{}: {}", fmt::join(r.inputs, ", "), e.what()));
-  }
-  const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  StepRun step = [&] {
+    try {
+      return run_step(entry.name, input, given, r.seed, r.threads, r.watch);
+    } catch (const InputError& e) {
+      // The algorithm rejected the data (a non-manifold mesh, too few points...): name the files
+      // it came from, so the one-line error says which input to look at.
+      throw InputError(fmt::format("{}: {}", fmt::join(r.inputs, ", "), e.what()));
+    }
+  }();
+  StageData out = std::move(step.output);
+  const double total = step.total_s;
 
   out.set_origin(origin);
   const std::map<DataKind, std::string> named = {{DataKind::Mixture, r.mixture},
@@ -89,7 +111,7 @@ AlgoRunResult run_algo(const AlgoRunRequest& r) {
     Json& record = res.record;
     record = Json::object();
     record["algorithm"] = entry.name;
-    record["params"] = params;
+    record["params"] = step.params;
     record["seed"] = r.seed;
     record["threads"] = r.threads;
     record["inputs"] = r.inputs;
@@ -100,14 +122,8 @@ AlgoRunResult run_algo(const AlgoRunRequest& r) {
     if (out.mesh) record["output_mesh_faces"] = out.mesh->num_faces();
     if (out.covariance_mesh)
       record["output_covariance_mesh_faces"] = out.covariance_mesh->num_faces();
-    Json phases = Json::object();
-    for (const auto& [name, seconds] : ctx.phase_seconds())
-      phases[name] = seconds;
-    record["phases"] = phases;
-    Json cpu = Json::object();
-    for (const auto& [name, seconds] : ctx.phase_cpu_seconds())
-      cpu[name] = seconds;
-    record["phases_cpu"] = cpu;
+    record["phases"] = step.phases;
+    record["phases_cpu"] = step.phases_cpu;
     record["total_s"] = total;
   }
   res.summary =

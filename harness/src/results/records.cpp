@@ -475,7 +475,7 @@ std::string csv_value(const Json& v) {
 
 }  // namespace
 
-std::string records_csv(const std::vector<Json>& records) {
+Json records_table(const std::vector<Json>& records) {
   // Union of keys in first-seen order.
   std::vector<std::string> params, metrics, phases;
   std::set<std::string> sp, sm, sph;
@@ -490,37 +490,73 @@ std::string records_csv(const std::vector<Json>& records) {
     for (const auto& [k, v] : tp.items())
       if (sph.insert(k).second) phases.push_back(k);
   }
-  std::string out = "id,key,status,dataset,scanner,variant,point,seed,repeats";
+  Json columns = {"id",      "key",   "status", "dataset", "scanner",
+                  "variant", "point", "seed",   "repeats"};
   for (const auto& k : params)
-    out += "," + csv_field("params." + k);
+    columns.push_back("params." + k);
   for (const auto& k : metrics)
-    out += "," + csv_field("metrics." + k);
-  out += ",time.total_median_s,time.cpu_median_s";
+    columns.push_back("metrics." + k);
+  columns.push_back("time.total_median_s");
+  columns.push_back("time.cpu_median_s");
   for (const auto& k : phases)
-    out += "," + csv_field("time." + k + "_median_s");
-  out += ",peak_rss_mb,error\n";
+    columns.push_back("time." + k + "_median_s");
+  columns.push_back("peak_rss_mb");
+  columns.push_back("error");
+  Json rows = Json::array();
   for (const auto& r : records) {
     auto label = [&](const char* field) {
       const Json f = r.value(field, Json::object());
       return f.is_object() ? f.value("label", std::string()) : std::string();
     };
-    out += fmt::format("{},{},{},{},{},{},{},{},{}", csv_value(r.value("id", Json())),
-                       csv_value(r.value("key", Json())), csv_value(r.value("status", Json())),
-                       csv_field(label("dataset")), csv_field(label("scanner")),
-                       csv_field(label("variant")), csv_value(r.value("point_label", Json())),
-                       csv_value(r.value("seed", Json())), csv_value(r.value("repeats", Json())));
+    Json row = {r.value("id", Json()),
+                r.value("key", Json()),
+                r.value("status", Json()),
+                label("dataset"),
+                label("scanner"),
+                label("variant"),
+                r.value("point_label", Json()),
+                r.value("seed", Json()),
+                r.value("repeats", Json())};
     const Json p = r.value("params", Json::object());
     for (const auto& k : params)
-      out += "," + csv_value(p.value(k, Json()));
+      row.push_back(p.value(k, Json()));
     const Json m = r.value("metrics", Json::object());
     for (const auto& k : metrics)
-      out += "," + csv_value(m.value(k, Json()));
-    auto num = [](double v) { return std::isnan(v) ? std::string() : fmt::format("{:.9g}", v); };
-    out += "," + num(record_value(r, "time.total")) + "," + num(record_value(r, "time.cpu"));
+      row.push_back(m.value(k, Json()));
+    auto num = [](double v) { return std::isnan(v) ? Json() : Json(v); };
+    row.push_back(num(record_value(r, "time.total")));
+    row.push_back(num(record_value(r, "time.cpu")));
     for (const auto& k : phases)
-      out += "," + num(record_value(r, "time." + k));
-    out += "," + num(record_value(r, "peak_rss_mb")) + "," + csv_value(r.value("error", Json()));
-    out += "\n";
+      row.push_back(num(record_value(r, "time." + k)));
+    row.push_back(num(record_value(r, "peak_rss_mb")));
+    row.push_back(r.value("error", Json()));
+    rows.push_back(std::move(row));
+  }
+  return {{"columns", std::move(columns)}, {"rows", std::move(rows)}};
+}
+
+std::string records_csv(const std::vector<Json>& records) {
+  const Json t = records_table(records);
+  std::string out;
+  for (const auto& c : t["columns"])
+    out += (out.empty() ? "" : ",") + csv_field(c.get<std::string>());
+  out += "\n";
+  for (const auto& row : t["rows"]) {
+    std::string line;
+    for (std::size_t c = 0; c < row.size(); ++c) {
+      const std::string& name = t["columns"][c].get_ref<const std::string&>();
+      const Json& v = row[c];
+      std::string cell;
+      if (c >= 3 && c <= 5) {
+        cell = csv_field(v.get<std::string>());  // the labels, always strings
+      } else if (name.rfind("time.", 0) == 0 || name == "peak_rss_mb") {
+        cell = v.is_null() ? std::string() : fmt::format("{:.9g}", v.get<double>());
+      } else {
+        cell = csv_value(v);
+      }
+      line += (c == 0 ? "" : ",") + cell;
+    }
+    out += line + "\n";
   }
   return out;
 }

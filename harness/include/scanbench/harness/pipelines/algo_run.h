@@ -12,6 +12,7 @@
 
 #include "scanbench/core/params.h"
 #include "scanbench/core/run_context.h"
+#include "scanbench/core/stage_data.h"
 
 namespace scanbench::harness {
 
@@ -37,6 +38,20 @@ struct AlgoRunResult {
   std::string summary;
   const Json& to_json() const { return record; }
 };
+
+/// One registered algorithm on data in memory (what `run_algo` runs between reading and writing
+/// its files; the Python module's `run_algorithm`): the parameters checked as declared (`given`
+/// over the defaults, errors named "algo <name>"), the step run with `seed` and `threads`.
+struct StepRun {
+  StageData output;
+  Json params;              ///< the effective parameters
+  Json phases, phases_cpu;  ///< phase -> wall and CPU seconds (RunContext)
+  double total_s = 0;       ///< wall seconds of the step
+};
+StepRun run_step(
+    const std::string& name, const StageData& input, const Json& given, std::uint64_t seed,
+    int threads,
+    const std::function<std::shared_ptr<void>(const RunContext&, const std::string&)>& watch = {});
 
 /// Runs the request. Throws ParamError (an unknown name or parameter, a missing or a second input
 /// of a kind), InputError naming the input files (data the algorithm rejects), IoError.

@@ -64,7 +64,13 @@ std::vector<Json> load_job_records(const std::filesystem::path& dir);
 
 /// Writes DIR/runs.jsonl and DIR/runs.csv from the records (atomically).
 void write_merged(const std::filesystem::path& dir, const std::vector<Json>& records);
-/// The CSV text of the records (header + one line per record).
+/// The table of runs.csv: {"columns": [...], "rows": [[...], ...]}, one row per record: id, key,
+/// status, dataset, scanner, variant, point, seed, repeats, params.<k>, metrics.<k> (numeric
+/// keys), time.total_median_s, time.cpu_median_s, time.<phase>_median_s, peak_rss_mb, error.
+/// Values at full precision (null where a record has none); the Python module's DataFrame.
+Json records_table(const std::vector<Json>& records);
+/// The CSV text of the records (records_table's header + one line per record; numbers of the
+/// timing columns with 9 significant digits, metrics as written).
 std::string records_csv(const std::vector<Json>& records);
 
 /// Reads a numeric quantity of a record: "time.total" (median of total_s), "time.cpu",
