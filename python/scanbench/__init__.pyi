@@ -25,6 +25,7 @@ class StageArrays(TypedDict, total=False):
     properties: dict[str, npt.NDArray[np.float32]]
     mixture: dict[str, npt.NDArray[np.float32]]
     mesh: dict[str, npt.NDArray[Any]]
+    covariance_mesh: dict[str, npt.NDArray[Any]]
     record: dict[str, Any]
 
 def version() -> str: ...

@@ -100,7 +100,18 @@ py::dict stage_dict(const std::shared_ptr<scanbench::StageData>& d) {
     m["faces"] = view<int>(d->mesh->faces.data(), d->mesh->faces.cols(), 3, owner);
     out["mesh"] = m;
   }
-  if (d->covariance_mesh) out["covariance_mesh"] = py::str("(covariance mesh: write it to a file)");
+  if (d->covariance_mesh) {
+    const auto& cm = *d->covariance_mesh;
+    py::dict c;
+    c["means"] = view<double>(cm.means.data(), cm.means.cols(), 3, owner);
+    c["covariances"] = view<double>(cm.covariances.data(), cm.covariances.cols(), 6, owner);
+    // Polygons as offsets into one index list (core/polygon_faces.h).
+    c["face_offsets"] = view1<int>(cm.faces.offsets.data(),
+                                   static_cast<Eigen::Index>(cm.faces.offsets.size()), owner);
+    c["face_indices"] = view1<int>(cm.faces.indices.data(),
+                                   static_cast<Eigen::Index>(cm.faces.indices.size()), owner);
+    out["covariance_mesh"] = c;
+  }
   return out;
 }
 

@@ -99,6 +99,16 @@ def test_outputs_are_views_of_the_cpp_storage(scan_file):
     assert np.allclose(np.linalg.norm(r["normals"], axis=1), 1.0, atol=1e-5)
 
 
+def test_a_mixture_comes_out_as_arrays(scan_file):
+    pts = xyz(read_ply_vertices(scan_file))
+    r = sb.run_algorithm("mixture.hem", pts, seed=2)
+    g = r["mixture"]
+    k = len(g["weights"])
+    assert 0 < k < len(pts)
+    assert g["means"].shape == (k, 3) and g["covariances"].shape == (k, 6)
+    assert g["means"].dtype == np.float32 and not g["means"].flags.owndata
+
+
 def test_metric_is_the_commands_metric(scan_file, tmp_path):
     out = tmp_path / "eval.json"
     cli("eval", "--dataset", "sphere", "--points", scan_file, "--metrics",
