@@ -124,16 +124,15 @@ def _binary():
 
 
 def run(config, out, jobs=1, resume=False, quiet=True):
-    """Runs an experiment config (`scanbench run CONFIG -o OUT`): a file path or a dict in the
-    experiment schema (docs/experiments.md). Returns the run's summary; the records are in `out`
-    (load them with load_results)."""
+    """Runs an experiment config as `scanbench run CONFIG -o OUT` does: a file path (read as the
+    command reads it: plugins, paths relative to its folder) or a dict in the experiment schema
+    (docs/experiments.md). A declared parameter protocol is tuned first, as by the command.
+    Returns the run's summary; the records are in `out` (load them with load_results)."""
     if isinstance(config, (str, _os.PathLike)):
-        path = str(config)
-        with open(path, "rb") as f:
-            text = f.read().decode("utf-8")
+        path, text = str(config), ""
     else:
-        path, text = "<python dict>", _json.dumps(config)
-    return _native.run_experiment(text, path, str(out), _binary(), jobs=jobs, resume=resume,
+        path, text = "", _json.dumps(config)
+    return _native.run_experiment(path, text, str(out), _binary(), jobs=jobs, resume=resume,
                                   quiet=quiet)
 
 

@@ -19,10 +19,12 @@
 #include "scanbench/core/stage_data.h"
 #include "scanbench/core/version.h"
 #include "scanbench/harness/config/experiment.h"
+#include "scanbench/harness/config/plugins.h"
 #include "scanbench/harness/exec/eval.h"
 #include "scanbench/harness/exec/runner.h"
 #include "scanbench/harness/pipelines/algo_run.h"
 #include "scanbench/harness/pipelines/registries.h"
+#include "scanbench/harness/pipelines/run_local.h"
 #include "scanbench/harness/pipelines/scan_run.h"
 #include "scanbench/harness/results/finish.h"
 #include "scanbench/harness/results/records.h"
@@ -140,8 +142,10 @@ scanbench::StageData stage_from(const py::object& data) {
   scanbench::StageData s;
   if (py::isinstance<py::dict>(data)) {
     const py::dict d = data.cast<py::dict>();
-    if (!d.contains("points")) throw scanbench::ParamError("python: the input has no 'points'");
-    s.points.positions = matrix3x(d["points"], "points");
+    if (!d.contains("points") && !d.contains("mesh")) {
+      throw scanbench::ParamError("python: the input has neither 'points' nor 'mesh'");
+    }
+    if (d.contains("points")) s.points.positions = matrix3x(d["points"], "points");
     const Eigen::Index n = s.points.size();
     if (d.contains("normals")) s.points.normals = matrix3x(d["normals"], "normals");
     if (d.contains("weights")) s.points.weights = vectorxf(d["weights"], n, "weights");
@@ -292,9 +296,8 @@ PYBIND11_MODULE(_scanbench, m) {
 
   m.def(
       "run_experiment",
-      [](const std::string& config_text, const std::string& config_name, const std::string& out,
+      [](const std::string& config_file, const std::string& config_text, const std::string& out,
          const std::string& exe, int jobs, bool resume, bool quiet) {
-        const Json config = Json::parse(config_text);
         scanbench::harness::RunOptions o;
         o.out = out;
         o.jobs = jobs;
@@ -305,9 +308,17 @@ PYBIND11_MODULE(_scanbench, m) {
         Json summary = Json::object();
         {
           py::gil_scoped_release release;
-          scanbench::harness::Experiment e =
-              scanbench::harness::parse_experiment(config, config_name);
-          const scanbench::harness::RunSummary s = scanbench::harness::run_experiment(e, o);
+          // A file as `scanbench run` reads it (plugins, paths relative to its folder); a dict
+          // as a config without a folder.
+          scanbench::harness::Experiment e;
+          if (!config_file.empty()) {
+            e = scanbench::harness::load_experiment(config_file);
+          } else {
+            const Json config = Json::parse(config_text);
+            scanbench::harness::load_config_plugins(config, "<python dict>");
+            e = scanbench::harness::parse_experiment(config, "<python dict>");
+          }
+          const scanbench::harness::RunSummary s = scanbench::harness::run_local(e, o);
           scanbench::harness::finish_run(o.out);
           summary["planned"] = s.planned;
           summary["skipped"] = s.skipped;
@@ -317,7 +328,7 @@ PYBIND11_MODULE(_scanbench, m) {
         }
         return to_python(summary);
       },
-      py::arg("config_text"), py::arg("config_name"), py::arg("out"), py::arg("exe"),
+      py::arg("config_file"), py::arg("config_text"), py::arg("out"), py::arg("exe"),
       py::arg("jobs") = 1, py::arg("resume") = false, py::arg("quiet") = true);
 
   m.def(

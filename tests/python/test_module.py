@@ -182,3 +182,35 @@ def test_run_and_load_results(tmp_path):
     by_id = {r["id"]: r for r in records}
     for _, row in df.iterrows():
         assert row["metrics.p2plane_mean_rel"] == by_id[row["id"]]["metrics"]["p2plane_mean_rel"]
+
+
+def test_run_resolves_a_protocol_as_the_command_does(tmp_path):
+    config = {
+        "scanbench_experiment": 1,
+        "name": "py-protocol",
+        "seed": 1,
+        "repeats": 1,
+        "datasets": [{"name": "sphere"}],
+        "scanners": [{"preset": "moderate", "label": "small",
+                      "params": {"views": 3, "resolution": 32}}],
+        "variants": [{"label": "wlop", "algorithm": "resample.wlop",
+                      "params": {"iterations": 3}}],
+        "metrics": ["accuracy.p2plane"],
+        "protocol": {
+            "tuning": {"datasets": [{"name": "torus"}], "seed": 2},
+            "objective": {"quantity": "p2plane_mean_rel", "direction": "min"},
+            "variants": {"wlop": {"resample.wlop.h": {"source": "tuned",
+                                                       "range": [0.05, 0.1, 0.2]}}},
+        },
+    }
+    file = tmp_path / "exp.json"
+    file.write_text(json.dumps(config))
+    cli("run", file, "-o", tmp_path / "cli", "-j", 2, "-q")
+    sb.run(file, tmp_path / "py", jobs=2)
+    want = json.loads((tmp_path / "cli" / "protocol.json").read_text())
+    got = json.loads((tmp_path / "py" / "protocol.json").read_text())
+    assert got == want
+    h = [r["params"]["resample.wlop.h"] for r in sb.load_records(tmp_path / "py")]
+    assert h and all(x == h[0] for x in h) and h[0] in (0.05, 0.1, 0.2)
+    assert [r["metrics"] for r in sb.load_records(tmp_path / "py")] == \
+        [r["metrics"] for r in sb.load_records(tmp_path / "cli")]

@@ -16,6 +16,7 @@
 #include "scanbench/harness/exec/runner.h"
 #include "scanbench/harness/exec/slurm.h"
 #include "scanbench/harness/pipelines/claims_run.h"
+#include "scanbench/harness/pipelines/run_local.h"
 #include "scanbench/harness/results/claims_render.h"
 #include "scanbench/harness/results/compare.h"
 #include "scanbench/harness/results/finish.h"
@@ -188,20 +189,9 @@ RunDone do_run(const RunArgs& a, const fs::path& default_config, const std::stri
     done.failed = do_slurm_run(e, o, a.slurm);
     return done;
   }
+  // Held on after the run for what the command does next (nightly's comparison, the history).
   done.lock = std::make_shared<FolderLock>(FolderLock::acquire(o.out, command, 0, true));
-  refuse_if_submission_queued(o.out);
-  if (e.raw.contains("protocol")) {
-    // The declared parameter protocol (protocol.h): tuned values chosen on the tuning data
-    // (OUT/tuning-<variant>/), then the experiment runs at the protocol's values.
-    const Protocol p =
-        resolve_protocol(e.raw, parse_protocol(e.raw["protocol"], config.string() + ": /protocol"),
-                         o.out, local_records_runner(o.jobs, o.resume, o.quiet));
-    Json resolved = protocol_config(e.raw, p, false);
-    e = parse_experiment(resolved, config.string());
-    e.file = config;
-    write_json_file(o.out / "protocol.json", protocol_json(p));
-  }
-  const RunSummary s = run_experiment(e, o);
+  const RunSummary s = run_local(e, o);
   done.failed = finish_and_print(e.name, s, o.out);
   return done;
 }

@@ -638,7 +638,7 @@ int run_job_file(const fs::path& spec_path, const fs::path& result_path) {
   return 0;
 }
 
-RecordsRunner local_records_runner(int jobs, bool resume, bool quiet) {
+RecordsRunner local_records_runner(int jobs, bool resume, bool quiet, const fs::path& exe) {
   return [=](const Json& config, const fs::path& out) {
     const Experiment e = parse_experiment(config, (out / "config.json").string());
     RunOptions o;
@@ -646,6 +646,7 @@ RecordsRunner local_records_runner(int jobs, bool resume, bool quiet) {
     o.jobs = jobs;
     o.resume = resume;
     o.quiet = quiet;
+    o.exe = exe;
     run_experiment(e, o);
     return load_records(out);
   };

@@ -54,8 +54,10 @@ struct RunSummary {
 RunSummary run_experiment(const Experiment& e, const RunOptions& opts);
 
 /// The protocol tuning's runner (results/tuning.h) as `scanbench run` runs: child processes,
-/// `jobs` at a time; `resume` keeps records.
-RecordsRunner local_records_runner(int jobs, bool resume, bool quiet);
+/// `jobs` at a time; `resume` keeps records; `exe` the scanbench binary whose children run the
+/// jobs (empty: this process's own binary).
+RecordsRunner local_records_runner(int jobs, bool resume, bool quiet,
+                                   const std::filesystem::path& exe = {});
 
 /// A run prepared in its results folder: the plan and the jobs still to run.
 struct PreparedRun {
